@@ -1,0 +1,7 @@
+//! Energy-term kernels on dense arrays. The force systems in `systems/` wrap
+//! them; each kernel returns the energy and, given a force buffer, adds −∇E.
+
+pub mod bending;
+pub mod penalty;
+pub mod springs;
+pub mod vin;

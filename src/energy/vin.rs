@@ -1,0 +1,323 @@
+//! The double-barrier edge potential V_in (SPEC §2) and its piecewise-linear
+//! segmentation (SPEC §3).
+//!
+//! V_in(l) = V0·[coth(k_w(l − l_min)) + coth(k_w(l_max − l))
+//!              + b·σ(k11(l − r11)) + b·σ(k12(r12 − l))
+//!              + b·σ(k21(l − r21)) + b·σ(k22(r22 − l))] − offset,
+//! σ(x) = 1/(1 + e^{−x}); the offset makes the minimum over the sample grid 0.
+
+use serde::{Deserialize, Serialize};
+
+/// Parameters of V_in and of its segmentation. Defaults are the as-run set.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VinParams {
+    /// V0, energy scale of the potential (Ē; default 0.2 = 2 k_BT).
+    pub v0: f64,
+    /// b, barrier height relative to V0 (dimensionless; default 0.5).
+    pub barrier_height: f64,
+    /// (r11, r12): rising and falling flank of the near barrier (l̄; default 0.05, 0.75).
+    pub near_barrier: (f64, f64),
+    /// (r21, r22): rising and falling flank of the far barrier (l̄; default 1.25, 1.75).
+    pub far_barrier: (f64, f64),
+    /// (k11, k12): steepness of the near barrier's flanks (1/l̄; default 50, 25).
+    pub near_steepness: (f64, f64),
+    /// (k21, k22): steepness of the far barrier's flanks (1/l̄; default 25, 50).
+    pub far_steepness: (f64, f64),
+    /// k_w, steepness of the two coth walls (1/l̄; default 100).
+    pub wall_steepness: f64,
+    /// l_min, position of the near wall (l̄; default 0 as run, the paper's table says −0.05).
+    pub l_min: f64,
+    /// l_max, position of the far wall (l̄; default 2.2).
+    pub l_max: f64,
+    /// dl, sampling step of the segmentation grid (l̄; default 1e-4).
+    pub dl: f64,
+    /// A segment is split while its linear fit has R² below this (default 0.5).
+    pub segment_r2_min: f64,
+    /// ... or while the sample standard deviation of V within it exceeds this
+    /// (Ē, absolute; default 0.001 as run; the paper's text says 0.001·V0).
+    pub segment_std_max: f64,
+    /// Which form the force system evaluates (default `PiecewiseLinear`, the
+    /// segmentation chords the dynamics needs; `Exact` for analysis).
+    pub form: VinForm,
+}
+
+/// Which form of V_in a force system evaluates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum VinForm {
+    /// The chord of the segment containing l (SPEC §3): what the dynamics uses.
+    #[default]
+    PiecewiseLinear,
+    /// The smooth formula (for analysis and checks).
+    Exact,
+}
+
+impl Default for VinParams {
+    fn default() -> Self {
+        Self {
+            v0: 0.2,
+            barrier_height: 0.5,
+            near_barrier: (0.05, 0.75),
+            far_barrier: (1.25, 1.75),
+            near_steepness: (50.0, 25.0),
+            far_steepness: (25.0, 50.0),
+            wall_steepness: 100.0,
+            l_min: 0.0,
+            l_max: 2.2,
+            dl: 1e-4,
+            segment_r2_min: 0.5,
+            segment_std_max: 0.001,
+            form: VinForm::PiecewiseLinear,
+        }
+    }
+}
+
+#[inline]
+fn sigmoid(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+impl VinParams {
+    /// V_in(l) without the offset (Ē).
+    pub fn raw(&self, l: f64) -> f64 {
+        let kw = self.wall_steepness;
+        let b = self.barrier_height;
+        let walls = 1.0 / (kw * (l - self.l_min)).tanh() + 1.0 / (kw * (self.l_max - l)).tanh();
+        let barriers = b * sigmoid(self.near_steepness.0 * (l - self.near_barrier.0))
+            + b * sigmoid(self.near_steepness.1 * (self.near_barrier.1 - l))
+            + b * sigmoid(self.far_steepness.0 * (l - self.far_barrier.0))
+            + b * sigmoid(self.far_steepness.1 * (self.far_barrier.1 - l));
+        self.v0 * (walls + barriers)
+    }
+
+    /// dV_in/dl (Ē/l̄).
+    pub fn derivative(&self, l: f64) -> f64 {
+        let kw = self.wall_steepness;
+        let b = self.barrier_height;
+        let csch2 = |x: f64| {
+            let s = x.sinh();
+            1.0 / (s * s)
+        };
+        let walls = -kw * csch2(kw * (l - self.l_min)) + kw * csch2(kw * (self.l_max - l));
+        let ds = |k: f64, x: f64| {
+            let s = sigmoid(k * x);
+            k * s * (1.0 - s)
+        };
+        let barriers = b * ds(self.near_steepness.0, l - self.near_barrier.0)
+            - b * ds(self.near_steepness.1, self.near_barrier.1 - l)
+            + b * ds(self.far_steepness.0, l - self.far_barrier.0)
+            - b * ds(self.far_steepness.1, self.far_barrier.1 - l);
+        self.v0 * (walls + barriers)
+    }
+
+    /// Checks the parameters describe a double-barrier potential; returns the
+    /// offending field and reason otherwise.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let pos = |name, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err((name, format!("must be > 0 (got {v})")))
+            }
+        };
+        pos("v0", self.v0)?;
+        pos("barrier_height", self.barrier_height)?;
+        pos("wall_steepness", self.wall_steepness)?;
+        pos("dl", self.dl)?;
+        pos("segment_std_max", self.segment_std_max)?;
+        for (name, (a, b)) in [
+            ("near_steepness", self.near_steepness),
+            ("far_steepness", self.far_steepness),
+        ] {
+            pos(name, a)?;
+            pos(name, b)?;
+        }
+        if !(self.segment_r2_min.is_finite() && (0.0..1.0).contains(&self.segment_r2_min)) {
+            return Err((
+                "segment_r2_min",
+                format!("must be in [0, 1) (got {})", self.segment_r2_min),
+            ));
+        }
+        let order = [
+            self.l_min,
+            self.near_barrier.0,
+            self.near_barrier.1,
+            self.far_barrier.0,
+            self.far_barrier.1,
+            self.l_max,
+        ];
+        if order.iter().any(|x| !x.is_finite()) || order.windows(2).any(|w| w[0] >= w[1]) {
+            return Err((
+                "near_barrier",
+                format!(
+                    "need l_min < r11 < r12 < r21 < r22 < l_max (got {} < {} < {} < {} < {} < {})",
+                    order[0], order[1], order[2], order[3], order[4], order[5]
+                ),
+            ));
+        }
+        if (self.l_max - self.l_min) / self.dl < 100.0 || (self.l_max - self.l_min) / self.dl > 1e7
+        {
+            return Err((
+                "dl",
+                format!(
+                    "gives {} samples; need 100..1e7",
+                    (self.l_max - self.l_min) / self.dl
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// V_in sampled on l = l_min + dl … l_max − dl, offset so the minimum sample
+/// is 0, and cut into segments whose chords form the piecewise-linear V_in
+/// used by the dynamics.
+#[derive(Clone, Debug)]
+pub struct Segmentation {
+    params: VinParams,
+    /// Offset subtracted from the raw potential (Ē).
+    pub offset: f64,
+    /// Breakpoint lengths b_0 < b_1 < … < b_Ω (l̄); segment s (0-based) is (b_s, b_{s+1}].
+    pub breakpoints: Vec<f64>,
+    /// V_in (offset) at each breakpoint (Ē).
+    pub values: Vec<f64>,
+    /// Chord slope of each segment (Ē/l̄).
+    pub slopes: Vec<f64>,
+    /// Segment of each fine sample interval: `bin_segment[j]` is the segment
+    /// containing (l_j, l_{j+1}].
+    bin_segment: Vec<u32>,
+    first_sample: f64,
+}
+
+impl Segmentation {
+    /// Samples and segments V_in (SPEC §3): critical points (ends, strict
+    /// interior extrema) give the initial segments; any segment whose samples
+    /// (both ends included) have a least-squares R² below `segment_r2_min` or
+    /// a sample standard deviation (N − 1) above `segment_std_max` is split at
+    /// its rounded midpoint index until all settle.
+    pub fn new(params: VinParams) -> Self {
+        let n_bins = ((params.l_max - params.l_min) / params.dl).round() as usize;
+        let count = n_bins - 1;
+        let l_at = |k: usize| params.l_min + (k + 1) as f64 * params.dl;
+        let raw: Vec<f64> = (0..count).map(|k| params.raw(l_at(k))).collect();
+        let offset = raw.iter().copied().fold(f64::INFINITY, f64::min);
+        let y: Vec<f64> = raw.iter().map(|v| v - offset).collect();
+
+        let mut cuts = vec![0usize];
+        for k in 1..count - 1 {
+            if (y[k - 1] < y[k] && y[k + 1] < y[k]) || (y[k - 1] > y[k] && y[k + 1] > y[k]) {
+                cuts.push(k);
+            }
+        }
+        cuts.push(count - 1);
+
+        loop {
+            let mut next = Vec::with_capacity(cuts.len() * 2);
+            let mut changed = false;
+            for w in cuts.windows(2) {
+                let (a, b) = (w[0], w[1]);
+                next.push(a);
+                if b - a > 1 && needs_split(&y, a, b, &params, l_at) {
+                    next.push((a + b).div_ceil(2));
+                    changed = true;
+                }
+            }
+            next.push(*cuts.last().unwrap_or(&0));
+            cuts = next;
+            if !changed {
+                break;
+            }
+        }
+
+        let breakpoints: Vec<f64> = cuts.iter().map(|&k| l_at(k)).collect();
+        let values: Vec<f64> = cuts.iter().map(|&k| y[k]).collect();
+        let slopes: Vec<f64> = (0..cuts.len() - 1)
+            .map(|s| (values[s + 1] - values[s]) / (breakpoints[s + 1] - breakpoints[s]))
+            .collect();
+        let mut bin_segment = vec![0u32; count];
+        for s in 0..cuts.len() - 1 {
+            for j in cuts[s]..cuts[s + 1] {
+                bin_segment[j] = s as u32;
+            }
+        }
+        bin_segment[count - 1] = (cuts.len() - 2) as u32;
+        Self {
+            params,
+            offset,
+            breakpoints,
+            values,
+            slopes,
+            bin_segment,
+            first_sample: l_at(0),
+        }
+    }
+
+    /// The potential's parameters.
+    pub fn params(&self) -> &VinParams {
+        &self.params
+    }
+
+    /// Number of segments Ω.
+    pub fn segment_count(&self) -> usize {
+        self.slopes.len()
+    }
+
+    /// Exact V_in(l) with the same offset as the segmentation (Ē).
+    pub fn exact(&self, l: f64) -> f64 {
+        self.params.raw(l) - self.offset
+    }
+
+    /// Segment containing `l`; lengths outside the sampled range map to the
+    /// first or last segment (whose chord is extrapolated).
+    #[inline]
+    pub fn segment_of(&self, l: f64) -> usize {
+        let x = (l - self.first_sample) / self.params.dl;
+        if x.is_nan() || x <= 0.0 {
+            return 0;
+        }
+        let j = (x.ceil() as usize)
+            .saturating_sub(1)
+            .min(self.bin_segment.len() - 1);
+        let mut s = self.bin_segment[j] as usize;
+        // Guard against round-off at a breakpoint: (b_s, b_{s+1}].
+        if s + 1 < self.slopes.len() && l > self.breakpoints[s + 1] {
+            s += 1;
+        } else if s > 0 && l <= self.breakpoints[s] {
+            s -= 1;
+        }
+        s
+    }
+
+    /// Piecewise-linear V_in(l) and its slope dV/dl (Ē, Ē/l̄).
+    #[inline]
+    pub fn linear(&self, l: f64) -> (f64, f64) {
+        let s = self.segment_of(l);
+        let slope = self.slopes[s];
+        (self.values[s] + slope * (l - self.breakpoints[s]), slope)
+    }
+}
+
+fn needs_split(y: &[f64], a: usize, b: usize, p: &VinParams, l_at: impl Fn(usize) -> f64) -> bool {
+    let n = (b - a + 1) as f64;
+    let (mut sx, mut sy) = (0.0, 0.0);
+    for k in a..=b {
+        sx += l_at(k);
+        sy += y[k];
+    }
+    let (mx, my) = (sx / n, sy / n);
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for k in a..=b {
+        let (dx, dy) = (l_at(k) - mx, y[k] - my);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    let std = (syy / (n - 1.0)).sqrt();
+    // R² = 1 − SS_res/SS_tot = sxy²/(sxx·syy); undefined (never split) when flat.
+    let r2 = if syy > 0.0 {
+        sxy * sxy / (sxx * syy)
+    } else {
+        f64::NAN
+    };
+    r2 < p.segment_r2_min || std > p.segment_std_max
+}

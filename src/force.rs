@@ -1,0 +1,143 @@
+//! The force-term plug-in interface and the force stage that sums terms.
+//!
+//! A [`ForceTerm`] reads dense positions (and lipid density, topology, and
+//! its own components in the world) from a [`ForceContext`] and *adds* −∇E
+//! into the force buffer it is given. [`ForceSet`] evaluates every term into
+//! its own buffer (so forces can be reported and checked per term), applies
+//! the optional 1-ring smoothing to penalty terms, and sums the total.
+
+use crate::topology::Topology;
+use glam::DVec3;
+use hecs::World;
+
+/// Read-only inputs of a force evaluation.
+#[derive(Clone, Copy)]
+pub struct ForceContext<'a> {
+    /// The world (for terms with their own components, e.g. control points).
+    pub world: &'a World,
+    /// Dense connectivity.
+    pub topology: &'a Topology,
+    /// Vertex positions by dense slot (l̄).
+    pub positions: &'a [DVec3],
+    /// Lipid density by dense slot; empty when the scene declares none.
+    pub lipid: &'a [f64],
+}
+
+/// How the force stage treats a term's force.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ForceKind {
+    /// Used as computed: exactly −∇E.
+    Conservative,
+    /// A global penalty (volume, area, local tension): its force is averaged
+    /// over closed 1-rings `penalty_smoothing` times (SPEC §2; 0 = exact).
+    Penalty,
+}
+
+/// An energy term with an analytic force.
+///
+/// Contract: [`ForceTerm::accumulate`] *adds* −∇E to `force` (never
+/// overwrites) and returns the same energy [`ForceTerm::energy`] would.
+/// Check a new term with [`crate::fd::check_force_term`].
+pub trait ForceTerm: Send {
+    /// Unique name, used in reports, per-term force output and errors.
+    fn name(&self) -> &str;
+    /// How the force stage treats this term's force.
+    fn kind(&self) -> ForceKind {
+        ForceKind::Conservative
+    }
+    /// Energy of the current state (Ē).
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64;
+    /// Adds −∇E to `force` (Ē/l̄) and returns the energy (Ē).
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64;
+}
+
+/// Energies and forces of one evaluation of a [`ForceSet`].
+#[derive(Clone, Debug, Default)]
+pub struct ForceEvaluation {
+    /// Energy of each term, in term order (Ē).
+    pub energies: Vec<f64>,
+    /// Force of each term after smoothing, by dense slot (Ē/l̄).
+    pub term_forces: Vec<Vec<DVec3>>,
+    /// Total force by dense slot (Ē/l̄).
+    pub total: Vec<DVec3>,
+}
+
+impl ForceEvaluation {
+    /// Sum of all term energies (Ē).
+    pub fn total_energy(&self) -> f64 {
+        self.energies.iter().sum()
+    }
+}
+
+/// The force stage: an ordered list of terms plus penalty smoothing.
+pub struct ForceSet {
+    terms: Vec<Box<dyn ForceTerm>>,
+    /// Passes of closed 1-ring averaging applied to [`ForceKind::Penalty`]
+    /// terms (as run: 4; 0 = exact gradient).
+    pub penalty_smoothing: u32,
+    scratch: Vec<DVec3>,
+}
+
+impl ForceSet {
+    /// An empty force set.
+    pub fn new(penalty_smoothing: u32) -> Self {
+        Self {
+            terms: Vec::new(),
+            penalty_smoothing,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Adds a term; names must be unique.
+    pub fn push(&mut self, term: Box<dyn ForceTerm>) -> Result<(), String> {
+        if self.terms.iter().any(|t| t.name() == term.name()) {
+            return Err(format!(
+                "a force term named `{}` is already registered",
+                term.name()
+            ));
+        }
+        self.terms.push(term);
+        Ok(())
+    }
+
+    /// Term names in evaluation order.
+    pub fn names(&self) -> Vec<String> {
+        self.terms.iter().map(|t| t.name().to_string()).collect()
+    }
+
+    /// Mutable access to the terms (e.g. for finite-difference checks).
+    pub fn terms_mut(&mut self) -> &mut [Box<dyn ForceTerm>] {
+        &mut self.terms
+    }
+
+    /// Evaluates every term into `out`, reusing its buffers.
+    pub fn evaluate(&mut self, ctx: &ForceContext<'_>, out: &mut ForceEvaluation) {
+        let n = ctx.positions.len();
+        out.energies.clear();
+        out.term_forces.resize_with(self.terms.len(), Vec::new);
+        out.total.clear();
+        out.total.resize(n, DVec3::ZERO);
+        for (term, buf) in self.terms.iter_mut().zip(out.term_forces.iter_mut()) {
+            buf.clear();
+            buf.resize(n, DVec3::ZERO);
+            out.energies.push(term.accumulate(ctx, buf));
+            if term.kind() == ForceKind::Penalty && self.penalty_smoothing > 0 {
+                crate::energy::penalty::smooth_over_rings(
+                    buf,
+                    &ctx.topology.ring_offsets,
+                    &ctx.topology.ring,
+                    self.penalty_smoothing,
+                    &mut self.scratch,
+                );
+            }
+            for (t, f) in out.total.iter_mut().zip(buf.iter()) {
+                *t += *f;
+            }
+        }
+    }
+
+    /// Energy of each term without forces.
+    pub fn energies(&mut self, ctx: &ForceContext<'_>) -> Vec<f64> {
+        self.terms.iter_mut().map(|t| t.energy(ctx)).collect()
+    }
+}

@@ -1,0 +1,34 @@
+//! remembrane: closed triangulated membranes moved by overdamped Langevin
+//! dynamics under their free energy, with free-energy-controlled remeshing.
+
+pub mod components;
+pub mod energy;
+pub mod geometry;
+pub mod membrane;
+pub mod mesh;
+pub mod topology;
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder,
+/// then a rename, so readers never see a partial file.
+pub fn atomic_write(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}
+
+pub mod fd;
+pub mod force;
+pub mod params;
+
+#[path = "../systems/mod.rs"]
+pub mod systems;

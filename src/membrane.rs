@@ -1,0 +1,191 @@
+//! [`Membrane`]: the hecs world holding one closed membrane, its structure
+//! epoch and the derived caches (topology, dense position mirror).
+
+use crate::components::{ControlPoint, Edge, Face, Force, LipidDensity, Position};
+use crate::mesh::SurfaceMesh;
+use crate::topology::{Topology, TopologyError};
+use glam::DVec3;
+use hecs::{Entity, World};
+use std::collections::HashMap;
+
+/// The membrane: a hecs [`World`] (the source of truth) plus derived caches.
+///
+/// Anything that spawns or despawns mesh entities, or rewires [`Edge`] /
+/// [`Face`] references, must call [`Membrane::mark_structure_changed`] so the
+/// topology cache is rebuilt before the next hot loop.
+pub struct Membrane {
+    /// The entity world.
+    pub world: World,
+    epoch: u64,
+    topology: Topology,
+    has_lipid: bool,
+}
+
+impl Membrane {
+    /// Spawns vertex, edge and face entities for `mesh`. With `lipid_density`
+    /// every vertex also gets [`LipidDensity`]`(1.0)`.
+    ///
+    /// The mesh must be a valid closed triangulation (see
+    /// [`crate::mesh::check_mesh`]); this is not re-checked here.
+    pub fn from_mesh(mesh: &SurfaceMesh, lipid_density: bool) -> Result<Self, TopologyError> {
+        let mut world = World::new();
+        let vertices: Vec<Entity> = mesh
+            .positions
+            .iter()
+            .map(|&p| {
+                if lipid_density {
+                    world.spawn((Position(p), Force::default(), LipidDensity(1.0)))
+                } else {
+                    world.spawn((Position(p), Force::default()))
+                }
+            })
+            .collect();
+        // Faces first (edges unknown yet), then edges, then wire face → edges.
+        let faces: Vec<Entity> = mesh
+            .faces
+            .iter()
+            .map(|f| {
+                world.spawn((Face {
+                    vertices: f.map(|v| vertices[v as usize]),
+                    edges: [Entity::DANGLING; 3],
+                },))
+            })
+            .collect();
+        let mut half_edge_face: HashMap<(u32, u32), usize> =
+            HashMap::with_capacity(mesh.faces.len() * 3);
+        for (fi, f) in mesh.faces.iter().enumerate() {
+            for k in 0..3 {
+                half_edge_face.insert((f[k], f[(k + 1) % 3]), fi);
+            }
+        }
+        let mut edge_of: HashMap<(u32, u32), Entity> =
+            HashMap::with_capacity(mesh.faces.len() * 3 / 2);
+        for f in &mesh.faces {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                let key = (a.min(b), a.max(b));
+                if edge_of.contains_key(&key) {
+                    continue;
+                }
+                let left = half_edge_face[&(a, b)];
+                let right = half_edge_face.get(&(b, a)).copied().unwrap_or(left);
+                let e = world.spawn((Edge {
+                    vertices: [vertices[a as usize], vertices[b as usize]],
+                    faces: [faces[left], faces[right]],
+                },));
+                edge_of.insert(key, e);
+            }
+        }
+        for (fi, f) in mesh.faces.iter().enumerate() {
+            let edges = [0, 1, 2].map(|k| {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                edge_of[&(a.min(b), a.max(b))]
+            });
+            world
+                .get::<&mut Face>(faces[fi])
+                .map(|mut face| face.edges = edges)
+                .ok();
+        }
+        let topology = Topology::build(&world, 0)?;
+        Ok(Self {
+            world,
+            epoch: 0,
+            topology,
+            has_lipid: lipid_density,
+        })
+    }
+
+    /// Whether vertices carry [`LipidDensity`].
+    pub fn has_lipid(&self) -> bool {
+        self.has_lipid
+    }
+
+    /// Structure epoch: bumped by every topology change.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
+    /// Records a structural change; the topology cache is rebuilt lazily.
+    pub fn mark_structure_changed(&mut self) {
+        self.epoch += 1;
+    }
+
+    /// The topology cache, rebuilt first if the structure changed.
+    pub fn topology(&mut self) -> Result<&Topology, TopologyError> {
+        if self.topology.epoch != self.epoch {
+            self.topology = Topology::build(&self.world, self.epoch)?;
+        }
+        Ok(&self.topology)
+    }
+
+    /// The topology cache as last built (may be stale if the structure
+    /// changed without a call to [`Membrane::topology`]).
+    pub fn cached_topology(&self) -> &Topology {
+        debug_assert_eq!(self.topology.epoch, self.epoch, "stale topology cache");
+        &self.topology
+    }
+
+    /// Copies vertex positions into `out`, indexed by dense slot.
+    pub fn gather_positions(&self, out: &mut Vec<DVec3>) {
+        let t = &self.topology;
+        out.resize(t.vertex_count(), DVec3::ZERO);
+        for (e, p) in self.world.query::<(Entity, &Position)>().iter() {
+            out[t.slot_of[e.id() as usize] as usize] = p.0;
+        }
+    }
+
+    /// Copies lipid densities into `out`, indexed by dense slot (empty if the
+    /// membrane has no lipid density).
+    pub fn gather_lipid(&self, out: &mut Vec<f64>) {
+        let t = &self.topology;
+        out.clear();
+        if !self.has_lipid {
+            return;
+        }
+        out.resize(t.vertex_count(), 0.0);
+        for (e, rho) in self.world.query::<(Entity, &LipidDensity)>().iter() {
+            out[t.slot_of[e.id() as usize] as usize] = rho.0;
+        }
+    }
+
+    /// Writes dense positions back to the world's [`Position`] components.
+    pub fn scatter_positions(&mut self, positions: &[DVec3]) {
+        let t = &self.topology;
+        for (e, p) in self.world.query_mut::<(Entity, &mut Position)>() {
+            p.0 = positions[t.slot_of[e.id() as usize] as usize];
+        }
+    }
+
+    /// Writes dense total forces back to the world's [`Force`] components.
+    pub fn scatter_forces(&mut self, forces: &[DVec3]) {
+        let t = &self.topology;
+        for (e, f) in self.world.query_mut::<(Entity, &mut Force)>() {
+            f.0 = forces[t.slot_of[e.id() as usize] as usize];
+        }
+    }
+
+    /// Spawns a fixed control point.
+    pub fn add_control_point(&mut self, point: ControlPoint) -> Entity {
+        self.world.spawn((point,))
+    }
+
+    /// All control points, in world order.
+    pub fn control_points(&self) -> Vec<ControlPoint> {
+        self.world
+            .query::<&ControlPoint>()
+            .iter()
+            .copied()
+            .collect()
+    }
+
+    /// The current mesh (positions and faces by dense slot).
+    pub fn to_mesh(&mut self) -> Result<SurfaceMesh, TopologyError> {
+        self.topology()?;
+        let mut positions = Vec::new();
+        self.gather_positions(&mut positions);
+        Ok(SurfaceMesh {
+            positions,
+            faces: self.topology.faces.clone(),
+        })
+    }
+}

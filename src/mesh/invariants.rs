@@ -1,0 +1,411 @@
+//! The mesh invariant checker shared by tests, the debug mode and file import.
+//!
+//! A valid membrane mesh is closed, edge- and vertex-manifold, consistently
+//! and outwardly oriented, has Euler characteristic 2 per connected component,
+//! no duplicate or degenerate faces, finite coordinates and valences within a
+//! given range. The first violation found is returned as a [`MeshError`]
+//! naming the offending element.
+
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// A face whose area is below this fraction of the squared mean edge length
+/// is degenerate (zero-area up to round-off).
+pub const DEGENERATE_AREA_RATIO: f64 = 1e-10;
+
+/// Inclusive vertex valence limits (the paper's default is 5..=8, fusion 5..=10).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValenceRange {
+    /// Smallest allowed number of 1-ring neighbours.
+    pub min: u32,
+    /// Largest allowed number of 1-ring neighbours.
+    pub max: u32,
+}
+
+impl Default for ValenceRange {
+    fn default() -> Self {
+        Self { min: 5, max: 8 }
+    }
+}
+
+/// A violated mesh invariant, naming the element (0-based indices).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    /// The mesh has no faces.
+    #[error("mesh has no faces")]
+    Empty,
+    /// A coordinate is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite coordinate {position:?}")]
+    NonFiniteVertex {
+        /// Vertex index.
+        vertex: usize,
+        /// Its position.
+        position: [f64; 3],
+    },
+    /// A face refers to a vertex that does not exist.
+    #[error("face {face} refers to vertex {index}, but the mesh has {count} vertices")]
+    FaceIndexOutOfRange {
+        /// Face index.
+        face: usize,
+        /// The bad vertex index.
+        index: u32,
+        /// Number of vertices.
+        count: usize,
+    },
+    /// A face uses the same vertex twice.
+    #[error("face {face} {vertices:?} repeats a vertex")]
+    RepeatedVertexInFace {
+        /// Face index.
+        face: usize,
+        /// Its vertices.
+        vertices: [u32; 3],
+    },
+    /// A face has (numerically) zero area.
+    #[error("face {face} {vertices:?} is degenerate (area {area:e})")]
+    DegenerateFace {
+        /// Face index.
+        face: usize,
+        /// Its vertices.
+        vertices: [u32; 3],
+        /// Its area.
+        area: f64,
+    },
+    /// Two faces use the same three vertices.
+    #[error("faces {first} and {second} are duplicates (vertices {vertices:?})")]
+    DuplicateFace {
+        /// First face index.
+        first: usize,
+        /// Second face index.
+        second: usize,
+        /// Shared vertices.
+        vertices: [u32; 3],
+    },
+    /// An edge has a single incident face: the surface is open there.
+    #[error("edge ({a}, {b}) has only face {face}: the mesh is open (has a boundary)")]
+    OpenEdge {
+        /// First vertex.
+        a: u32,
+        /// Second vertex.
+        b: u32,
+        /// The only incident face.
+        face: usize,
+    },
+    /// An edge has more than two incident faces.
+    #[error("edge ({a}, {b}) has {count} incident faces: the mesh is not manifold there")]
+    NonManifoldEdge {
+        /// First vertex.
+        a: u32,
+        /// Second vertex.
+        b: u32,
+        /// Number of incident faces.
+        count: usize,
+    },
+    /// Two faces traverse their shared edge in the same direction.
+    #[error("faces {first} and {second} both traverse edge {a}->{b}: inconsistent orientation")]
+    InconsistentOrientation {
+        /// Edge start.
+        a: u32,
+        /// Edge end.
+        b: u32,
+        /// First face.
+        first: usize,
+        /// Second face.
+        second: usize,
+    },
+    /// A vertex belongs to no face.
+    #[error("vertex {vertex} belongs to no face")]
+    IsolatedVertex {
+        /// Vertex index.
+        vertex: usize,
+    },
+    /// The faces around a vertex do not form a single disc.
+    #[error("vertex {vertex} is not manifold: its faces form {fans} separate fans")]
+    NonManifoldVertex {
+        /// Vertex index.
+        vertex: usize,
+        /// Number of separate face fans.
+        fans: usize,
+    },
+    /// A component is not a topological sphere.
+    #[error(
+        "component {component} (containing vertex {vertex}) has Euler characteristic {chi}, expected 2"
+    )]
+    WrongEulerCharacteristic {
+        /// Component index.
+        component: usize,
+        /// A vertex in it.
+        vertex: u32,
+        /// V − E + F of the component.
+        chi: i64,
+    },
+    /// A component's faces are oriented inward (negative enclosed volume).
+    #[error(
+        "component {component} (containing vertex {vertex}) is oriented inward (signed volume {volume:e})"
+    )]
+    InwardOrientation {
+        /// Component index.
+        component: usize,
+        /// A vertex in it.
+        vertex: u32,
+        /// Its signed volume.
+        volume: f64,
+    },
+    /// A vertex has too few or too many neighbours.
+    #[error("vertex {vertex} has valence {valence}, outside the allowed {min}..={max}")]
+    ValenceOutOfRange {
+        /// Vertex index.
+        vertex: usize,
+        /// Its valence.
+        valence: u32,
+        /// Allowed minimum.
+        min: u32,
+        /// Allowed maximum.
+        max: u32,
+    },
+}
+
+/// Summary of a mesh that passed every check.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshReport {
+    /// Number of vertices.
+    pub vertices: usize,
+    /// Number of unique edges.
+    pub edges: usize,
+    /// Number of faces.
+    pub faces: usize,
+    /// Number of connected components.
+    pub components: usize,
+    /// Valence of every vertex.
+    pub valences: Vec<u32>,
+}
+
+/// Checks every invariant of a closed membrane mesh. `valence` = `None` skips
+/// the valence limits (used on import; scenes apply their own limits later).
+pub fn check_mesh(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    valence: Option<ValenceRange>,
+) -> Result<MeshReport, MeshError> {
+    if faces.is_empty() {
+        return Err(MeshError::Empty);
+    }
+    for (vertex, p) in positions.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(MeshError::NonFiniteVertex {
+                vertex,
+                position: p.to_array(),
+            });
+        }
+    }
+    let n = positions.len();
+    for (face, f) in faces.iter().enumerate() {
+        if let Some(&index) = f.iter().find(|&&v| v as usize >= n) {
+            return Err(MeshError::FaceIndexOutOfRange {
+                face,
+                index,
+                count: n,
+            });
+        }
+        if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+            return Err(MeshError::RepeatedVertexInFace { face, vertices: *f });
+        }
+    }
+
+    // Degenerate faces, relative to the mean edge length.
+    let mut edge_sum = 0.0;
+    for f in faces {
+        for k in 0..3 {
+            edge_sum += positions[f[k] as usize].distance(positions[f[(k + 1) % 3] as usize]);
+        }
+    }
+    let mean_edge = edge_sum / (3 * faces.len()) as f64;
+    let min_area = DEGENERATE_AREA_RATIO * mean_edge * mean_edge;
+    for (face, f) in faces.iter().enumerate() {
+        let [a, b, c] = f.map(|v| positions[v as usize]);
+        let area = 0.5 * (b - a).cross(c - a).length();
+        if area.is_nan() || area <= min_area {
+            return Err(MeshError::DegenerateFace {
+                face,
+                vertices: *f,
+                area,
+            });
+        }
+    }
+
+    // Duplicate faces (same vertex set in any order).
+    let mut seen: HashMap<[u32; 3], usize> = HashMap::with_capacity(faces.len());
+    for (face, f) in faces.iter().enumerate() {
+        let mut key = *f;
+        key.sort_unstable();
+        if let Some(&first) = seen.get(&key) {
+            return Err(MeshError::DuplicateFace {
+                first,
+                second: face,
+                vertices: *f,
+            });
+        }
+        seen.insert(key, face);
+    }
+
+    // Edge incidence and orientation.
+    let mut undirected: HashMap<(u32, u32), Vec<(usize, bool)>> =
+        HashMap::with_capacity(faces.len() * 3 / 2);
+    for (face, f) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            undirected
+                .entry((a.min(b), a.max(b)))
+                .or_default()
+                .push((face, a < b));
+        }
+    }
+    let mut edge_keys: Vec<_> = undirected.keys().copied().collect();
+    edge_keys.sort_unstable();
+    for &(a, b) in &edge_keys {
+        let uses = &undirected[&(a, b)];
+        match uses.len() {
+            1 => {
+                return Err(MeshError::OpenEdge {
+                    a,
+                    b,
+                    face: uses[0].0,
+                });
+            }
+            2 => {
+                if uses[0].1 == uses[1].1 {
+                    let (a, b) = if uses[0].1 { (a, b) } else { (b, a) };
+                    return Err(MeshError::InconsistentOrientation {
+                        a,
+                        b,
+                        first: uses[0].0,
+                        second: uses[1].0,
+                    });
+                }
+            }
+            count => return Err(MeshError::NonManifoldEdge { a, b, count }),
+        }
+    }
+
+    // Vertex manifoldness: the link of every vertex is a single cycle.
+    // link[v] holds (a, b) for each face (v, a, b) in counter-clockwise order.
+    let mut link: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+    for f in faces {
+        for k in 0..3 {
+            link[f[k] as usize].push((f[(k + 1) % 3], f[(k + 2) % 3]));
+        }
+    }
+    let mut valences = vec![0u32; n];
+    for (vertex, l) in link.iter().enumerate() {
+        if l.is_empty() {
+            return Err(MeshError::IsolatedVertex { vertex });
+        }
+        // Edge-manifold + orientable guarantee each neighbour appears once as
+        // a start; count the cycles of the successor map.
+        let next: HashMap<u32, u32> = l.iter().copied().collect();
+        let mut visited = std::collections::HashSet::with_capacity(l.len());
+        let mut fans = 0;
+        for &(start, _) in l {
+            if visited.contains(&start) {
+                continue;
+            }
+            fans += 1;
+            let mut cur = start;
+            while visited.insert(cur) {
+                match next.get(&cur) {
+                    Some(&nx) => cur = nx,
+                    None => break,
+                }
+            }
+        }
+        if fans != 1 {
+            return Err(MeshError::NonManifoldVertex { vertex, fans });
+        }
+        valences[vertex] = l.len() as u32;
+    }
+
+    // Connected components (union-find over vertices through faces).
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    for f in faces {
+        for k in 1..3 {
+            let (ra, rb) = (find(&mut parent, f[0]), find(&mut parent, f[k]));
+            if ra != rb {
+                parent[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+    }
+    let mut component_of_root: HashMap<u32, usize> = HashMap::new();
+    let mut roots = Vec::new();
+    let mut comp = vec![0usize; n];
+    for v in 0..n as u32 {
+        let r = find(&mut parent, v);
+        let next_id = component_of_root.len();
+        let c = *component_of_root.entry(r).or_insert_with(|| {
+            roots.push(v);
+            next_id
+        });
+        comp[v as usize] = c;
+    }
+    let components = roots.len();
+    let mut chi = vec![0i64; components];
+    let mut volume = vec![0.0f64; components];
+    for v in 0..n {
+        chi[comp[v]] += 1;
+    }
+    for &(a, _) in &edge_keys {
+        chi[comp[a as usize]] -= 1;
+    }
+    for f in faces {
+        let c = comp[f[0] as usize];
+        chi[c] += 1;
+        // Signed volume relative to the component's first vertex (translation
+        // invariant for closed surfaces, better conditioned than the origin).
+        let o = positions[roots[c] as usize];
+        let [a, b, d] = f.map(|v| positions[v as usize] - o);
+        volume[c] += a.dot(b.cross(d)) / 6.0;
+    }
+    for c in 0..components {
+        if chi[c] != 2 {
+            return Err(MeshError::WrongEulerCharacteristic {
+                component: c,
+                vertex: roots[c],
+                chi: chi[c],
+            });
+        }
+        if volume[c].is_nan() || volume[c] <= 0.0 {
+            return Err(MeshError::InwardOrientation {
+                component: c,
+                vertex: roots[c],
+                volume: volume[c],
+            });
+        }
+    }
+
+    if let Some(range) = valence {
+        for (vertex, &valence) in valences.iter().enumerate() {
+            if valence < range.min || valence > range.max {
+                return Err(MeshError::ValenceOutOfRange {
+                    vertex,
+                    valence,
+                    min: range.min,
+                    max: range.max,
+                });
+            }
+        }
+    }
+
+    Ok(MeshReport {
+        vertices: n,
+        edges: edge_keys.len(),
+        faces: faces.len(),
+        components,
+        valences,
+    })
+}

@@ -1,0 +1,92 @@
+//! Plain triangle meshes: generation, import/export and invariant checks.
+//!
+//! [`SurfaceMesh`] is the exchange format between files, generators and the
+//! hecs world ([`crate::membrane::Membrane`]). It is not used in hot loops.
+
+mod docking;
+mod icosphere;
+pub mod invariants;
+pub mod io;
+
+pub use docking::docked_pair;
+pub use icosphere::{MAX_ICOSPHERE_LEVEL, icosphere, icosphere_unit, vertex_count_for_level};
+pub use invariants::{MeshError, MeshReport, ValenceRange, check_mesh};
+
+use glam::DVec3;
+use rand::{RngExt, SeedableRng};
+
+/// A triangle mesh as vertex positions and faces. Faces list vertex indices
+/// counter-clockwise seen from outside (right-hand rule, outward normal).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceMesh {
+    /// Vertex positions (length l̄ = 1 µm).
+    pub positions: Vec<DVec3>,
+    /// Faces as vertex-index triples, outward by the right-hand rule.
+    pub faces: Vec<[u32; 3]>,
+}
+
+impl SurfaceMesh {
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Unique undirected edges, each as (low, high) vertex index, sorted.
+    pub fn edges(&self) -> Vec<[u32; 2]> {
+        let mut edges: Vec<[u32; 2]> = self
+            .faces
+            .iter()
+            .flat_map(|f| {
+                [0, 1, 2].map(|k| {
+                    let (a, b) = (f[k], f[(k + 1) % 3]);
+                    [a.min(b), a.max(b)]
+                })
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        edges
+    }
+
+    /// Mean edge length over unique edges.
+    pub fn mean_edge_length(&self) -> f64 {
+        let edges = self.edges();
+        let total: f64 = edges
+            .iter()
+            .map(|e| self.positions[e[0] as usize].distance(self.positions[e[1] as usize]))
+            .sum();
+        total / edges.len().max(1) as f64
+    }
+
+    /// Scales all positions about the origin by `factor`.
+    pub fn scale(&mut self, factor: f64) {
+        for p in &mut self.positions {
+            *p *= factor;
+        }
+    }
+
+    /// Translates all positions by `offset`.
+    pub fn translate(&mut self, offset: DVec3) {
+        for p in &mut self.positions {
+            *p += offset;
+        }
+    }
+
+    /// Rescales the mesh about the origin so its mean edge length is `target`.
+    pub fn rescale_to_mean_edge_length(&mut self, target: f64) {
+        let mean = self.mean_edge_length();
+        if mean > 0.0 {
+            self.scale(target / mean);
+        }
+    }
+
+    /// Adds a seeded uniform jitter in [0, amplitude) to every coordinate (the
+    /// reference code's `rand(N,3)*1e-4` on the unit sphere, here applied in
+    /// the mesh's own length unit).
+    pub fn jitter(&mut self, amplitude: f64, seed: u64) {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+        for p in &mut self.positions {
+            *p += amplitude * DVec3::new(rng.random(), rng.random(), rng.random());
+        }
+    }
+}

@@ -1,0 +1,113 @@
+//! Parameters of the energy terms: one serde struct per term, each field
+//! with its unit, default and meaning. Defaults are SPEC's as-run set
+//! (natural units: energy Ē = 10 k_BT, length l̄ = 1 µm, time 1 s).
+
+use serde::{Deserialize, Serialize};
+
+pub use crate::energy::vin::{VinForm, VinParams};
+
+/// A target value: absolute, or a fraction of the initial mesh's value.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Target {
+    /// An absolute value (l̄³ for volume, l̄² for area).
+    Absolute(f64),
+    /// This fraction of the value of the initial mesh (e.g. 0.6 of its volume).
+    OfInitial(f64),
+}
+
+impl Target {
+    /// The target for an initial value `initial`.
+    pub fn resolve(self, initial: f64) -> f64 {
+        match self {
+            Target::Absolute(v) => v,
+            Target::OfInitial(f) => f * initial,
+        }
+    }
+
+    /// The configured number (value or fraction).
+    pub fn number(self) -> f64 {
+        match self {
+            Target::Absolute(v) | Target::OfInitial(v) => v,
+        }
+    }
+}
+
+/// Helfrich bending.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BendingParams {
+    /// κ, bending modulus (Ē; default 5 as run = 50 k_BT; paper table: 1).
+    pub kappa: f64,
+    /// C0, spontaneous curvature (1/l̄; default 0). Enters as (2H − C0)², so a
+    /// sphere of radius 2/C0 is stress-free.
+    pub c0: f64,
+}
+
+impl Default for BendingParams {
+    fn default() -> Self {
+        Self {
+            kappa: 5.0,
+            c0: 0.0,
+        }
+    }
+}
+
+/// Volume penalty E_V = k (V − V_t)² / V_t (osmotic pressure).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeParams {
+    /// k_V, penalty strength (Ē/l̄³; default 4).
+    #[serde(default = "default_k_volume")]
+    pub k: f64,
+    /// V_t, target volume (l̄³ or fraction of the initial volume).
+    pub target: Target,
+}
+
+/// Area penalty E_A = k (A − A_t)² / A_t (global tension).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AreaParams {
+    /// k_A, penalty strength (Ē/l̄²; default 8).
+    #[serde(default = "default_k_area")]
+    pub k: f64,
+    /// A_t, target area (l̄² or fraction of the initial area).
+    pub target: Target,
+}
+
+/// Density-dependent local tension E_a = k Σ_i (A_i/ρ_i − a0)² / a0 with
+/// a0 = A_t / N_initial. Requires lipid density.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LocalTensionParams {
+    /// k_a, strength (Ē/l̄²; default 12).
+    #[serde(default = "default_k_local")]
+    pub k: f64,
+    /// A_t, total target area from which a0 = A_t / N_initial (l̄² or
+    /// fraction of the initial area; the reservoir condition uses 733).
+    pub target_area: Target,
+}
+
+/// External springs from control points to their nearest vertex and 1-ring.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SpringParams {
+    /// k_ex, spring constant of control points that give none (Ē/l̄²;
+    /// default 4 as run; 5 in the tether scenes).
+    pub stiffness: f64,
+}
+
+impl Default for SpringParams {
+    fn default() -> Self {
+        Self { stiffness: 4.0 }
+    }
+}
+
+fn default_k_volume() -> f64 {
+    4.0
+}
+fn default_k_area() -> f64 {
+    8.0
+}
+fn default_k_local() -> f64 {
+    12.0
+}

@@ -1,0 +1,241 @@
+//! The topology cache: dense index arrays derived from the hecs world.
+//!
+//! Rebuilt only when the membrane's structure epoch changes (a split, merge
+//! or any spawn/despawn of mesh entities). Hot loops index these arrays and
+//! never touch the world.
+
+use crate::components::{Edge, Face, Position};
+use hecs::{Entity, World};
+
+/// Sentinel for "no slot".
+pub const NO_SLOT: u32 = u32::MAX;
+
+/// Dense mesh connectivity derived from the world.
+#[derive(Clone, Debug, Default)]
+pub struct Topology {
+    /// Structure epoch this cache was built for.
+    pub epoch: u64,
+    /// Dense slot → vertex entity.
+    pub vertex_entities: Vec<Entity>,
+    /// Dense slot → edge entity.
+    pub edge_entities: Vec<Entity>,
+    /// Dense slot → face entity.
+    pub face_entities: Vec<Entity>,
+    /// `entity.id()` → dense slot within its kind (vertex, edge or face).
+    pub slot_of: Vec<u32>,
+    /// Edge end vertices (slots).
+    pub edges: Vec<[u32; 2]>,
+    /// Edge incident faces (slots): `[left, right]` as in [`Edge`].
+    pub edge_faces: Vec<[u32; 2]>,
+    /// Face corner vertices (slots), counter-clockwise from outside.
+    pub faces: Vec<[u32; 3]>,
+    /// Face edges (slots): `face_edges[f][k]` joins corners k and k+1.
+    pub face_edges: Vec<[u32; 3]>,
+    /// CSR offsets into the ring arrays, length `vertex_count + 1`.
+    pub ring_offsets: Vec<u32>,
+    /// Ordered 1-ring of each vertex, counter-clockwise about the outward normal.
+    pub ring: Vec<u32>,
+    /// `ring_edges[k]` is the edge to `ring[k]`.
+    pub ring_edges: Vec<u32>,
+    /// `ring_faces[k]` is the face (v, ring[k], ring[k+1]).
+    pub ring_faces: Vec<u32>,
+}
+
+/// The world's mesh entities do not form a valid closed triangulation.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TopologyError {
+    /// A face or edge refers to an entity that is not a vertex.
+    #[error("{kind} entity {entity:?} refers to {target:?}, which is not a live vertex")]
+    DanglingVertex {
+        /// "face" or "edge".
+        kind: &'static str,
+        /// The referring entity.
+        entity: Entity,
+        /// The missing vertex.
+        target: Entity,
+    },
+    /// A face refers to an entity that is not an edge.
+    #[error("face entity {face:?} refers to {edge:?}, which is not a live edge")]
+    DanglingEdge {
+        /// The face.
+        face: Entity,
+        /// The missing edge.
+        edge: Entity,
+    },
+    /// The faces around a vertex do not form one closed fan.
+    #[error("vertex slot {vertex} has a broken face fan (non-manifold or open)")]
+    BrokenFan {
+        /// The vertex slot.
+        vertex: u32,
+    },
+}
+
+impl Topology {
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.vertex_entities.len()
+    }
+
+    /// Valence (1-ring size) of vertex slot `v`.
+    #[inline]
+    pub fn valence(&self, v: usize) -> usize {
+        (self.ring_offsets[v + 1] - self.ring_offsets[v]) as usize
+    }
+
+    /// Ordered 1-ring neighbours of vertex slot `v`.
+    #[inline]
+    pub fn neighbours(&self, v: usize) -> &[u32] {
+        &self.ring[self.ring_offsets[v] as usize..self.ring_offsets[v + 1] as usize]
+    }
+
+    /// Dense slot of a mesh entity, if it is a live vertex, edge or face.
+    pub fn slot(&self, entity: Entity) -> Option<u32> {
+        let s = *self.slot_of.get(entity.id() as usize)?;
+        (s != NO_SLOT).then_some(s)
+    }
+
+    /// Builds the cache from the world's vertex ([`Position`]), [`Edge`] and
+    /// [`Face`] entities. Slots follow the world's iteration order, which is
+    /// deterministic for a given sequence of world edits.
+    pub fn build(world: &World, epoch: u64) -> Result<Self, TopologyError> {
+        let mut t = Topology {
+            epoch,
+            ..Default::default()
+        };
+        let max_id = world
+            .iter()
+            .map(|e| e.entity().id())
+            .max()
+            .map_or(0, |m| m as usize + 1);
+        t.slot_of = vec![NO_SLOT; max_id];
+        let mut is_vertex = vec![false; max_id];
+        for (e, _) in world
+            .query::<(Entity, &Position)>()
+            .iter()
+            .map(|(e, p)| (e, p))
+        {
+            t.slot_of[e.id() as usize] = t.vertex_entities.len() as u32;
+            is_vertex[e.id() as usize] = true;
+            t.vertex_entities.push(e);
+        }
+        let vertex_slot = |t: &Topology, kind, entity, target: Entity| {
+            let id = target.id() as usize;
+            if id < is_vertex.len()
+                && is_vertex[id]
+                && t.vertex_entities[t.slot_of[id] as usize] == target
+            {
+                Ok(t.slot_of[id])
+            } else {
+                Err(TopologyError::DanglingVertex {
+                    kind,
+                    entity,
+                    target,
+                })
+            }
+        };
+        let mut edge_list = Vec::new();
+        for (e, edge) in world.query::<(Entity, &Edge)>().iter() {
+            edge_list.push((e, *edge));
+        }
+        for (slot, (e, edge)) in edge_list.iter().enumerate() {
+            let a = vertex_slot(&t, "edge", *e, edge.vertices[0])?;
+            let b = vertex_slot(&t, "edge", *e, edge.vertices[1])?;
+            t.edges.push([a, b]);
+            t.edge_entities.push(*e);
+            t.slot_of[e.id() as usize] = slot as u32;
+        }
+        let mut face_list = Vec::new();
+        for (e, face) in world.query::<(Entity, &Face)>().iter() {
+            face_list.push((e, *face));
+        }
+        for (slot, (e, _)) in face_list.iter().enumerate() {
+            t.slot_of[e.id() as usize] = slot as u32;
+            t.face_entities.push(*e);
+        }
+        for (e, face) in &face_list {
+            let mut corners = [0u32; 3];
+            let mut edges = [0u32; 3];
+            for k in 0..3 {
+                corners[k] = vertex_slot(&t, "face", *e, face.vertices[k])?;
+                let id = face.edges[k].id() as usize;
+                let ok = id < t.slot_of.len()
+                    && t.slot_of[id] != NO_SLOT
+                    && (t.slot_of[id] as usize) < t.edge_entities.len()
+                    && t.edge_entities[t.slot_of[id] as usize] == face.edges[k];
+                if !ok {
+                    return Err(TopologyError::DanglingEdge {
+                        face: *e,
+                        edge: face.edges[k],
+                    });
+                }
+                edges[k] = t.slot_of[id];
+            }
+            t.faces.push(corners);
+            t.face_edges.push(edges);
+        }
+        for (_, edge) in &edge_list {
+            let f = edge
+                .faces
+                .map(|f| t.slot_of.get(f.id() as usize).copied().unwrap_or(NO_SLOT));
+            t.edge_faces.push(f);
+        }
+        t.build_rings()?;
+        Ok(t)
+    }
+
+    /// Builds the ordered 1-ring CSR arrays from `faces` and `face_edges`.
+    fn build_rings(&mut self) -> Result<(), TopologyError> {
+        let n = self.vertex_entities.len();
+        // Per vertex: its incident (face, corner) pairs in CSR form.
+        let mut count = vec![0u32; n + 1];
+        for f in &self.faces {
+            for &v in f {
+                count[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..n {
+            count[v + 1] += count[v];
+        }
+        let mut fill = count.clone();
+        let mut incident = vec![(0u32, 0u8); self.faces.len() * 3];
+        for (fi, f) in self.faces.iter().enumerate() {
+            for (k, &v) in f.iter().enumerate() {
+                incident[fill[v as usize] as usize] = (fi as u32, k as u8);
+                fill[v as usize] += 1;
+            }
+        }
+        self.ring_offsets = count.clone();
+        let total = count[n] as usize;
+        self.ring = vec![0; total];
+        self.ring_edges = vec![0; total];
+        self.ring_faces = vec![0; total];
+        for v in 0..n {
+            let (lo, hi) = (count[v] as usize, count[v + 1] as usize);
+            let fan = &incident[lo..hi];
+            if fan.is_empty() {
+                return Err(TopologyError::BrokenFan { vertex: v as u32 });
+            }
+            // Face (v, a, b): the ring steps a → b. Start anywhere, follow.
+            let next_of = |a: u32| {
+                fan.iter()
+                    .find(|&&(fi, k)| self.faces[fi as usize][(k as usize + 1) % 3] == a)
+            };
+            let (f0, k0) = fan[0];
+            let start = self.faces[f0 as usize][(k0 as usize + 1) % 3];
+            let mut cur = start;
+            for slot in lo..hi {
+                let &(fi, k) = next_of(cur).ok_or(TopologyError::BrokenFan { vertex: v as u32 })?;
+                let face = self.faces[fi as usize];
+                self.ring[slot] = cur;
+                self.ring_faces[slot] = fi;
+                // Edge from v to cur is the face edge (k, k+1).
+                self.ring_edges[slot] = self.face_edges[fi as usize][k as usize];
+                cur = face[(k as usize + 2) % 3];
+            }
+            if cur != start {
+                return Err(TopologyError::BrokenFan { vertex: v as u32 });
+            }
+        }
+        Ok(())
+    }
+}

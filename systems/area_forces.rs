@@ -1,0 +1,47 @@
+//! Area-penalty forces, E_A = k (A − A_t)² / A_t.
+//!
+//! Stage: Forces (penalty: 1-ring smoothed by the force stage). Reads:
+//! positions, topology (faces). Writes: force accumulator. Units: k in
+//! Ē/l̄², A_t in l̄².
+
+use crate::energy::penalty::area_penalty;
+use crate::force::{ForceContext, ForceKind, ForceTerm};
+use glam::DVec3;
+
+/// The area-penalty force system with a resolved target area.
+pub struct AreaForces {
+    /// Penalty strength k_A (Ē/l̄²).
+    pub k: f64,
+    /// Target area A_t (l̄²).
+    pub target: f64,
+}
+
+impl ForceTerm for AreaForces {
+    fn name(&self) -> &str {
+        "area"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::Penalty
+    }
+
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        area_penalty(
+            ctx.positions,
+            &ctx.topology.faces,
+            self.k,
+            self.target,
+            None,
+        )
+    }
+
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        area_penalty(
+            ctx.positions,
+            &ctx.topology.faces,
+            self.k,
+            self.target,
+            Some(force),
+        )
+    }
+}

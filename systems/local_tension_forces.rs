@@ -1,0 +1,63 @@
+//! Density-dependent local tension, E_a = k Σ_i (A_i/ρ_i − a0)² / a0.
+//!
+//! Stage: Forces (penalty: 1-ring smoothed by the force stage). Reads:
+//! positions, lipid density, topology (faces). Writes: force accumulator.
+//! Units: k in Ē/l̄², a0 in l̄² (a0 = A_t / N_initial, fixed at scene build).
+
+use crate::energy::penalty::{LocalTensionScratch, local_tension};
+use crate::force::{ForceContext, ForceKind, ForceTerm};
+use glam::DVec3;
+
+/// The local-tension force system.
+pub struct LocalTensionForces {
+    /// Strength k_a (Ē/l̄²).
+    pub k: f64,
+    /// Target area per vertex a0 (l̄²).
+    pub a0: f64,
+    scratch: LocalTensionScratch,
+}
+
+impl LocalTensionForces {
+    /// A local-tension system with strength `k` and per-vertex target `a0`.
+    pub fn new(k: f64, a0: f64) -> Self {
+        Self {
+            k,
+            a0,
+            scratch: LocalTensionScratch::default(),
+        }
+    }
+}
+
+impl ForceTerm for LocalTensionForces {
+    fn name(&self) -> &str {
+        "local_tension"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::Penalty
+    }
+
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        local_tension(
+            ctx.positions,
+            &ctx.topology.faces,
+            ctx.lipid,
+            self.k,
+            self.a0,
+            &mut self.scratch,
+            None,
+        )
+    }
+
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        local_tension(
+            ctx.positions,
+            &ctx.topology.faces,
+            ctx.lipid,
+            self.k,
+            self.a0,
+            &mut self.scratch,
+            Some(force),
+        )
+    }
+}

@@ -1,0 +1,50 @@
+//! External spring forces from fixed control points.
+//!
+//! Stage: Forces. Reads: positions, topology (1-rings), [`ControlPoint`]
+//! entities. Writes: force accumulator. Units: k_ex in Ē/l̄². Each control
+//! point pulls its nearest vertex (re-chosen on every evaluation) and that
+//! vertex's 1-ring toward itself; energy ½k|d|² over all pulled vertices.
+
+use crate::components::ControlPoint;
+use crate::energy::springs::control_point_springs;
+use crate::force::{ForceContext, ForceTerm};
+use glam::DVec3;
+
+/// The control-point spring system. Control points are read from the world
+/// on each evaluation (a handful of entities, not a per-edge loop).
+#[derive(Default)]
+pub struct SpringForces {
+    points: Vec<ControlPoint>,
+}
+
+impl SpringForces {
+    fn gather(&mut self, ctx: &ForceContext<'_>) {
+        self.points.clear();
+        self.points
+            .extend(ctx.world.query::<&ControlPoint>().iter().copied());
+    }
+}
+
+impl ForceTerm for SpringForces {
+    fn name(&self) -> &str {
+        "springs"
+    }
+
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        self.gather(ctx);
+        let t = ctx.topology;
+        control_point_springs(ctx.positions, &t.ring_offsets, &t.ring, &self.points, None)
+    }
+
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        self.gather(ctx);
+        let t = ctx.topology;
+        control_point_springs(
+            ctx.positions,
+            &t.ring_offsets,
+            &t.ring,
+            &self.points,
+            Some(force),
+        )
+    }
+}

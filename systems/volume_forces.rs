@@ -1,0 +1,47 @@
+//! Volume-penalty forces, E_V = k (V − V_t)² / V_t.
+//!
+//! Stage: Forces (penalty: 1-ring smoothed by the force stage). Reads:
+//! positions, topology (faces). Writes: force accumulator. Units: k in
+//! Ē/l̄³, V_t in l̄³.
+
+use crate::energy::penalty::volume_penalty;
+use crate::force::{ForceContext, ForceKind, ForceTerm};
+use glam::DVec3;
+
+/// The volume-penalty force system with a resolved target volume.
+pub struct VolumeForces {
+    /// Penalty strength k_V (Ē/l̄³).
+    pub k: f64,
+    /// Target volume V_t (l̄³).
+    pub target: f64,
+}
+
+impl ForceTerm for VolumeForces {
+    fn name(&self) -> &str {
+        "volume"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::Penalty
+    }
+
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        volume_penalty(
+            ctx.positions,
+            &ctx.topology.faces,
+            self.k,
+            self.target,
+            None,
+        )
+    }
+
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        volume_penalty(
+            ctx.positions,
+            &ctx.topology.faces,
+            self.k,
+            self.target,
+            Some(force),
+        )
+    }
+}
