@@ -109,11 +109,7 @@ impl Topology {
             .map_or(0, |m| m as usize + 1);
         t.slot_of = vec![NO_SLOT; max_id];
         let mut is_vertex = vec![false; max_id];
-        for (e, _) in world
-            .query::<(Entity, &Position)>()
-            .iter()
-            .map(|(e, p)| (e, p))
-        {
+        for (e, _) in world.query::<(Entity, &Position)>().iter() {
             t.slot_of[e.id() as usize] = t.vertex_entities.len() as u32;
             is_vertex[e.id() as usize] = true;
             t.vertex_entities.push(e);
