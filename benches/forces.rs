@@ -1,1 +1,130 @@
-fn main() {}
+#![allow(missing_docs)]
+//! Force-system throughput: each force system alone and all forces of the
+//! red-blood-cell scene together (V_in + bending + volume + area, 4 smoothing
+//! passes, including the world gather/scatter) at 642 … 40962 vertices.
+//!
+//! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use glam::DVec3;
+use remembrane::components::ControlPoint;
+use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
+use remembrane::force::{ForceContext, ForceSet, ForceTerm};
+use remembrane::membrane::Membrane;
+use remembrane::mesh::icosphere;
+use remembrane::params::BendingParams;
+use remembrane::simulation::{InitialState, Simulation};
+use remembrane::systems::*;
+use std::hint::black_box;
+use std::sync::Arc;
+use std::time::Duration;
+
+const LEVELS: [u32; 4] = [3, 4, 5, 6];
+
+fn membrane(level: u32) -> Membrane {
+    let mut mesh = icosphere(level, 1.0);
+    mesh.jitter(0.05, 9);
+    let mut m = Membrane::from_mesh(&mesh, true).unwrap();
+    for k in 0..42 {
+        let dir = DVec3::new(
+            (k as f64).cos(),
+            (k as f64 * 0.7).sin(),
+            ((k % 5) as f64 - 2.0) / 2.0,
+        )
+        .normalize();
+        m.add_control_point(ControlPoint {
+            position: dir * 7.0,
+            stiffness: 4.0,
+        });
+    }
+    m.topology().unwrap();
+    m
+}
+
+fn terms(initial: &InitialState) -> Vec<Box<dyn ForceTerm>> {
+    let seg = Arc::new(Segmentation::new(VinParams::default()));
+    vec![
+        Box::new(VinForces::new(seg, VinForm::PiecewiseLinear)),
+        Box::new(BendingForces::new(BendingParams {
+            kappa: 5.0,
+            c0: 0.0,
+        })),
+        Box::new(VolumeForces::new(4.0, 0.6 * initial.volume)),
+        Box::new(AreaForces::new(8.0, 1.005 * initial.area)),
+        Box::new(LocalTensionForces::new(
+            12.0,
+            initial.area / initial.vertices as f64,
+        )),
+        Box::new(SpringForces::default()),
+    ]
+}
+
+fn initial_state(m: &mut Membrane) -> InitialState {
+    let mesh = m.to_mesh().unwrap();
+    InitialState {
+        vertices: mesh.vertex_count(),
+        area: remembrane::geometry::total_area(&mesh.positions, &mesh.faces),
+        volume: remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO),
+    }
+}
+
+fn configure<'a>(
+    c: &'a mut Criterion,
+    name: &str,
+) -> criterion::BenchmarkGroup<'a, criterion::measurement::WallTime> {
+    let mut g = c.benchmark_group(name);
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sample_size(30);
+    g
+}
+
+fn each_system(c: &mut Criterion) {
+    for level in LEVELS {
+        let mut m = membrane(level);
+        let initial = initial_state(&mut m);
+        let mut pos = Vec::new();
+        let mut rho = Vec::new();
+        m.gather_positions(&mut pos);
+        m.gather_lipid(&mut rho);
+        let n = pos.len();
+        let ctx = ForceContext {
+            world: &m.world,
+            topology: m.cached_topology(),
+            positions: &pos,
+            lipid: &rho,
+        };
+        for mut term in terms(&initial) {
+            let name = term.name().to_string();
+            let mut g = configure(c, &name);
+            g.throughput(Throughput::Elements(n as u64));
+            let mut force = vec![DVec3::ZERO; n];
+            g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+                b.iter(|| black_box(term.accumulate(&ctx, &mut force)))
+            });
+            g.finish();
+        }
+    }
+}
+
+fn rbc_all_forces(c: &mut Criterion) {
+    let mut g = configure(c, "rbc_all");
+    for level in LEVELS {
+        let mut m = membrane(level);
+        let initial = initial_state(&mut m);
+        let mut forces = ForceSet::new(4);
+        for t in terms(&initial).into_iter().take(4) {
+            forces.push(t).unwrap();
+        }
+        let mut sim = Simulation::new(m, forces, initial);
+        let n = initial.vertices;
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| black_box(sim.evaluate_forces().unwrap().total_energy()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, each_system, rbc_all_forces);
+criterion_main!(benches);

@@ -56,8 +56,12 @@ pub trait ForceTerm: Send {
 pub struct ForceEvaluation {
     /// Energy of each term, in term order (Ē).
     pub energies: Vec<f64>,
-    /// Force of each term after smoothing, by dense slot (Ē/l̄).
+    /// Force of each term, by dense slot (Ē/l̄): exactly −∇E of the term
+    /// (before any smoothing).
     pub term_forces: Vec<Vec<DVec3>>,
+    /// Sum of the penalty terms' forces after 1-ring smoothing (Ē/l̄); empty
+    /// when there are no penalty terms. Included in `total`.
+    pub smoothed_penalty: Vec<DVec3>,
     /// Total force by dense slot (Ē/l̄).
     pub total: Vec<DVec3>,
 }
@@ -111,26 +115,44 @@ impl ForceSet {
     }
 
     /// Evaluates every term into `out`, reusing its buffers.
+    ///
+    /// Smoothing is linear, so the penalty terms' forces are summed first and
+    /// smoothed once: the same result as smoothing each term, at a fraction
+    /// of the cost.
     pub fn evaluate(&mut self, ctx: &ForceContext<'_>, out: &mut ForceEvaluation) {
         let n = ctx.positions.len();
         out.energies.clear();
         out.term_forces.resize_with(self.terms.len(), Vec::new);
         out.total.clear();
         out.total.resize(n, DVec3::ZERO);
+        out.smoothed_penalty.clear();
+        let has_penalty = self.terms.iter().any(|t| t.kind() == ForceKind::Penalty);
+        if has_penalty {
+            out.smoothed_penalty.resize(n, DVec3::ZERO);
+        }
         for (term, buf) in self.terms.iter_mut().zip(out.term_forces.iter_mut()) {
             buf.clear();
             buf.resize(n, DVec3::ZERO);
             out.energies.push(term.accumulate(ctx, buf));
-            if term.kind() == ForceKind::Penalty && self.penalty_smoothing > 0 {
-                crate::energy::penalty::smooth_over_rings(
-                    buf,
-                    &ctx.topology.ring_offsets,
-                    &ctx.topology.ring,
-                    self.penalty_smoothing,
-                    &mut self.scratch,
-                );
+            let sum = if term.kind() == ForceKind::Penalty {
+                &mut out.smoothed_penalty
+            } else {
+                &mut out.total
+            };
+            for (t, f) in sum.iter_mut().zip(buf.iter()) {
+                *t += *f;
             }
-            for (t, f) in out.total.iter_mut().zip(buf.iter()) {
+        }
+        if has_penalty {
+            let t = ctx.topology;
+            crate::energy::penalty::smooth_over_rings(
+                &mut out.smoothed_penalty,
+                &t.ring_offsets,
+                &t.ring,
+                self.penalty_smoothing,
+                &mut self.scratch,
+            );
+            for (t, f) in out.total.iter_mut().zip(out.smoothed_penalty.iter()) {
                 *t += *f;
             }
         }

@@ -8,36 +8,41 @@
 //! continuous across the switch and differentiable away from right angles,
 //! which is where forces are evaluated in practice; their sum over a closed
 //! mesh always equals the total triangle area.
+//!
+//! Conventions for a face (p0, p1, p2): edge e_k is opposite corner k,
+//! e0 = p2 − p1, e1 = p0 − p2, e2 = p1 − p0 (so e0 + e1 + e2 = 0), the normal
+//! is n = e1 × e2 = (p1 − p0) × (p2 − p0), and cot_k = −(e_{k+1}·e_{k+2}) / |n|.
+//! Kernels are written out per corner (no closures over `[0, 1, 2]`): array
+//! maps in these loops compile to out-of-line calls that cost ~5× here.
 
 use glam::DVec3;
 
-/// Per-face quantities at the three corners of triangle (p0, p1, p2).
+/// Per-face quantities of triangle (p0, p1, p2).
 #[derive(Clone, Copy, Debug)]
 pub struct Corners {
-    /// Positions of the three corners.
-    pub p: [DVec3; 3],
+    /// Edge vectors opposite each corner: p2 − p1, p0 − p2, p1 − p0.
+    pub e: [DVec3; 3],
     /// Unnormalised normal (p1 − p0) × (p2 − p0); its length is twice the area.
     pub n: DVec3,
-    /// Twice the face area.
+    /// Twice the face area, |n|.
     pub twice_area: f64,
     /// Cotangent of the interior angle at each corner.
     pub cot: [f64; 3],
 }
 
 impl Corners {
-    /// Computes normal, area and corner cotangents.
-    #[inline]
+    /// Computes edges, normal, area and corner cotangents.
+    #[inline(always)]
     pub fn new(p0: DVec3, p1: DVec3, p2: DVec3) -> Self {
-        let p = [p0, p1, p2];
-        let n = (p1 - p0).cross(p2 - p0);
+        let e0 = p2 - p1;
+        let e1 = p0 - p2;
+        let e2 = p1 - p0;
+        let n = e1.cross(e2);
         let twice_area = n.length();
-        let cot = [0, 1, 2].map(|k| {
-            let u = p[(k + 1) % 3] - p[k];
-            let v = p[(k + 2) % 3] - p[k];
-            u.dot(v) / twice_area
-        });
+        let inv = 1.0 / twice_area;
+        let cot = [-e1.dot(e2) * inv, -e2.dot(e0) * inv, -e0.dot(e1) * inv];
         Self {
-            p,
+            e: [e0, e1, e2],
             n,
             twice_area,
             cot,
@@ -45,102 +50,110 @@ impl Corners {
     }
 
     /// Face area.
-    #[inline]
+    #[inline(always)]
     pub fn area(&self) -> f64 {
         0.5 * self.twice_area
     }
 
-    /// Mixed (Meyer) area contribution of this face to each corner.
-    #[inline]
-    pub fn mixed_areas(&self) -> [f64; 3] {
-        let obtuse = self.obtuse_corner();
-        [0, 1, 2].map(|k| match obtuse {
-            None => {
-                let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-                0.125
-                    * (self.cot[j] * self.p[k].distance_squared(self.p[i])
-                        + self.cot[i] * self.p[k].distance_squared(self.p[j]))
-            }
-            Some(o) if o == k => 0.5 * self.area(),
-            Some(_) => 0.25 * self.area(),
-        })
+    /// Index of the obtuse corner, if any (cotangent < 0).
+    #[inline(always)]
+    pub fn obtuse_corner(&self) -> Option<usize> {
+        if self.cot[0] < 0.0 {
+            Some(0)
+        } else if self.cot[1] < 0.0 {
+            Some(1)
+        } else if self.cot[2] < 0.0 {
+            Some(2)
+        } else {
+            None
+        }
     }
 
-    /// Index of the obtuse corner, if any (cotangent < 0).
-    #[inline]
-    pub fn obtuse_corner(&self) -> Option<usize> {
-        (0..3).find(|&k| self.cot[k] < 0.0)
+    /// Mixed (Meyer) area contribution of this face to each corner.
+    #[inline(always)]
+    pub fn mixed_areas(&self) -> [f64; 3] {
+        match self.obtuse_corner() {
+            None => {
+                let s0 = self.cot[0] * self.e[0].length_squared();
+                let s1 = self.cot[1] * self.e[1].length_squared();
+                let s2 = self.cot[2] * self.e[2].length_squared();
+                [0.125 * (s1 + s2), 0.125 * (s2 + s0), 0.125 * (s0 + s1)]
+            }
+            Some(o) => {
+                let quarter = 0.125 * self.twice_area;
+                let mut a = [quarter; 3];
+                a[o] = 2.0 * quarter;
+                a
+            }
+        }
     }
 
     /// This face's contribution to the cotangent Laplacian
-    /// L_k = Σ (cot α + cot β)(p_k − p_j) of each corner.
-    #[inline]
+    /// L_k = Σ (cot α + cot β)(p_k − p_j) of each corner: with w_k = cot_k e_k,
+    /// L0 = w1 − w2, L1 = w2 − w0, L2 = w0 − w1.
+    #[inline(always)]
     pub fn laplacian(&self) -> [DVec3; 3] {
-        [0, 1, 2].map(|k| {
-            let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-            self.cot[j] * (self.p[k] - self.p[i]) + self.cot[i] * (self.p[k] - self.p[j])
-        })
+        let w0 = self.cot[0] * self.e[0];
+        let w1 = self.cot[1] * self.e[1];
+        let w2 = self.cot[2] * self.e[2];
+        [w1 - w2, w2 - w0, w0 - w1]
     }
 
     /// Reverse-mode derivative: given adjoints `g_lap[k]` of the corner
     /// Laplacian contributions and `g_area[k]` of the corner mixed areas,
-    /// returns ∂/∂p_k of Σ_k (g_lap[k]·L_k + g_area[k]·A_k).
-    #[inline]
+    /// returns ∂/∂p_k of Φ = Σ_k (g_lap[k]·L_k + g_area[k]·A_k).
+    ///
+    /// With G_k = g_lap[k+2] − g_lap[k+1] and, for a non-obtuse face,
+    /// H_k = (g_area[k+1] + g_area[k+2]) / 8: Φ = Σ_k cot_k (G_k·e_k + H_k|e_k|²)
+    /// (+ the face-area share for an obtuse face).
+    #[inline(always)]
     pub fn backward(&self, g_lap: [DVec3; 3], g_area: [f64; 3]) -> [DVec3; 3] {
-        let p = &self.p;
-        let mut grad = [DVec3::ZERO; 3];
-        let mut g_cot = [0.0f64; 3];
-        let mut g_face_area = 0.0;
+        let [e0, e1, e2] = self.e;
+        let [c0, c1, c2] = self.cot;
+        let g0 = g_lap[2] - g_lap[1];
+        let g1 = g_lap[0] - g_lap[2];
+        let g2 = g_lap[1] - g_lap[0];
         let obtuse = self.obtuse_corner();
-        for k in 0..3 {
-            let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-            let d_ki = p[k] - p[i];
-            let d_kj = p[k] - p[j];
-            // Laplacian: L_k = cot_j d_ki + cot_i d_kj.
-            let gl = g_lap[k];
-            g_cot[j] += gl.dot(d_ki);
-            g_cot[i] += gl.dot(d_kj);
-            grad[k] += gl * (self.cot[j] + self.cot[i]);
-            grad[i] -= gl * self.cot[j];
-            grad[j] -= gl * self.cot[i];
-            // Mixed area.
-            let ga = g_area[k];
-            match obtuse {
-                None => {
-                    g_cot[j] += 0.125 * ga * d_ki.length_squared();
-                    g_cot[i] += 0.125 * ga * d_kj.length_squared();
-                    let a = 0.25 * ga * self.cot[j] * d_ki;
-                    let b = 0.25 * ga * self.cot[i] * d_kj;
-                    grad[k] += a + b;
-                    grad[i] -= a;
-                    grad[j] -= b;
-                }
-                Some(o) if o == k => g_face_area += 0.5 * ga,
-                Some(_) => g_face_area += 0.25 * ga,
-            }
-        }
-        let n_hat = self.n / self.twice_area;
-        // Cotangents: cot_k = (u·v)/|u×v|, u = p_{k+1} − p_k, v = p_{k+2} − p_k.
-        for k in 0..3 {
-            if g_cot[k] == 0.0 {
-                continue;
-            }
-            let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-            let u = p[i] - p[k];
-            let v = p[j] - p[k];
-            let c = self.twice_area;
-            let cot = self.cot[k];
-            let d_u = (v - cot * v.cross(n_hat)) / c;
-            let d_v = (u - cot * n_hat.cross(u)) / c;
-            grad[i] += g_cot[k] * d_u;
-            grad[j] += g_cot[k] * d_v;
-            grad[k] -= g_cot[k] * (d_u + d_v);
-        }
+        let (h0, h1, h2, g_face_area) = match obtuse {
+            None => (
+                0.125 * (g_area[1] + g_area[2]),
+                0.125 * (g_area[2] + g_area[0]),
+                0.125 * (g_area[0] + g_area[1]),
+                0.0,
+            ),
+            Some(o) => (
+                0.0,
+                0.0,
+                0.0,
+                0.25 * (g_area[0] + g_area[1] + g_area[2] + g_area[o]),
+            ),
+        };
+        // Adjoints of the cotangents and the direct edge gradients.
+        let gc0 = g0.dot(e0) + h0 * e0.length_squared();
+        let gc1 = g1.dot(e1) + h1 * e1.length_squared();
+        let gc2 = g2.dot(e2) + h2 * e2.length_squared();
+        let mut ge0 = c0 * (g0 + 2.0 * h0 * e0);
+        let mut ge1 = c1 * (g1 + 2.0 * h1 * e1);
+        let mut ge2 = c2 * (g2 + 2.0 * h2 * e2);
+        // cot_k = −(a·b)/|a × b| with a = e_{k+1}, b = e_{k+2}:
+        // ∂cot_k/∂a = −(b + cot_k b × n̂)/|n|, ∂cot_k/∂b = −(a + cot_k n̂ × a)/|n|.
+        let inv = 1.0 / self.twice_area;
+        let n_hat = self.n * inv;
+        let (s0, s1, s2) = (gc0 * inv, gc1 * inv, gc2 * inv);
+        ge1 -= s0 * (e2 + c0 * e2.cross(n_hat));
+        ge2 -= s0 * (e1 + c0 * n_hat.cross(e1));
+        ge2 -= s1 * (e0 + c1 * e0.cross(n_hat));
+        ge0 -= s1 * (e2 + c1 * n_hat.cross(e2));
+        ge0 -= s2 * (e1 + c2 * e1.cross(n_hat));
+        ge1 -= s2 * (e0 + c2 * n_hat.cross(e0));
+        // e0 = p2 − p1, e1 = p0 − p2, e2 = p1 − p0.
+        let mut grad = [ge1 - ge2, ge2 - ge0, ge0 - ge1];
         if g_face_area != 0.0 {
-            let g = face_area_gradient(p, n_hat);
-            for k in 0..3 {
-                grad[k] += g_face_area * g[k];
-            }
+            // ∂(area)/∂p_k = ½ n̂ × e_k.
+            let s = 0.5 * g_face_area;
+            grad[0] += s * n_hat.cross(e0);
+            grad[1] += s * n_hat.cross(e1);
+            grad[2] += s * n_hat.cross(e2);
         }
         grad
     }
@@ -150,32 +163,42 @@ impl Corners {
 /// ½ n̂ × (p_{k+2} − p_{k+1}).
 #[inline]
 pub fn face_area_gradient(p: &[DVec3; 3], n_hat: DVec3) -> [DVec3; 3] {
-    [0, 1, 2].map(|k| 0.5 * n_hat.cross(p[(k + 2) % 3] - p[(k + 1) % 3]))
+    [
+        0.5 * n_hat.cross(p[2] - p[1]),
+        0.5 * n_hat.cross(p[0] - p[2]),
+        0.5 * n_hat.cross(p[1] - p[0]),
+    ]
+}
+
+#[inline(always)]
+fn corners(positions: &[DVec3], f: &[u32; 3]) -> (DVec3, DVec3, DVec3) {
+    (
+        positions[f[0] as usize],
+        positions[f[1] as usize],
+        positions[f[2] as usize],
+    )
 }
 
 /// Total triangle area of a mesh.
 pub fn total_area(positions: &[DVec3], faces: &[[u32; 3]]) -> f64 {
-    faces
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|v| positions[v as usize]);
-            0.5 * (b - a).cross(c - a).length()
-        })
-        .sum()
+    let mut twice = 0.0;
+    for f in faces {
+        let (a, b, c) = corners(positions, f);
+        twice += (b - a).cross(c - a).length();
+    }
+    0.5 * twice
 }
 
 /// Enclosed volume of a closed, outward-oriented mesh (sum of signed
 /// tetrahedra against `origin`; any origin gives the same value up to
 /// round-off, a nearby one is better conditioned).
 pub fn enclosed_volume(positions: &[DVec3], faces: &[[u32; 3]], origin: DVec3) -> f64 {
-    faces
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|v| positions[v as usize] - origin);
-            a.dot(b.cross(c))
-        })
-        .sum::<f64>()
-        / 6.0
+    let mut six = 0.0;
+    for f in faces {
+        let (a, b, c) = corners(positions, f);
+        six += (a - origin).dot((b - origin).cross(c - origin));
+    }
+    six / 6.0
 }
 
 /// Reduced volume v = 6√π V / A^{3/2} (1 for a sphere).
@@ -183,42 +206,48 @@ pub fn reduced_volume(volume: f64, area: f64) -> f64 {
     6.0 * std::f64::consts::PI.sqrt() * volume / area.powf(1.5)
 }
 
-/// Per-vertex mixed Voronoi areas A_i, cotangent Laplacians L_i and
-/// area-weighted normals N_i (unnormalised), accumulated face by face.
+/// Per-vertex mixed Voronoi areas A_i and cotangent Laplacians L_i, and,
+/// with `normals = Some`, area-weighted normals N_i (unnormalised),
+/// accumulated face by face. Buffers are resized and overwritten.
 pub fn vertex_curvature_terms(
     positions: &[DVec3],
     faces: &[[u32; 3]],
     areas: &mut Vec<f64>,
     laplacians: &mut Vec<DVec3>,
-    normals: &mut Vec<DVec3>,
+    mut normals: Option<&mut Vec<DVec3>>,
 ) {
     let n = positions.len();
     areas.clear();
     areas.resize(n, 0.0);
     laplacians.clear();
     laplacians.resize(n, DVec3::ZERO);
-    normals.clear();
-    normals.resize(n, DVec3::ZERO);
+    if let Some(nb) = normals.as_deref_mut() {
+        nb.clear();
+        nb.resize(n, DVec3::ZERO);
+    }
     for f in faces {
-        let c = Corners::new(
-            positions[f[0] as usize],
-            positions[f[1] as usize],
-            positions[f[2] as usize],
-        );
+        let (p0, p1, p2) = corners(positions, f);
+        let c = Corners::new(p0, p1, p2);
         let a = c.mixed_areas();
         let l = c.laplacian();
-        for k in 0..3 {
-            let v = f[k] as usize;
-            areas[v] += a[k];
-            laplacians[v] += l[k];
-            normals[v] += c.n;
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        areas[i0] += a[0];
+        areas[i1] += a[1];
+        areas[i2] += a[2];
+        laplacians[i0] += l[0];
+        laplacians[i1] += l[1];
+        laplacians[i2] += l[2];
+        if let Some(nb) = normals.as_deref_mut() {
+            nb[i0] += c.n;
+            nb[i1] += c.n;
+            nb[i2] += c.n;
         }
     }
 }
 
 /// Mean-curvature vector K_i = L_i / (2 A_i) of every vertex.
 pub fn curvature_vectors(positions: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> {
-    let (mut a, mut l, mut n) = (Vec::new(), Vec::new(), Vec::new());
-    vertex_curvature_terms(positions, faces, &mut a, &mut l, &mut n);
+    let (mut a, mut l) = (Vec::new(), Vec::new());
+    vertex_curvature_terms(positions, faces, &mut a, &mut l, None);
     l.iter().zip(&a).map(|(l, a)| *l / (2.0 * a)).collect()
 }

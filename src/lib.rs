@@ -30,5 +30,14 @@ pub mod fd;
 pub mod force;
 pub mod params;
 
+pub mod quality;
+pub mod report;
+pub mod scene;
+pub mod simulation;
 #[path = "../systems/mod.rs"]
 pub mod systems;
+pub mod validate;
+
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -7,12 +7,36 @@ use serde::{Deserialize, Serialize};
 pub use crate::energy::vin::{VinForm, VinParams};
 
 /// A target value: absolute, or a fraction of the initial mesh's value.
+/// Either number must be finite and > 0.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "TargetSpec")]
 pub enum Target {
     /// An absolute value (l̄³ for volume, l̄² for area).
     Absolute(f64),
     /// This fraction of the value of the initial mesh (e.g. 0.6 of its volume).
     OfInitial(f64),
+}
+
+/// Unvalidated form of [`Target`] as written in a scene.
+#[derive(Deserialize)]
+enum TargetSpec {
+    Absolute(f64),
+    OfInitial(f64),
+}
+
+impl TryFrom<TargetSpec> for Target {
+    type Error = String;
+    fn try_from(spec: TargetSpec) -> Result<Self, String> {
+        let (t, v) = match spec {
+            TargetSpec::Absolute(v) => (Target::Absolute(v), v),
+            TargetSpec::OfInitial(v) => (Target::OfInitial(v), v),
+        };
+        if v.is_finite() && v > 0.0 {
+            Ok(t)
+        } else {
+            Err(format!("target must be a finite number > 0 (got {v})"))
+        }
+    }
 }
 
 impl Target {
@@ -37,9 +61,11 @@ impl Target {
 #[serde(deny_unknown_fields, default)]
 pub struct BendingParams {
     /// κ, bending modulus (Ē; default 5 as run = 50 k_BT; paper table: 1).
+    #[serde(deserialize_with = "crate::validate::non_negative")]
     pub kappa: f64,
     /// C0, spontaneous curvature (1/l̄; default 0). Enters as (2H − C0)², so a
     /// sphere of radius 2/C0 is stress-free.
+    #[serde(deserialize_with = "crate::validate::finite")]
     pub c0: f64,
 }
 
@@ -57,7 +83,10 @@ impl Default for BendingParams {
 #[serde(deny_unknown_fields)]
 pub struct VolumeParams {
     /// k_V, penalty strength (Ē/l̄³; default 4).
-    #[serde(default = "default_k_volume")]
+    #[serde(
+        default = "default_k_volume",
+        deserialize_with = "crate::validate::non_negative"
+    )]
     pub k: f64,
     /// V_t, target volume (l̄³ or fraction of the initial volume).
     pub target: Target,
@@ -68,7 +97,10 @@ pub struct VolumeParams {
 #[serde(deny_unknown_fields)]
 pub struct AreaParams {
     /// k_A, penalty strength (Ē/l̄²; default 8).
-    #[serde(default = "default_k_area")]
+    #[serde(
+        default = "default_k_area",
+        deserialize_with = "crate::validate::non_negative"
+    )]
     pub k: f64,
     /// A_t, target area (l̄² or fraction of the initial area).
     pub target: Target,
@@ -80,7 +112,10 @@ pub struct AreaParams {
 #[serde(deny_unknown_fields)]
 pub struct LocalTensionParams {
     /// k_a, strength (Ē/l̄²; default 12).
-    #[serde(default = "default_k_local")]
+    #[serde(
+        default = "default_k_local",
+        deserialize_with = "crate::validate::non_negative"
+    )]
     pub k: f64,
     /// A_t, total target area from which a0 = A_t / N_initial (l̄² or
     /// fraction of the initial area; the reservoir condition uses 733).
@@ -93,6 +128,7 @@ pub struct LocalTensionParams {
 pub struct SpringParams {
     /// k_ex, spring constant of control points that give none (Ē/l̄²;
     /// default 4 as run; 5 in the tether scenes).
+    #[serde(deserialize_with = "crate::validate::non_negative")]
     pub stiffness: f64,
 }
 

@@ -14,6 +14,18 @@ pub struct AreaForces {
     pub k: f64,
     /// Target area A_t (l̄²).
     pub target: f64,
+    gradient: Vec<DVec3>,
+}
+
+impl AreaForces {
+    /// A area penalty with strength `k` (Ē/l̄²) and target `target` (l̄²).
+    pub fn new(k: f64, target: f64) -> Self {
+        Self {
+            k,
+            target,
+            gradient: Vec::new(),
+        }
+    }
 }
 
 impl ForceTerm for AreaForces {
@@ -31,6 +43,7 @@ impl ForceTerm for AreaForces {
             &ctx.topology.faces,
             self.k,
             self.target,
+            &mut self.gradient,
             None,
         )
     }
@@ -41,6 +54,7 @@ impl ForceTerm for AreaForces {
             &ctx.topology.faces,
             self.k,
             self.target,
+            &mut self.gradient,
             Some(force),
         )
     }

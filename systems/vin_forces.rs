@@ -26,15 +26,40 @@ impl VinForces {
     pub fn segmentation(&self) -> &Arc<Segmentation> {
         &self.segmentation
     }
+}
 
-    #[inline]
-    fn value_and_slope(&self, l: f64) -> (f64, f64) {
+/// Σ V(l_e) over edges, adding the edge forces when `force` is given.
+#[inline(always)]
+fn edge_loop(
+    edges: &[[u32; 2]],
+    p: &[DVec3],
+    mut force: Option<&mut [DVec3]>,
+    v: impl Fn(f64) -> (f64, f64),
+) -> f64 {
+    let mut energy = 0.0;
+    for &[a, b] in edges {
+        let (a, b) = (a as usize, b as usize);
+        let d = p[b] - p[a];
+        let l = d.length();
+        let (value, slope) = v(l);
+        energy += value;
+        if let Some(force) = force.as_deref_mut() {
+            let f = d * (slope / l);
+            force[a] += f;
+            force[b] -= f;
+        }
+    }
+    energy
+}
+
+impl VinForces {
+    fn run(&self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        let (edges, p, seg) = (&ctx.topology.edges, ctx.positions, &*self.segmentation);
         match self.form {
-            VinForm::PiecewiseLinear => self.segmentation.linear(l),
-            VinForm::Exact => (
-                self.segmentation.exact(l),
-                self.segmentation.params().derivative(l),
-            ),
+            VinForm::PiecewiseLinear => edge_loop(edges, p, force, |l| seg.linear(l)),
+            VinForm::Exact => edge_loop(edges, p, force, |l| {
+                (seg.exact(l), seg.params().derivative(l))
+            }),
         }
     }
 }
@@ -45,29 +70,10 @@ impl ForceTerm for VinForces {
     }
 
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        let p = ctx.positions;
-        ctx.topology
-            .edges
-            .iter()
-            .map(|&[a, b]| {
-                self.value_and_slope(p[a as usize].distance(p[b as usize]))
-                    .0
-            })
-            .sum()
+        self.run(ctx, None)
     }
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        let p = ctx.positions;
-        let mut energy = 0.0;
-        for &[a, b] in &ctx.topology.edges {
-            let d = p[b as usize] - p[a as usize];
-            let l = d.length();
-            let (v, slope) = self.value_and_slope(l);
-            energy += v;
-            let f = d * (slope / l);
-            force[a as usize] += f;
-            force[b as usize] -= f;
-        }
-        energy
+        self.run(ctx, Some(force))
     }
 }

@@ -14,6 +14,18 @@ pub struct VolumeForces {
     pub k: f64,
     /// Target volume V_t (l̄³).
     pub target: f64,
+    gradient: Vec<DVec3>,
+}
+
+impl VolumeForces {
+    /// A volume penalty with strength `k` (Ē/l̄³) and target `target` (l̄³).
+    pub fn new(k: f64, target: f64) -> Self {
+        Self {
+            k,
+            target,
+            gradient: Vec::new(),
+        }
+    }
 }
 
 impl ForceTerm for VolumeForces {
@@ -31,6 +43,7 @@ impl ForceTerm for VolumeForces {
             &ctx.topology.faces,
             self.k,
             self.target,
+            &mut self.gradient,
             None,
         )
     }
@@ -41,6 +54,7 @@ impl ForceTerm for VolumeForces {
             &ctx.topology.faces,
             self.k,
             self.target,
+            &mut self.gradient,
             Some(force),
         )
     }

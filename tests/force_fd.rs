@@ -153,10 +153,7 @@ fn volume_force_matches_finite_differences() {
     for (level, seed) in [(2, 51), (3, 52)] {
         let mesh = perturbed(level, seed);
         let v0 = remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
-        let mut term = VolumeForces {
-            k: 4.0,
-            target: 0.6 * v0,
-        };
+        let mut term = VolumeForces::new(4.0, 0.6 * v0);
         check("volume", &mesh, &mut term, false, opts(1e-8));
     }
 }
@@ -166,10 +163,7 @@ fn area_force_matches_finite_differences() {
     for (level, seed) in [(2, 61), (3, 62)] {
         let mesh = perturbed(level, seed);
         let a0 = remembrane::geometry::total_area(&mesh.positions, &mesh.faces);
-        let mut term = AreaForces {
-            k: 8.0,
-            target: 1.05 * a0,
-        };
+        let mut term = AreaForces::new(8.0, 1.05 * a0);
         check("area", &mesh, &mut term, false, opts(1e-8));
     }
 }

@@ -4,8 +4,8 @@
 
 use glam::DVec3;
 use remembrane::membrane::Membrane;
-use remembrane::mesh::io::{read_mesh, write_mesh, MeshIoError};
-use remembrane::mesh::{check_mesh, docked_pair, icosphere, MeshError, SurfaceMesh, ValenceRange};
+use remembrane::mesh::io::{MeshIoError, read_mesh, write_mesh};
+use remembrane::mesh::{MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere};
 
 fn sphere() -> SurfaceMesh {
     icosphere(1, 1.0)
@@ -21,8 +21,15 @@ fn torus(n: u32, m: u32) -> SurfaceMesh {
     let mut positions = Vec::new();
     for i in 0..n {
         for j in 0..m {
-            let (u, v) = (i as f64 / n as f64 * std::f64::consts::TAU, j as f64 / m as f64 * std::f64::consts::TAU);
-            positions.push(DVec3::new((big + small * v.cos()) * u.cos(), (big + small * v.cos()) * u.sin(), small * v.sin()));
+            let (u, v) = (
+                i as f64 / n as f64 * std::f64::consts::TAU,
+                j as f64 / m as f64 * std::f64::consts::TAU,
+            );
+            positions.push(DVec3::new(
+                (big + small * v.cos()) * u.cos(),
+                (big + small * v.cos()) * u.sin(),
+                small * v.sin(),
+            ));
         }
     }
     let id = |i: u32, j: u32| (i % n) * m + (j % m);
@@ -39,7 +46,10 @@ fn torus(n: u32, m: u32) -> SurfaceMesh {
 #[test]
 fn valid_meshes_pass() {
     let r = check(&sphere()).unwrap();
-    assert_eq!((r.vertices, r.edges, r.faces, r.components), (42, 120, 80, 1));
+    assert_eq!(
+        (r.vertices, r.edges, r.faces, r.components),
+        (42, 120, 80, 1)
+    );
     let two = {
         let mut a = icosphere(1, 1.0);
         let mut b = icosphere(1, 1.0);
@@ -69,7 +79,9 @@ fn rejects_flipped_face() {
     let mut m = sphere();
     m.faces[3].swap(1, 2);
     match check(&m).unwrap_err() {
-        MeshError::InconsistentOrientation { first, second, .. } => assert!(first == 3 || second == 3),
+        MeshError::InconsistentOrientation { first, second, .. } => {
+            assert!(first == 3 || second == 3)
+        }
         e => panic!("expected InconsistentOrientation, got {e}"),
     }
 }
@@ -82,7 +94,11 @@ fn rejects_non_manifold_edge() {
     let x = (m.positions.len() - 1) as u32;
     m.faces.push([b, a, x]);
     match check(&m).unwrap_err() {
-        MeshError::NonManifoldEdge { a: ea, b: eb, count } => {
+        MeshError::NonManifoldEdge {
+            a: ea,
+            b: eb,
+            count,
+        } => {
             assert_eq!((ea.min(eb), ea.max(eb), count), (a.min(b), a.max(b), 3));
         }
         e => panic!("expected NonManifoldEdge, got {e}"),
@@ -103,7 +119,11 @@ fn rejects_non_manifold_vertex() {
     let remap = |v: u32| if v == 0 { 0 } else { v + off - 1 };
     a.positions.extend(b.positions.iter().skip(1));
     // Point reflection reverses orientation: flip b's faces back outward.
-    a.faces.extend(b.faces.iter().map(|f| [remap(f[0]), remap(f[2]), remap(f[1])]));
+    a.faces.extend(
+        b.faces
+            .iter()
+            .map(|f| [remap(f[0]), remap(f[2]), remap(f[1])]),
+    );
     match check(&a).unwrap_err() {
         MeshError::NonManifoldVertex { vertex, fans } => assert_eq!((vertex, fans), (0, 2)),
         e => panic!("expected NonManifoldVertex, got {e}"),
@@ -140,9 +160,15 @@ fn rejects_degenerate_face() {
 fn rejects_nan_coordinate() {
     let mut m = sphere();
     m.positions[17].y = f64::NAN;
-    assert!(matches!(check(&m).unwrap_err(), MeshError::NonFiniteVertex { vertex: 17, .. }));
+    assert!(matches!(
+        check(&m).unwrap_err(),
+        MeshError::NonFiniteVertex { vertex: 17, .. }
+    ));
     m.positions[17].y = f64::INFINITY;
-    assert!(matches!(check(&m).unwrap_err(), MeshError::NonFiniteVertex { vertex: 17, .. }));
+    assert!(matches!(
+        check(&m).unwrap_err(),
+        MeshError::NonFiniteVertex { vertex: 17, .. }
+    ));
 }
 
 #[test]
@@ -155,24 +181,50 @@ fn rejects_wrong_euler_characteristic_and_inward_orientation() {
     for f in &mut m.faces {
         f.swap(1, 2);
     }
-    assert!(matches!(check(&m).unwrap_err(), MeshError::InwardOrientation { component: 0, .. }));
+    assert!(matches!(
+        check(&m).unwrap_err(),
+        MeshError::InwardOrientation { component: 0, .. }
+    ));
 }
 
 #[test]
 fn rejects_out_of_range_index_and_valence() {
     let mut m = sphere();
     m.faces[2][1] = 999;
-    assert!(matches!(check(&m).unwrap_err(), MeshError::FaceIndexOutOfRange { face: 2, index: 999, .. }));
+    assert!(matches!(
+        check(&m).unwrap_err(),
+        MeshError::FaceIndexOutOfRange {
+            face: 2,
+            index: 999,
+            ..
+        }
+    ));
     let m = sphere();
-    let err = check_mesh(&m.positions, &m.faces, Some(ValenceRange { min: 6, max: 6 })).unwrap_err();
-    assert!(matches!(err, MeshError::ValenceOutOfRange { valence: 5, .. }), "{err}");
+    let err = check_mesh(
+        &m.positions,
+        &m.faces,
+        Some(ValenceRange { min: 6, max: 6 }),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(err, MeshError::ValenceOutOfRange { valence: 5, .. }),
+        "{err}"
+    );
 }
 
 #[test]
 fn docked_pair_is_a_valid_321_vertex_sphere() {
     let m = docked_pair(2);
-    let r = check_mesh(&m.positions, &m.faces, Some(ValenceRange { min: 5, max: 10 })).unwrap();
-    assert_eq!((r.vertices, r.edges, r.faces, r.components), (321, 957, 638, 1));
+    let r = check_mesh(
+        &m.positions,
+        &m.faces,
+        Some(ValenceRange { min: 5, max: 10 }),
+    )
+    .unwrap();
+    assert_eq!(
+        (r.vertices, r.edges, r.faces, r.components),
+        (321, 957, 638, 1)
+    );
     // The three neck vertices carry both spheres' fans.
     assert_eq!(r.valences.iter().filter(|&&v| v > 8).count(), 3);
 }
@@ -188,7 +240,10 @@ fn ply_and_obj_round_trip() {
         let back = read_mesh(&path).unwrap();
         // tobj numbers OBJ vertices by first use: compare faces as corner positions.
         let corners = |m: &SurfaceMesh| -> Vec<[[u64; 3]; 3]> {
-            m.faces.iter().map(|f| f.map(|v| m.positions[v as usize].to_array().map(f64::to_bits))).collect()
+            m.faces
+                .iter()
+                .map(|f| f.map(|v| m.positions[v as usize].to_array().map(f64::to_bits)))
+                .collect()
         };
         assert_eq!(corners(&back), corners(&m), "{name}");
     }
@@ -202,11 +257,24 @@ fn broken_mesh_files_are_rejected_with_path_and_reason() {
     let path = dir.path().join("open.obj");
     std::fs::write(&path, obj_text(&open)).unwrap();
     let err = read_mesh(&path).unwrap_err();
-    assert!(matches!(err, MeshIoError::Invalid { source: MeshError::OpenEdge { .. }, .. }));
-    assert!(err.to_string().contains("open.obj") && err.to_string().contains("open"), "{err}");
+    assert!(matches!(
+        err,
+        MeshIoError::Invalid {
+            source: MeshError::OpenEdge { .. },
+            ..
+        }
+    ));
+    assert!(
+        err.to_string().contains("open.obj") && err.to_string().contains("open"),
+        "{err}"
+    );
 
     let path = dir.path().join("garbage.ply");
-    std::fs::write(&path, "ply\nformat ascii 1.0\nelement vertex 2\nend_header\n1 2\n").unwrap();
+    std::fs::write(
+        &path,
+        "ply\nformat ascii 1.0\nelement vertex 2\nend_header\n1 2\n",
+    )
+    .unwrap();
     let err = read_mesh(&path).unwrap_err();
     assert!(err.to_string().contains("garbage.ply"), "{err}");
 
@@ -232,7 +300,9 @@ fn topology_cache_matches_mesh() {
     for (e, &[a, b]) in t.edges.iter().enumerate() {
         let [fl, fr] = t.edge_faces[e];
         // Left face traverses a → b, right face b → a.
-        let has = |f: u32, x: u32, y: u32| (0..3).any(|k| t.faces[f as usize][k] == x && t.faces[f as usize][(k + 1) % 3] == y);
+        let has = |f: u32, x: u32, y: u32| {
+            (0..3).any(|k| t.faces[f as usize][k] == x && t.faces[f as usize][(k + 1) % 3] == y)
+        };
         assert!(has(fl, a, b) && has(fr, b, a));
     }
     for v in 0..t.vertex_count() {
@@ -240,7 +310,10 @@ fn topology_cache_matches_mesh() {
         let lo = t.ring_offsets[v] as usize;
         for k in 0..ring.len() {
             let next = ring[(k + 1) % ring.len()];
-            assert_eq!(rotate_to(t.faces[t.ring_faces[lo + k] as usize], v as u32), [v as u32, ring[k], next]);
+            assert_eq!(
+                rotate_to(t.faces[t.ring_faces[lo + k] as usize], v as u32),
+                [v as u32, ring[k], next]
+            );
             let [a, b] = t.edges[t.ring_edges[lo + k] as usize];
             assert!((a, b) == (v as u32, ring[k]) || (b, a) == (v as u32, ring[k]));
         }

@@ -8,7 +8,7 @@
 //! the adjoints ∂H/∂L_i and ∂H/∂A_i, and a second face pass pulls them back
 //! onto the corner positions ([`Corners::backward`]).
 
-use crate::geometry::Corners;
+use crate::geometry::{Corners, vertex_curvature_terms};
 use glam::DVec3;
 
 /// Reusable per-vertex buffers for [`bending`].
@@ -33,27 +33,27 @@ pub fn bending(
 ) -> f64 {
     let n = positions.len();
     let s = scratch;
-    crate::geometry::vertex_curvature_terms(
-        positions,
-        faces,
-        &mut s.areas,
-        &mut s.laplacians,
-        &mut s.normals,
-    );
-    s.g_lap.clear();
+    let normals = if c0 == 0.0 {
+        None
+    } else {
+        Some(&mut s.normals)
+    };
+    vertex_curvature_terms(positions, faces, &mut s.areas, &mut s.laplacians, normals);
     s.g_lap.resize(n, DVec3::ZERO);
-    s.g_area.clear();
     s.g_area.resize(n, 0.0);
     let mut energy = 0.0;
-    for i in 0..n {
-        let a = s.areas[i];
-        let l = s.laplacians[i];
-        if c0 == 0.0 {
+    if c0 == 0.0 {
+        for i in 0..n {
+            let (a, l) = (s.areas[i], s.laplacians[i]);
             let l2 = l.length_squared();
-            energy += kappa * l2 / (8.0 * a);
-            s.g_lap[i] = l * (kappa / (4.0 * a));
-            s.g_area[i] = -kappa * l2 / (8.0 * a * a);
-        } else {
+            let inv_a = 1.0 / a;
+            energy += kappa * l2 * 0.125 * inv_a;
+            s.g_lap[i] = l * (0.25 * kappa * inv_a);
+            s.g_area[i] = -0.125 * kappa * l2 * inv_a * inv_a;
+        }
+    } else {
+        for i in 0..n {
+            let (a, l) = (s.areas[i], s.laplacians[i]);
             let len = l.length();
             let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
             let h = sign * len / (2.0 * a);
@@ -70,17 +70,15 @@ pub fn bending(
     }
     if let Some(force) = force {
         for f in faces {
-            let c = Corners::new(
-                positions[f[0] as usize],
-                positions[f[1] as usize],
-                positions[f[2] as usize],
+            let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+            let c = Corners::new(positions[i0], positions[i1], positions[i2]);
+            let grad = c.backward(
+                [s.g_lap[i0], s.g_lap[i1], s.g_lap[i2]],
+                [s.g_area[i0], s.g_area[i1], s.g_area[i2]],
             );
-            let g_lap = f.map(|v| s.g_lap[v as usize]);
-            let g_area = f.map(|v| s.g_area[v as usize]);
-            let grad = c.backward(g_lap, g_area);
-            for k in 0..3 {
-                force[f[k] as usize] -= grad[k];
-            }
+            force[i0] -= grad[0];
+            force[i1] -= grad[1];
+            force[i2] -= grad[2];
         }
     }
     energy

@@ -3,56 +3,84 @@
 //! - volume: E_V = k_V (V − V_t)² / V_t;
 //! - area:   E_A = k_A (A − A_t)² / A_t, A = Σ mixed areas = Σ face areas;
 //! - local tension: E_a = k_a Σ_i (A_i/ρ_i − a0)² / a0, A_i the mixed area.
+//!
+//! The global penalties make one face pass that sums the quantity and its
+//! unscaled gradient, then scale the gradient by dE/dV (dE/dA).
 
-use crate::geometry::{Corners, face_area_gradient};
+use crate::geometry::Corners;
 use glam::DVec3;
 
-/// Volume penalty energy; with `force`, adds −∇E_V.
+/// Volume penalty energy; with `force`, adds −∇E_V. `gradient` is scratch.
 pub fn volume_penalty(
     positions: &[DVec3],
     faces: &[[u32; 3]],
     k: f64,
     target: f64,
+    gradient: &mut Vec<DVec3>,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
     let origin = positions.first().copied().unwrap_or(DVec3::ZERO);
-    let volume = crate::geometry::enclosed_volume(positions, faces, origin);
-    let energy = k * (volume - target).powi(2) / target;
-    if let Some(force) = force {
-        // ∂V/∂p0 = (p1 × p2)/6 relative to the (fixed) origin, cyclically.
-        let g = 2.0 * k * (volume - target) / target / 6.0;
-        for f in faces {
-            let [a, b, c] = f.map(|v| positions[v as usize] - origin);
-            force[f[0] as usize] -= g * b.cross(c);
-            force[f[1] as usize] -= g * c.cross(a);
-            force[f[2] as usize] -= g * a.cross(b);
-        }
+    let Some(force) = force else {
+        let volume = crate::geometry::enclosed_volume(positions, faces, origin);
+        return k * (volume - target).powi(2) / target;
+    };
+    // 6V = Σ a·(b × c) relative to a fixed origin; ∂(6V)/∂a = b × c, cyclically.
+    gradient.clear();
+    gradient.resize(positions.len(), DVec3::ZERO);
+    let mut six_volume = 0.0;
+    for f in faces {
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        let a = positions[i0] - origin;
+        let b = positions[i1] - origin;
+        let c = positions[i2] - origin;
+        let bc = b.cross(c);
+        six_volume += a.dot(bc);
+        gradient[i0] += bc;
+        gradient[i1] += c.cross(a);
+        gradient[i2] += a.cross(b);
     }
-    energy
+    let volume = six_volume / 6.0;
+    let g = 2.0 * k * (volume - target) / target / 6.0;
+    for (f, grad) in force.iter_mut().zip(gradient.iter()) {
+        *f -= g * *grad;
+    }
+    k * (volume - target).powi(2) / target
 }
 
-/// Area penalty energy; with `force`, adds −∇E_A.
+/// Area penalty energy; with `force`, adds −∇E_A. `gradient` is scratch.
 pub fn area_penalty(
     positions: &[DVec3],
     faces: &[[u32; 3]],
     k: f64,
     target: f64,
+    gradient: &mut Vec<DVec3>,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    let area = crate::geometry::total_area(positions, faces);
-    let energy = k * (area - target).powi(2) / target;
-    if let Some(force) = force {
-        let g = 2.0 * k * (area - target) / target;
-        for f in faces {
-            let p = f.map(|v| positions[v as usize]);
-            let n = (p[1] - p[0]).cross(p[2] - p[0]);
-            let grad = face_area_gradient(&p, n / n.length());
-            for k in 0..3 {
-                force[f[k] as usize] -= g * grad[k];
-            }
-        }
+    let Some(force) = force else {
+        let area = crate::geometry::total_area(positions, faces);
+        return k * (area - target).powi(2) / target;
+    };
+    // ∂(2A_f)/∂p_k = n̂ × e_k with e_k the edge opposite corner k.
+    gradient.clear();
+    gradient.resize(positions.len(), DVec3::ZERO);
+    let mut twice_area = 0.0;
+    for f in faces {
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        let (p0, p1, p2) = (positions[i0], positions[i1], positions[i2]);
+        let n = (p1 - p0).cross(p2 - p0);
+        let len = n.length();
+        twice_area += len;
+        let n_hat = n / len;
+        gradient[i0] += n_hat.cross(p2 - p1);
+        gradient[i1] += n_hat.cross(p0 - p2);
+        gradient[i2] += n_hat.cross(p1 - p0);
     }
-    energy
+    let area = 0.5 * twice_area;
+    let g = k * (area - target) / target;
+    for (f, grad) in force.iter_mut().zip(gradient.iter()) {
+        *f -= g * *grad;
+    }
+    k * (area - target).powi(2) / target
 }
 
 /// Reusable buffers for [`local_tension`].
@@ -78,17 +106,12 @@ pub fn local_tension(
     s.areas.clear();
     s.areas.resize(n, 0.0);
     for f in faces {
-        let c = Corners::new(
-            positions[f[0] as usize],
-            positions[f[1] as usize],
-            positions[f[2] as usize],
-        );
-        let a = c.mixed_areas();
-        for k in 0..3 {
-            s.areas[f[k] as usize] += a[k];
-        }
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        let a = Corners::new(positions[i0], positions[i1], positions[i2]).mixed_areas();
+        s.areas[i0] += a[0];
+        s.areas[i1] += a[1];
+        s.areas[i2] += a[2];
     }
-    s.g_area.clear();
     s.g_area.resize(n, 0.0);
     let mut energy = 0.0;
     for i in 0..n {
@@ -98,15 +121,12 @@ pub fn local_tension(
     }
     if let Some(force) = force {
         for f in faces {
-            let c = Corners::new(
-                positions[f[0] as usize],
-                positions[f[1] as usize],
-                positions[f[2] as usize],
-            );
-            let grad = c.backward([DVec3::ZERO; 3], f.map(|v| s.g_area[v as usize]));
-            for k in 0..3 {
-                force[f[k] as usize] -= grad[k];
-            }
+            let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+            let c = Corners::new(positions[i0], positions[i1], positions[i2]);
+            let grad = c.backward([DVec3::ZERO; 3], [s.g_area[i0], s.g_area[i1], s.g_area[i2]]);
+            force[i0] -= grad[0];
+            force[i1] -= grad[1];
+            force[i2] -= grad[2];
         }
     }
     energy

@@ -112,7 +112,7 @@ impl VinParams {
 
     /// Checks the parameters describe a double-barrier potential; returns the
     /// offending field and reason otherwise.
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
         let pos = |name, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -186,7 +186,10 @@ pub struct Segmentation {
     /// Segment of each fine sample interval: `bin_segment[j]` is the segment
     /// containing (l_j, l_{j+1}].
     bin_segment: Vec<u32>,
+    /// (start, value at start, slope) of each segment, packed for lookup.
+    packed: Vec<[f64; 3]>,
     first_sample: f64,
+    inv_dl: f64,
 }
 
 impl Segmentation {
@@ -241,6 +244,9 @@ impl Segmentation {
             }
         }
         bin_segment[count - 1] = (cuts.len() - 2) as u32;
+        let packed = (0..slopes.len())
+            .map(|s| [breakpoints[s], values[s], slopes[s]])
+            .collect();
         Self {
             params,
             offset,
@@ -248,7 +254,9 @@ impl Segmentation {
             values,
             slopes,
             bin_segment,
+            packed,
             first_sample: l_at(0),
+            inv_dl: 1.0 / params.dl,
         }
     }
 
@@ -269,17 +277,18 @@ impl Segmentation {
 
     /// Segment containing `l`; lengths outside the sampled range map to the
     /// first or last segment (whose chord is extrapolated).
-    #[inline]
+    #[inline(always)]
     pub fn segment_of(&self, l: f64) -> usize {
-        let x = (l - self.first_sample) / self.params.dl;
+        let x = (l - self.first_sample) * self.inv_dl;
         if x.is_nan() || x <= 0.0 {
             return 0;
         }
-        let j = (x.ceil() as usize)
-            .saturating_sub(1)
-            .min(self.bin_segment.len() - 1);
+        // Truncation = floor for x > 0 (f64::ceil is a libm call on the
+        // baseline x86-64 target); the guard below settles which side of a
+        // breakpoint l lies on, so floor vs ceil − 1 does not matter.
+        let j = (x as usize).min(self.bin_segment.len() - 1);
         let mut s = self.bin_segment[j] as usize;
-        // Guard against round-off at a breakpoint: (b_s, b_{s+1}].
+        // Segment s is (b_s, b_{s+1}].
         if s + 1 < self.slopes.len() && l > self.breakpoints[s + 1] {
             s += 1;
         } else if s > 0 && l <= self.breakpoints[s] {
@@ -289,11 +298,10 @@ impl Segmentation {
     }
 
     /// Piecewise-linear V_in(l) and its slope dV/dl (Ē, Ē/l̄).
-    #[inline]
+    #[inline(always)]
     pub fn linear(&self, l: f64) -> (f64, f64) {
-        let s = self.segment_of(l);
-        let slope = self.slopes[s];
-        (self.values[s] + slope * (l - self.breakpoints[s]), slope)
+        let [start, value, slope] = self.packed[self.segment_of(l)];
+        (value + slope * (l - start), slope)
     }
 }
 
@@ -320,4 +328,11 @@ fn needs_split(y: &[f64], a: usize, b: usize, p: &VinParams, l_at: impl Fn(usize
         f64::NAN
     };
     r2 < p.segment_r2_min || std > p.segment_std_max
+}
+
+impl crate::validate::Validate for VinParams {
+    fn validate(&self) -> Result<(), String> {
+        self.check()
+            .map_err(|(field, reason)| format!("`{field}` {reason}"))
+    }
 }

@@ -56,6 +56,11 @@ pub enum MeshIoError {
 /// Reads a `.ply` (ASCII or binary) or `.obj` triangle mesh and checks it is
 /// a closed, manifold, outward-oriented surface.
 pub fn read_mesh(path: &Path) -> Result<SurfaceMesh, MeshIoError> {
+    // Report a missing or unreadable file as such, not as a parse error.
+    std::fs::File::open(path).map_err(|source| MeshIoError::Read {
+        path: path.to_owned(),
+        source,
+    })?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

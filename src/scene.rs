@@ -1,0 +1,425 @@
+//! RON scene files: the membrane, the energy terms it uses, parameters,
+//! control points and seed. See `scenes/reference.ron` for every key.
+//!
+//! Loading rejects unknown fields and impossible values with
+//! `FILE:LINE:COL: field `path`: reason`; checks that need the whole scene
+//! (e.g. local tension without lipid density) name the file and field.
+
+use crate::components::ControlPoint;
+use crate::energy::vin::{Segmentation, VinParams};
+use crate::force::ForceSet;
+use crate::geometry::{enclosed_volume, total_area};
+use crate::membrane::Membrane;
+use crate::mesh::io::{MeshIoError, read_mesh};
+use crate::mesh::{
+    MAX_ICOSPHERE_LEVEL, MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere,
+};
+use crate::params::{AreaParams, BendingParams, LocalTensionParams, SpringParams, VolumeParams};
+use crate::simulation::{InitialState, Simulation};
+use crate::systems::{
+    AreaForces, BendingForces, LocalTensionForces, SpringForces, VinForces, VolumeForces,
+};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A scene as written in a RON file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name, used in outputs.
+    #[serde(default)]
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Seed of every random stream (initial jitter, remesh order, noise).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Where the initial mesh comes from.
+    pub membrane: MembraneSource,
+    /// Allowed vertex valences (default 5..=8; fusion uses 5..=10).
+    #[serde(default)]
+    pub valence: ValenceRange,
+    /// Whether vertices carry a lipid density (only then is it stored).
+    #[serde(default)]
+    pub lipid_density: bool,
+    /// The energy terms, each at most once. Only these are spawned and run.
+    pub energy: Vec<EnergyTerm>,
+    /// Passes of closed 1-ring averaging of penalty forces (volume, area,
+    /// local tension); as run: 4, 0 = exact gradient.
+    #[serde(default = "default_smoothing")]
+    pub penalty_smoothing: u32,
+    /// Fixed control points (used by the `Springs` term).
+    #[serde(default)]
+    pub control_points: Vec<ControlPointSpec>,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+fn default_smoothing() -> u32 {
+    4
+}
+fn default_edge_length() -> f64 {
+    1.0
+}
+fn default_docking_level() -> u32 {
+    2
+}
+
+/// Source of the initial mesh.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum MembraneSource {
+    /// Icosphere of `level` subdivisions (0..=6; 3 gives 642 vertices).
+    Icosphere {
+        /// Subdivision level 0..=6.
+        level: u32,
+        /// Mean edge length after rescaling (l̄; default 1).
+        #[serde(
+            default = "default_edge_length",
+            deserialize_with = "crate::validate::positive"
+        )]
+        mean_edge_length: f64,
+        /// Amplitude of a seeded uniform jitter added to every coordinate
+        /// (l̄; default 0; the reference code used ≈ 6.6e-4).
+        #[serde(default, deserialize_with = "crate::validate::non_negative")]
+        jitter: f64,
+    },
+    /// Two icospheres of `level` glued through one triangle (fusion; level 2
+    /// gives 321 vertices).
+    DockedPair {
+        /// Subdivision level of each sphere (default 2).
+        #[serde(default = "default_docking_level")]
+        level: u32,
+    },
+    /// A `.ply` or `.obj` file, relative to the scene file's folder.
+    File {
+        /// Path of the mesh file.
+        path: PathBuf,
+        /// Factor applied to all coordinates (default 1).
+        #[serde(
+            default = "default_edge_length",
+            deserialize_with = "crate::validate::positive"
+        )]
+        scale: f64,
+    },
+}
+
+/// One energy term and its parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum EnergyTerm {
+    /// Double-barrier edge potential V_in.
+    #[serde(deserialize_with = "crate::validate::checked")]
+    Vin(VinParams),
+    /// Helfrich bending.
+    Bending(BendingParams),
+    /// Volume penalty.
+    Volume(VolumeParams),
+    /// Area penalty.
+    Area(AreaParams),
+    /// Density-dependent local tension (needs `lipid_density: true`).
+    LocalTension(LocalTensionParams),
+    /// Springs from the control points.
+    Springs(SpringParams),
+}
+
+impl EnergyTerm {
+    /// The variant's name as written in scenes.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            EnergyTerm::Vin(_) => "Vin",
+            EnergyTerm::Bending(_) => "Bending",
+            EnergyTerm::Volume(_) => "Volume",
+            EnergyTerm::Area(_) => "Area",
+            EnergyTerm::LocalTension(_) => "LocalTension",
+            EnergyTerm::Springs(_) => "Springs",
+        }
+    }
+}
+
+/// A control point as written in a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControlPointSpec {
+    /// Fixed position (l̄).
+    #[serde(deserialize_with = "crate::validate::finite_vec3")]
+    pub position: (f64, f64, f64),
+    /// Spring constant (Ē/l̄²); default: the `Springs` term's `stiffness`.
+    #[serde(default, deserialize_with = "crate::validate::optional_positive")]
+    pub stiffness: Option<f64>,
+}
+
+/// A scene could not be loaded or built.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{path}: cannot read scene file: {source}")]
+    Read {
+        /// Scene path.
+        path: PathBuf,
+        /// I/O error.
+        source: std::io::Error,
+    },
+    /// Malformed RON, an unknown or missing field, or a bad value.
+    #[error("{}:{line}:{col}: {}{reason}", path.display(), field_prefix(field))]
+    Parse {
+        /// Scene path.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        col: usize,
+        /// Dotted path of the field, if known (e.g. `energy[1].Bending.kappa`).
+        field: Option<String>,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The scene parsed but is inconsistent.
+    #[error("{}: field `{field}`: {reason}", path.display())]
+    Invalid {
+        /// Scene path.
+        path: PathBuf,
+        /// Dotted path of the field.
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The membrane's mesh file is unreadable or not a valid membrane.
+    #[error("{}: field `membrane`: {source}", path.display())]
+    MeshFile {
+        /// Scene path.
+        path: PathBuf,
+        /// The mesh file's error (names the mesh file).
+        source: MeshIoError,
+    },
+    /// The generated or loaded mesh violates the scene's mesh requirements.
+    #[error("{}: field `{field}`: {source}", path.display())]
+    Mesh {
+        /// Scene path.
+        path: PathBuf,
+        /// Field responsible (`membrane` or `valence`).
+        field: &'static str,
+        /// The violated invariant.
+        source: MeshError,
+    },
+}
+
+fn field_prefix(field: &Option<String>) -> String {
+    match field.as_deref() {
+        Some(f) if !f.is_empty() && f != "." && f != "?" => format!("field `{f}`: "),
+        _ => String::new(),
+    }
+}
+
+/// RON options for scenes: `Vin(v0: 0.2)` for newtype variants and `Some`
+/// implied for optional values.
+fn ron_options() -> ron::Options {
+    use ron::extensions::Extensions;
+    ron::Options::default()
+        .with_default_extension(Extensions::UNWRAP_VARIANT_NEWTYPES)
+        .with_default_extension(Extensions::IMPLICIT_SOME)
+}
+
+impl Scene {
+    /// Parses scene text; `path` is used in error messages only.
+    pub fn from_ron_str(text: &str, path: &Path) -> Result<Self, SceneError> {
+        let options = ron_options();
+        let spanned = |e: ron::error::SpannedError, field: Option<String>| SceneError::Parse {
+            path: path.to_owned(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            field,
+            reason: e.code.to_string(),
+        };
+        let mut de = ron::Deserializer::from_str_with_options(text, &options)
+            .map_err(|e| spanned(e, None))?;
+        let scene: Scene = match serde_path_to_error::deserialize(&mut de) {
+            Ok(s) => s,
+            Err(e) => {
+                let field = e.path().to_string();
+                let err = de.span_error(e.into_inner());
+                return Err(spanned(err, Some(field)));
+            }
+        };
+        de.end()
+            .map_err(|code| spanned(de.span_error(code), None))?;
+        scene.validate(path)?;
+        Ok(scene)
+    }
+
+    /// Reads and parses a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::from_ron_str(&text, path)
+    }
+
+    /// Checks that need the whole scene.
+    fn validate(&self, path: &Path) -> Result<(), SceneError> {
+        let invalid = |field: &str, reason: String| SceneError::Invalid {
+            path: path.to_owned(),
+            field: field.to_string(),
+            reason,
+        };
+        match &self.membrane {
+            MembraneSource::Icosphere { level, .. } | MembraneSource::DockedPair { level }
+                if *level > MAX_ICOSPHERE_LEVEL =>
+            {
+                return Err(invalid(
+                    "membrane.level",
+                    format!("must be 0..={MAX_ICOSPHERE_LEVEL} (got {level})"),
+                ));
+            }
+            _ => {}
+        }
+        let v = self.valence;
+        if v.min < 3 || v.min > v.max {
+            return Err(invalid(
+                "valence",
+                format!("need 3 <= min <= max (got min {}, max {})", v.min, v.max),
+            ));
+        }
+        if self.energy.is_empty() {
+            return Err(invalid("energy", "declares no energy term".into()));
+        }
+        for (i, term) in self.energy.iter().enumerate() {
+            if let Some(j) = self.energy[..i]
+                .iter()
+                .position(|t| t.kind() == term.kind())
+            {
+                return Err(invalid(
+                    &format!("energy[{i}]"),
+                    format!("{} is already declared at energy[{j}]", term.kind()),
+                ));
+            }
+        }
+        let has = |kind| self.energy.iter().any(|t| t.kind() == kind);
+        if has("LocalTension") && !self.lipid_density {
+            return Err(invalid(
+                "lipid_density",
+                "the LocalTension term needs `lipid_density: true`".into(),
+            ));
+        }
+        if has("Springs") && self.control_points.is_empty() {
+            return Err(invalid(
+                "control_points",
+                "the Springs term needs at least one control point".into(),
+            ));
+        }
+        if !has("Springs") && !self.control_points.is_empty() {
+            return Err(invalid(
+                "control_points",
+                format!(
+                    "{} control points are declared but no Springs term uses them",
+                    self.control_points.len()
+                ),
+            ));
+        }
+        if self.penalty_smoothing > 64 {
+            return Err(invalid(
+                "penalty_smoothing",
+                format!("must be at most 64 passes (got {})", self.penalty_smoothing),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The initial mesh (jittered with the scene seed if requested).
+    pub fn initial_mesh(&self, scene_path: &Path) -> Result<SurfaceMesh, SceneError> {
+        let mut mesh = match &self.membrane {
+            MembraneSource::Icosphere {
+                level,
+                mean_edge_length,
+                jitter,
+            } => {
+                let mut m = icosphere(*level, *mean_edge_length);
+                if *jitter > 0.0 {
+                    m.jitter(*jitter, self.seed);
+                }
+                m
+            }
+            MembraneSource::DockedPair { level } => docked_pair(*level),
+            MembraneSource::File { path, scale } => {
+                let base = scene_path.parent().unwrap_or(Path::new("."));
+                let mut m = read_mesh(&base.join(path)).map_err(|source| SceneError::MeshFile {
+                    path: scene_path.to_owned(),
+                    source,
+                })?;
+                m.scale(*scale);
+                m
+            }
+        };
+        // Generated meshes are valid by construction; this also applies the
+        // scene's valence limits to files and docked pairs.
+        check_mesh(&mesh.positions, &mesh.faces, Some(self.valence)).map_err(|source| {
+            let field = if matches!(source, MeshError::ValenceOutOfRange { .. }) {
+                "valence"
+            } else {
+                "membrane"
+            };
+            SceneError::Mesh {
+                path: scene_path.to_owned(),
+                field,
+                source,
+            }
+        })?;
+        mesh.positions.shrink_to_fit();
+        Ok(mesh)
+    }
+
+    /// Builds the world and the force systems this scene declares.
+    pub fn build(&self, scene_path: &Path) -> Result<Simulation, SceneError> {
+        let mesh = self.initial_mesh(scene_path)?;
+        let initial = InitialState {
+            vertices: mesh.vertex_count(),
+            area: total_area(&mesh.positions, &mesh.faces),
+            volume: enclosed_volume(&mesh.positions, &mesh.faces, mesh.positions[0]),
+        };
+        let invalid = |reason: String| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field: "membrane".into(),
+            reason,
+        };
+        let mut membrane =
+            Membrane::from_mesh(&mesh, self.lipid_density).map_err(|e| invalid(e.to_string()))?;
+        let mut forces = ForceSet::new(self.penalty_smoothing);
+        let mut spring_stiffness = SpringParams::default().stiffness;
+        for term in &self.energy {
+            let system: Box<dyn crate::force::ForceTerm> = match *term {
+                EnergyTerm::Vin(p) => {
+                    Box::new(VinForces::new(Arc::new(Segmentation::new(p)), p.form))
+                }
+                EnergyTerm::Bending(p) => Box::new(BendingForces::new(p)),
+                EnergyTerm::Volume(p) => {
+                    Box::new(VolumeForces::new(p.k, p.target.resolve(initial.volume)))
+                }
+                EnergyTerm::Area(p) => {
+                    Box::new(AreaForces::new(p.k, p.target.resolve(initial.area)))
+                }
+                EnergyTerm::LocalTension(p) => {
+                    let a0 = p.target_area.resolve(initial.area) / initial.vertices as f64;
+                    Box::new(LocalTensionForces::new(p.k, a0))
+                }
+                EnergyTerm::Springs(p) => {
+                    spring_stiffness = p.stiffness;
+                    Box::new(SpringForces::default())
+                }
+            };
+            forces.push(system).map_err(invalid)?;
+        }
+        for cp in &self.control_points {
+            let (x, y, z) = cp.position;
+            membrane.add_control_point(ControlPoint {
+                position: DVec3::new(x, y, z),
+                stiffness: cp.stiffness.unwrap_or(spring_stiffness),
+            });
+        }
+        Ok(Simulation::new(membrane, forces, initial))
+    }
+}

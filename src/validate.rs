@@ -1,0 +1,73 @@
+//! Field validators for scene deserialization. Used with
+//! `#[serde(deserialize_with = ...)]`, they fail while the value is being
+//! parsed, so RON reports the exact line and column of the bad value.
+
+use serde::de::Error;
+use serde::{Deserialize, Deserializer};
+
+fn number<'de, D: Deserializer<'de>>(
+    d: D,
+    ok: impl Fn(f64) -> bool,
+    what: &str,
+) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v.is_finite() && ok(v) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("must be {what} (got {v})")))
+    }
+}
+
+/// A finite number > 0.
+pub fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    number(d, |v| v > 0.0, "a finite number > 0")
+}
+
+/// A finite number ≥ 0.
+pub fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    number(d, |v| v >= 0.0, "a finite number ≥ 0")
+}
+
+/// Any finite number.
+pub fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    number(d, |_| true, "a finite number")
+}
+
+/// A 3-vector of finite numbers.
+pub fn finite_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<(f64, f64, f64), D::Error> {
+    let v = <(f64, f64, f64)>::deserialize(d)?;
+    if v.0.is_finite() && v.1.is_finite() && v.2.is_finite() {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "must have finite coordinates (got {v:?})"
+        )))
+    }
+}
+
+/// An optional finite number > 0.
+pub fn optional_positive<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    let v = Option::<f64>::deserialize(d)?;
+    match v {
+        Some(x) if !(x.is_finite() && x > 0.0) => Err(D::Error::custom(format!(
+            "must be a finite number > 0 (got {x})"
+        ))),
+        _ => Ok(v),
+    }
+}
+
+/// A value with cross-field constraints checked after it is parsed.
+pub trait Validate {
+    /// `Err(reason)` if the value is inconsistent.
+    fn validate(&self) -> Result<(), String>;
+}
+
+/// Deserializes a `T` and validates it, so a bad combination is reported at
+/// the position of the value.
+pub fn checked<'de, D: Deserializer<'de>, T: Deserialize<'de> + Validate>(
+    d: D,
+) -> Result<T, D::Error> {
+    let v = T::deserialize(d)?;
+    v.validate().map_err(D::Error::custom)?;
+    Ok(v)
+}
