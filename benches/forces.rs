@@ -1,7 +1,8 @@
 #![allow(missing_docs)]
 //! Force-system throughput: each force system alone and all forces of the
 //! red-blood-cell scene together (V_in + bending + volume + area, 4 smoothing
-//! passes, including the world gather/scatter) at 642 … 40962 vertices.
+//! passes, including the shared face-geometry pass and the world
+//! gather/scatter) at 642 … 40962 vertices.
 //!
 //! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
 
@@ -88,12 +89,30 @@ fn each_system(c: &mut Criterion) {
         m.gather_positions(&mut pos);
         m.gather_lipid(&mut rho);
         let n = pos.len();
-        let ctx = ForceContext {
-            world: &m.world,
-            topology: m.cached_topology(),
-            positions: &pos,
-            lipid: &rho,
-        };
+        // The shared per-face geometry pass, timed on its own; the terms
+        // below read its result.
+        let mut geometry = Vec::new();
+        let mut g = configure(c, "face_geometry");
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| {
+                remembrane::geometry::face_geometry(
+                    &pos,
+                    &m.cached_topology().faces,
+                    &mut geometry,
+                );
+                black_box(geometry.len())
+            })
+        });
+        g.finish();
+        let ctx = ForceContext::new(
+            &m.world,
+            m.cached_topology(),
+            &pos,
+            &rho,
+            &mut geometry,
+            true,
+        );
         for mut term in terms(&initial) {
             let name = term.name().to_string();
             let mut g = configure(c, &name);

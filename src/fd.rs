@@ -92,14 +92,20 @@ pub fn check_force_term(
     vertices: Option<&[usize]>,
     options: FdOptions,
 ) -> FdReport {
-    let ctx = ForceContext {
-        world,
-        topology,
-        positions,
-        lipid,
-    };
+    let with_geometry = term.uses_face_geometry();
+    let mut geometry = Vec::new();
     let mut analytic = vec![DVec3::ZERO; positions.len()];
-    term.accumulate(&ctx, &mut analytic);
+    {
+        let ctx = ForceContext::new(
+            world,
+            topology,
+            positions,
+            lipid,
+            &mut geometry,
+            with_geometry,
+        );
+        term.accumulate(&ctx, &mut analytic);
+    }
 
     let mut work = positions.to_vec();
     let all: Vec<usize>;
@@ -120,12 +126,9 @@ pub fn check_force_term(
         for c in 0..3 {
             let mut energy_at = |offset: f64, work: &mut Vec<DVec3>| {
                 work[v][c] = positions[v][c] + offset;
-                let e = term.energy(&ForceContext {
-                    world,
-                    topology,
-                    positions: work,
-                    lipid,
-                });
+                let ctx =
+                    ForceContext::new(world, topology, work, lipid, &mut geometry, with_geometry);
+                let e = term.energy(&ctx);
                 work[v][c] = positions[v][c];
                 e
             };

@@ -6,6 +6,7 @@
 //! its own buffer (so forces can be reported and checked per term), applies
 //! the optional 1-ring smoothing to penalty terms, and sums the total.
 
+use crate::geometry::{Corners, face_geometry};
 use crate::topology::Topology;
 use glam::DVec3;
 use hecs::World;
@@ -21,6 +22,36 @@ pub struct ForceContext<'a> {
     pub positions: &'a [DVec3],
     /// Lipid density by dense slot; empty when the scene declares none.
     pub lipid: &'a [f64],
+    /// Per-face geometry (edges, unit normal, area, cotangents) at
+    /// `positions`, in face order; empty unless a term in the evaluation
+    /// returned `true` from [`ForceTerm::uses_face_geometry`].
+    pub face_geometry: &'a [Corners],
+}
+
+impl<'a> ForceContext<'a> {
+    /// A context for `positions`; fills `geometry` with the per-face
+    /// geometry first when `with_face_geometry` is set.
+    pub fn new(
+        world: &'a World,
+        topology: &'a Topology,
+        positions: &'a [DVec3],
+        lipid: &'a [f64],
+        geometry: &'a mut Vec<Corners>,
+        with_face_geometry: bool,
+    ) -> Self {
+        if with_face_geometry {
+            face_geometry(positions, &topology.faces, geometry);
+        } else {
+            geometry.clear();
+        }
+        Self {
+            world,
+            topology,
+            positions,
+            lipid,
+            face_geometry: geometry,
+        }
+    }
 }
 
 /// How the force stage treats a term's force.
@@ -44,6 +75,11 @@ pub trait ForceTerm: Send {
     /// How the force stage treats this term's force.
     fn kind(&self) -> ForceKind {
         ForceKind::Conservative
+    }
+    /// Whether the term reads [`ForceContext::face_geometry`] (computed once
+    /// per evaluation for all terms that ask).
+    fn uses_face_geometry(&self) -> bool {
+        false
     }
     /// Energy of the current state (Ē).
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64;
@@ -80,6 +116,7 @@ pub struct ForceSet {
     /// terms (as run: 4; 0 = exact gradient).
     pub penalty_smoothing: u32,
     scratch: Vec<DVec3>,
+    geometry: Vec<Corners>,
 }
 
 impl ForceSet {
@@ -89,6 +126,7 @@ impl ForceSet {
             terms: Vec::new(),
             penalty_smoothing,
             scratch: Vec::new(),
+            geometry: Vec::new(),
         }
     }
 
@@ -119,8 +157,24 @@ impl ForceSet {
     /// Smoothing is linear, so the penalty terms' forces are summed first and
     /// smoothed once: the same result as smoothing each term, at a fraction
     /// of the cost.
-    pub fn evaluate(&mut self, ctx: &ForceContext<'_>, out: &mut ForceEvaluation) {
-        let n = ctx.positions.len();
+    pub fn evaluate(
+        &mut self,
+        world: &World,
+        topology: &Topology,
+        positions: &[DVec3],
+        lipid: &[f64],
+        out: &mut ForceEvaluation,
+    ) {
+        let with_geometry = self.terms.iter().any(|t| t.uses_face_geometry());
+        let ctx = ForceContext::new(
+            world,
+            topology,
+            positions,
+            lipid,
+            &mut self.geometry,
+            with_geometry,
+        );
+        let n = positions.len();
         out.energies.clear();
         out.term_forces.resize_with(self.terms.len(), Vec::new);
         out.total.clear();
@@ -133,7 +187,7 @@ impl ForceSet {
         for (term, buf) in self.terms.iter_mut().zip(out.term_forces.iter_mut()) {
             buf.clear();
             buf.resize(n, DVec3::ZERO);
-            out.energies.push(term.accumulate(ctx, buf));
+            out.energies.push(term.accumulate(&ctx, buf));
             let sum = if term.kind() == ForceKind::Penalty {
                 &mut out.smoothed_penalty
             } else {
@@ -144,7 +198,7 @@ impl ForceSet {
             }
         }
         if has_penalty {
-            let t = ctx.topology;
+            let t = topology;
             crate::energy::penalty::smooth_over_rings(
                 &mut out.smoothed_penalty,
                 &t.ring_offsets,
@@ -159,7 +213,22 @@ impl ForceSet {
     }
 
     /// Energy of each term without forces.
-    pub fn energies(&mut self, ctx: &ForceContext<'_>) -> Vec<f64> {
-        self.terms.iter_mut().map(|t| t.energy(ctx)).collect()
+    pub fn energies(
+        &mut self,
+        world: &World,
+        topology: &Topology,
+        positions: &[DVec3],
+        lipid: &[f64],
+    ) -> Vec<f64> {
+        let with_geometry = self.terms.iter().any(|t| t.uses_face_geometry());
+        let ctx = ForceContext::new(
+            world,
+            topology,
+            positions,
+            lipid,
+            &mut self.geometry,
+            with_geometry,
+        );
+        self.terms.iter_mut().map(|t| t.energy(&ctx)).collect()
     }
 }

@@ -17,15 +17,18 @@
 
 use glam::DVec3;
 
-/// Per-face quantities of triangle (p0, p1, p2).
-#[derive(Clone, Copy, Debug)]
+/// Per-face quantities of triangle (p0, p1, p2): everything the face-based
+/// energy terms need, so each face pays its square root and division once.
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Corners {
     /// Edge vectors opposite each corner: p2 − p1, p0 − p2, p1 − p0.
     pub e: [DVec3; 3],
-    /// Unnormalised normal (p1 − p0) × (p2 − p0); its length is twice the area.
-    pub n: DVec3,
+    /// Unit outward normal n̂ = n/|n|, n = (p1 − p0) × (p2 − p0).
+    pub n_hat: DVec3,
     /// Twice the face area, |n|.
     pub twice_area: f64,
+    /// 1 / |n|.
+    pub inv_twice_area: f64,
     /// Cotangent of the interior angle at each corner.
     pub cot: [f64; 3],
 }
@@ -43,8 +46,9 @@ impl Corners {
         let cot = [-e1.dot(e2) * inv, -e2.dot(e0) * inv, -e0.dot(e1) * inv];
         Self {
             e: [e0, e1, e2],
-            n,
+            n_hat: n * inv,
             twice_area,
+            inv_twice_area: inv,
             cot,
         }
     }
@@ -136,24 +140,23 @@ impl Corners {
         let mut ge1 = c1 * (g1 + 2.0 * h1 * e1);
         let mut ge2 = c2 * (g2 + 2.0 * h2 * e2);
         // cot_k = −(a·b)/|a × b| with a = e_{k+1}, b = e_{k+2}:
-        // ∂cot_k/∂a = −(b + cot_k b × n̂)/|n|, ∂cot_k/∂b = −(a + cot_k n̂ × a)/|n|.
-        let inv = 1.0 / self.twice_area;
-        let n_hat = self.n * inv;
+        // ∂cot_k/∂a = −(b + cot_k b × n̂)/|n|, ∂cot_k/∂b = −(a − cot_k a × n̂)/|n|;
+        // only the three q_j = e_j × n̂ are needed.
+        let inv = self.inv_twice_area;
+        let n_hat = self.n_hat;
+        let (q0, q1, q2) = (e0.cross(n_hat), e1.cross(n_hat), e2.cross(n_hat));
         let (s0, s1, s2) = (gc0 * inv, gc1 * inv, gc2 * inv);
-        ge1 -= s0 * (e2 + c0 * e2.cross(n_hat));
-        ge2 -= s0 * (e1 + c0 * n_hat.cross(e1));
-        ge2 -= s1 * (e0 + c1 * e0.cross(n_hat));
-        ge0 -= s1 * (e2 + c1 * n_hat.cross(e2));
-        ge0 -= s2 * (e1 + c2 * e1.cross(n_hat));
-        ge1 -= s2 * (e0 + c2 * n_hat.cross(e0));
+        ge0 -= s1 * (e2 - c1 * q2) + s2 * (e1 + c2 * q1);
+        ge1 -= s0 * (e2 + c0 * q2) + s2 * (e0 - c2 * q0);
+        ge2 -= s0 * (e1 - c0 * q1) + s1 * (e0 + c1 * q0);
         // e0 = p2 − p1, e1 = p0 − p2, e2 = p1 − p0.
         let mut grad = [ge1 - ge2, ge2 - ge0, ge0 - ge1];
         if g_face_area != 0.0 {
-            // ∂(area)/∂p_k = ½ n̂ × e_k.
-            let s = 0.5 * g_face_area;
-            grad[0] += s * n_hat.cross(e0);
-            grad[1] += s * n_hat.cross(e1);
-            grad[2] += s * n_hat.cross(e2);
+            // ∂(area)/∂p_k = ½ n̂ × e_k = −½ q_k.
+            let s = -0.5 * g_face_area;
+            grad[0] += s * q0;
+            grad[1] += s * q1;
+            grad[2] += s * q2;
         }
         grad
     }
@@ -206,28 +209,36 @@ pub fn reduced_volume(volume: f64, area: f64) -> f64 {
     6.0 * std::f64::consts::PI.sqrt() * volume / area.powf(1.5)
 }
 
+/// Computes the [`Corners`] of every face into `out` (resized).
+pub fn face_geometry(positions: &[DVec3], faces: &[[u32; 3]], out: &mut Vec<Corners>) {
+    out.clear();
+    out.extend(faces.iter().map(|f| {
+        let (p0, p1, p2) = corners(positions, f);
+        Corners::new(p0, p1, p2)
+    }));
+}
+
 /// Per-vertex mixed Voronoi areas A_i and cotangent Laplacians L_i, and,
 /// with `normals = Some`, area-weighted normals N_i (unnormalised),
-/// accumulated face by face. Buffers are resized and overwritten.
+/// accumulated from the faces' precomputed [`Corners`]. Buffers are resized
+/// and overwritten.
 pub fn vertex_curvature_terms(
-    positions: &[DVec3],
     faces: &[[u32; 3]],
+    geometry: &[Corners],
     areas: &mut Vec<f64>,
     laplacians: &mut Vec<DVec3>,
     mut normals: Option<&mut Vec<DVec3>>,
+    vertex_count: usize,
 ) {
-    let n = positions.len();
     areas.clear();
-    areas.resize(n, 0.0);
+    areas.resize(vertex_count, 0.0);
     laplacians.clear();
-    laplacians.resize(n, DVec3::ZERO);
+    laplacians.resize(vertex_count, DVec3::ZERO);
     if let Some(nb) = normals.as_deref_mut() {
         nb.clear();
-        nb.resize(n, DVec3::ZERO);
+        nb.resize(vertex_count, DVec3::ZERO);
     }
-    for f in faces {
-        let (p0, p1, p2) = corners(positions, f);
-        let c = Corners::new(p0, p1, p2);
+    for (f, c) in faces.iter().zip(geometry) {
         let a = c.mixed_areas();
         let l = c.laplacian();
         let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
@@ -238,16 +249,18 @@ pub fn vertex_curvature_terms(
         laplacians[i1] += l[1];
         laplacians[i2] += l[2];
         if let Some(nb) = normals.as_deref_mut() {
-            nb[i0] += c.n;
-            nb[i1] += c.n;
-            nb[i2] += c.n;
+            let n = c.n_hat * c.twice_area;
+            nb[i0] += n;
+            nb[i1] += n;
+            nb[i2] += n;
         }
     }
 }
 
 /// Mean-curvature vector K_i = L_i / (2 A_i) of every vertex.
 pub fn curvature_vectors(positions: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> {
-    let (mut a, mut l) = (Vec::new(), Vec::new());
-    vertex_curvature_terms(positions, faces, &mut a, &mut l, None);
+    let (mut a, mut l, mut g) = (Vec::new(), Vec::new(), Vec::new());
+    face_geometry(positions, faces, &mut g);
+    vertex_curvature_terms(faces, &g, &mut a, &mut l, None, positions.len());
     l.iter().zip(&a).map(|(l, a)| *l / (2.0 * a)).collect()
 }

@@ -40,17 +40,9 @@ impl Membrane {
                 }
             })
             .collect();
-        // Faces first (edges unknown yet), then edges, then wire face → edges.
-        let faces: Vec<Entity> = mesh
-            .faces
-            .iter()
-            .map(|f| {
-                world.spawn((Face {
-                    vertices: f.map(|v| vertices[v as usize]),
-                    edges: [Entity::DANGLING; 3],
-                },))
-            })
-            .collect();
+        // Reserve face and edge entities first so every component can be
+        // spawned fully wired (no per-face world lookups).
+        let faces: Vec<Entity> = world.reserve_entities(mesh.faces.len() as u32).collect();
         let mut half_edge_face: HashMap<(u32, u32), usize> =
             HashMap::with_capacity(mesh.faces.len() * 3);
         for (fi, f) in mesh.faces.iter().enumerate() {
@@ -60,6 +52,7 @@ impl Membrane {
         }
         let mut edge_of: HashMap<(u32, u32), Entity> =
             HashMap::with_capacity(mesh.faces.len() * 3 / 2);
+        let mut edges = Vec::with_capacity(mesh.faces.len() * 3 / 2);
         for f in &mesh.faces {
             for k in 0..3 {
                 let (a, b) = (f[k], f[(k + 1) % 3]);
@@ -69,22 +62,34 @@ impl Membrane {
                 }
                 let left = half_edge_face[&(a, b)];
                 let right = half_edge_face.get(&(b, a)).copied().unwrap_or(left);
-                let e = world.spawn((Edge {
-                    vertices: [vertices[a as usize], vertices[b as usize]],
-                    faces: [faces[left], faces[right]],
-                },));
+                let e = world.reserve_entity();
+                edges.push((
+                    e,
+                    Edge {
+                        vertices: [vertices[a as usize], vertices[b as usize]],
+                        faces: [faces[left], faces[right]],
+                    },
+                ));
                 edge_of.insert(key, e);
             }
         }
         for (fi, f) in mesh.faces.iter().enumerate() {
-            let edges = [0, 1, 2].map(|k| {
+            let edge = |k: usize| {
                 let (a, b) = (f[k], f[(k + 1) % 3]);
                 edge_of[&(a.min(b), a.max(b))]
-            });
-            world
-                .get::<&mut Face>(faces[fi])
-                .map(|mut face| face.edges = edges)
-                .ok();
+            };
+            let face = Face {
+                vertices: [
+                    vertices[f[0] as usize],
+                    vertices[f[1] as usize],
+                    vertices[f[2] as usize],
+                ],
+                edges: [edge(0), edge(1), edge(2)],
+            };
+            world.spawn_at(faces[fi], (face,));
+        }
+        for (e, edge) in edges {
+            world.spawn_at(e, (edge,));
         }
         let topology = Topology::build(&world, 0)?;
         Ok(Self {

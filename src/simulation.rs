@@ -1,7 +1,7 @@
 //! [`Simulation`]: a built scene: the membrane world, its force stage and
 //! the dense per-tick buffers.
 
-use crate::force::{ForceContext, ForceEvaluation, ForceSet};
+use crate::force::{ForceEvaluation, ForceSet};
 use crate::membrane::Membrane;
 use crate::topology::TopologyError;
 use glam::DVec3;
@@ -52,13 +52,13 @@ impl Simulation {
         self.membrane.topology()?;
         self.membrane.gather_positions(&mut self.positions);
         self.membrane.gather_lipid(&mut self.lipid);
-        let ctx = ForceContext {
-            world: &self.membrane.world,
-            topology: self.membrane.cached_topology(),
-            positions: &self.positions,
-            lipid: &self.lipid,
-        };
-        self.forces.evaluate(&ctx, &mut self.evaluation);
+        self.forces.evaluate(
+            &self.membrane.world,
+            self.membrane.cached_topology(),
+            &self.positions,
+            &self.lipid,
+            &mut self.evaluation,
+        );
         self.membrane.scatter_forces(&self.evaluation.total);
         Ok(&self.evaluation)
     }

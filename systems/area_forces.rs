@@ -37,10 +37,14 @@ impl ForceTerm for AreaForces {
         ForceKind::Penalty
     }
 
+    fn uses_face_geometry(&self) -> bool {
+        true
+    }
+
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
         area_penalty(
-            ctx.positions,
             &ctx.topology.faces,
+            ctx.face_geometry,
             self.k,
             self.target,
             &mut self.gradient,
@@ -50,8 +54,8 @@ impl ForceTerm for AreaForces {
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         area_penalty(
-            ctx.positions,
             &ctx.topology.faces,
+            ctx.face_geometry,
             self.k,
             self.target,
             &mut self.gradient,

@@ -29,11 +29,16 @@ impl ForceTerm for BendingForces {
         "bending"
     }
 
+    fn uses_face_geometry(&self) -> bool {
+        true
+    }
+
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
         let p = &self.params;
         bending(
-            ctx.positions,
+            ctx.positions.len(),
             &ctx.topology.faces,
+            ctx.face_geometry,
             p.kappa,
             p.c0,
             &mut self.scratch,
@@ -44,8 +49,9 @@ impl ForceTerm for BendingForces {
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         let p = &self.params;
         bending(
-            ctx.positions,
+            ctx.positions.len(),
             &ctx.topology.faces,
+            ctx.face_geometry,
             p.kappa,
             p.c0,
             &mut self.scratch,

@@ -37,10 +37,14 @@ impl ForceTerm for LocalTensionForces {
         ForceKind::Penalty
     }
 
+    fn uses_face_geometry(&self) -> bool {
+        true
+    }
+
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
         local_tension(
-            ctx.positions,
             &ctx.topology.faces,
+            ctx.face_geometry,
             ctx.lipid,
             self.k,
             self.a0,
@@ -51,8 +55,8 @@ impl ForceTerm for LocalTensionForces {
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         local_tension(
-            ctx.positions,
             &ctx.topology.faces,
+            ctx.face_geometry,
             ctx.lipid,
             self.k,
             self.a0,

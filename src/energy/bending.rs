@@ -22,23 +22,25 @@ pub struct BendingScratch {
 }
 
 /// Bending energy (Ē) for bending modulus `kappa` (Ē) and spontaneous
-/// curvature `c0` (1/l̄). With `force = Some(f)`, adds −∇H to `f`.
+/// curvature `c0` (1/l̄) of a mesh with `n` vertices, from its faces and
+/// their precomputed geometry. With `force = Some(f)`, adds −∇H to `f`.
+#[allow(clippy::too_many_arguments)]
 pub fn bending(
-    positions: &[DVec3],
+    n: usize,
     faces: &[[u32; 3]],
+    geometry: &[Corners],
     kappa: f64,
     c0: f64,
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    let n = positions.len();
     let s = scratch;
     let normals = if c0 == 0.0 {
         None
     } else {
         Some(&mut s.normals)
     };
-    vertex_curvature_terms(positions, faces, &mut s.areas, &mut s.laplacians, normals);
+    vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, normals, n);
     s.g_lap.resize(n, DVec3::ZERO);
     s.g_area.resize(n, 0.0);
     let mut energy = 0.0;
@@ -69,9 +71,8 @@ pub fn bending(
         }
     }
     if let Some(force) = force {
-        for f in faces {
+        for (f, c) in faces.iter().zip(geometry) {
             let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-            let c = Corners::new(positions[i0], positions[i1], positions[i2]);
             let grad = c.backward(
                 [s.g_lap[i0], s.g_lap[i1], s.g_lap[i2]],
                 [s.g_area[i0], s.g_area[i1], s.g_area[i2]],

@@ -47,40 +47,36 @@ pub fn volume_penalty(
     k * (volume - target).powi(2) / target
 }
 
-/// Area penalty energy; with `force`, adds −∇E_A. `gradient` is scratch.
+/// Area penalty energy from the faces' precomputed geometry; with `force`,
+/// adds −∇E_A. `gradient` is scratch.
 pub fn area_penalty(
-    positions: &[DVec3],
     faces: &[[u32; 3]],
+    geometry: &[Corners],
     k: f64,
     target: f64,
     gradient: &mut Vec<DVec3>,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
+    let twice_area: f64 = geometry.iter().map(|c| c.twice_area).sum();
+    let area = 0.5 * twice_area;
+    let energy = k * (area - target).powi(2) / target;
     let Some(force) = force else {
-        let area = crate::geometry::total_area(positions, faces);
-        return k * (area - target).powi(2) / target;
+        return energy;
     };
     // ∂(2A_f)/∂p_k = n̂ × e_k with e_k the edge opposite corner k.
     gradient.clear();
-    gradient.resize(positions.len(), DVec3::ZERO);
-    let mut twice_area = 0.0;
-    for f in faces {
+    gradient.resize(force.len(), DVec3::ZERO);
+    for (f, c) in faces.iter().zip(geometry) {
         let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-        let (p0, p1, p2) = (positions[i0], positions[i1], positions[i2]);
-        let n = (p1 - p0).cross(p2 - p0);
-        let len = n.length();
-        twice_area += len;
-        let n_hat = n / len;
-        gradient[i0] += n_hat.cross(p2 - p1);
-        gradient[i1] += n_hat.cross(p0 - p2);
-        gradient[i2] += n_hat.cross(p1 - p0);
+        gradient[i0] += c.n_hat.cross(c.e[0]);
+        gradient[i1] += c.n_hat.cross(c.e[1]);
+        gradient[i2] += c.n_hat.cross(c.e[2]);
     }
-    let area = 0.5 * twice_area;
     let g = k * (area - target) / target;
     for (f, grad) in force.iter_mut().zip(gradient.iter()) {
         *f -= g * *grad;
     }
-    k * (area - target).powi(2) / target
+    energy
 }
 
 /// Reusable buffers for [`local_tension`].
@@ -91,23 +87,24 @@ pub struct LocalTensionScratch {
 }
 
 /// Local tension energy for per-vertex lipid density `density` and target
-/// per-vertex area `a0`; with `force`, adds −∇E_a.
+/// per-vertex area `a0`, from the faces' precomputed geometry; with `force`,
+/// adds −∇E_a.
 pub fn local_tension(
-    positions: &[DVec3],
     faces: &[[u32; 3]],
+    geometry: &[Corners],
     density: &[f64],
     k: f64,
     a0: f64,
     scratch: &mut LocalTensionScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    let n = positions.len();
+    let n = density.len();
     let s = scratch;
     s.areas.clear();
     s.areas.resize(n, 0.0);
-    for f in faces {
+    for (f, c) in faces.iter().zip(geometry) {
         let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-        let a = Corners::new(positions[i0], positions[i1], positions[i2]).mixed_areas();
+        let a = c.mixed_areas();
         s.areas[i0] += a[0];
         s.areas[i1] += a[1];
         s.areas[i2] += a[2];
@@ -120,9 +117,8 @@ pub fn local_tension(
         s.g_area[i] = 2.0 * k * d / (a0 * density[i]);
     }
     if let Some(force) = force {
-        for f in faces {
+        for (f, c) in faces.iter().zip(geometry) {
             let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-            let c = Corners::new(positions[i0], positions[i1], positions[i2]);
             let grad = c.backward([DVec3::ZERO; 3], [s.g_area[i0], s.g_area[i1], s.g_area[i2]]);
             force[i0] -= grad[0];
             force[i1] -= grad[1];
@@ -141,16 +137,28 @@ pub fn smooth_over_rings(
     passes: u32,
     scratch: &mut Vec<DVec3>,
 ) {
-    for _ in 0..passes {
-        scratch.clear();
-        scratch.extend_from_slice(force);
-        for (i, f) in force.iter_mut().enumerate() {
+    if passes == 0 {
+        return;
+    }
+    let n = force.len();
+    // scratch holds the previous pass in [0, n) and 1/(1 + valence) in [n, 2n).
+    scratch.clear();
+    scratch.extend_from_slice(force);
+    scratch.extend(
+        (0..n).map(|i| DVec3::splat(1.0 / (1 + ring_offsets[i + 1] - ring_offsets[i]) as f64)),
+    );
+    let (previous, inverse_counts) = scratch.split_at_mut(n);
+    for pass in 0..passes {
+        if pass > 0 {
+            previous.copy_from_slice(force);
+        }
+        for i in 0..n {
             let (lo, hi) = (ring_offsets[i] as usize, ring_offsets[i + 1] as usize);
-            let mut sum = scratch[i];
+            let mut sum = previous[i];
             for &j in &ring[lo..hi] {
-                sum += scratch[j as usize];
+                sum += previous[j as usize];
             }
-            *f = sum / (1 + hi - lo) as f64;
+            force[i] = sum * inverse_counts[i];
         }
     }
 }

@@ -288,10 +288,10 @@ impl Segmentation {
         // breakpoint l lies on, so floor vs ceil − 1 does not matter.
         let j = (x as usize).min(self.bin_segment.len() - 1);
         let mut s = self.bin_segment[j] as usize;
-        // Segment s is (b_s, b_{s+1}].
-        if s + 1 < self.slopes.len() && l > self.breakpoints[s + 1] {
+        // Segment s is (b_s, b_{s+1}]; packed[s][0] = b_s.
+        if s + 1 < self.packed.len() && l > self.packed[s + 1][0] {
             s += 1;
-        } else if s > 0 && l <= self.breakpoints[s] {
+        } else if s > 0 && l <= self.packed[s][0] {
             s -= 1;
         }
         s
