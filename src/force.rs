@@ -152,11 +152,10 @@ impl ForceSet {
         &mut self.terms
     }
 
-    /// Evaluates every term into `out`, reusing its buffers.
-    ///
-    /// Smoothing is linear, so the penalty terms' forces are summed first and
-    /// smoothed once: the same result as smoothing each term, at a fraction
-    /// of the cost.
+    /// Evaluates every term into `out`, reusing its buffers:
+    /// [`ForceSet::begin`], [`ForceSet::evaluate_term`] for each term, then
+    /// [`ForceSet::finish`] (the schedule runs the same three steps as
+    /// separately timed systems).
     pub fn evaluate(
         &mut self,
         world: &World,
@@ -165,18 +164,66 @@ impl ForceSet {
         lipid: &[f64],
         out: &mut ForceEvaluation,
     ) {
-        let with_geometry = self.terms.iter().any(|t| t.uses_face_geometry());
-        let ctx = ForceContext::new(
+        self.begin(topology, positions, out);
+        for i in 0..self.terms.len() {
+            self.evaluate_term(i, world, topology, positions, lipid, out);
+        }
+        self.finish(topology, out);
+    }
+
+    /// Number of terms.
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// Whether there are no terms.
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// Sizes `out` for `positions` and computes the shared per-face
+    /// geometry if any term uses it.
+    pub fn begin(&mut self, topology: &Topology, positions: &[DVec3], out: &mut ForceEvaluation) {
+        let n = positions.len();
+        out.energies.clear();
+        out.energies.resize(self.terms.len(), 0.0);
+        out.term_forces.resize_with(self.terms.len(), Vec::new);
+        for buf in &mut out.term_forces {
+            buf.clear();
+            buf.resize(n, DVec3::ZERO);
+        }
+        if self.terms.iter().any(|t| t.uses_face_geometry()) {
+            face_geometry(positions, &topology.faces, &mut self.geometry);
+        } else {
+            self.geometry.clear();
+        }
+    }
+
+    /// Evaluates term `index` into `out.term_forces[index]` and
+    /// `out.energies[index]` (after [`ForceSet::begin`]).
+    pub fn evaluate_term(
+        &mut self,
+        index: usize,
+        world: &World,
+        topology: &Topology,
+        positions: &[DVec3],
+        lipid: &[f64],
+        out: &mut ForceEvaluation,
+    ) {
+        let ctx = ForceContext {
             world,
             topology,
             positions,
             lipid,
-            &mut self.geometry,
-            with_geometry,
-        );
-        let n = positions.len();
-        out.energies.clear();
-        out.term_forces.resize_with(self.terms.len(), Vec::new);
+            face_geometry: &self.geometry,
+        };
+        out.energies[index] = self.terms[index].accumulate(&ctx, &mut out.term_forces[index]);
+    }
+
+    /// Sums the term forces into `out.total`; penalty terms are summed first
+    /// and smoothed once (smoothing is linear, so this equals smoothing each).
+    pub fn finish(&mut self, topology: &Topology, out: &mut ForceEvaluation) {
+        let n = out.term_forces.first().map_or(0, Vec::len);
         out.total.clear();
         out.total.resize(n, DVec3::ZERO);
         out.smoothed_penalty.clear();
@@ -184,29 +231,25 @@ impl ForceSet {
         if has_penalty {
             out.smoothed_penalty.resize(n, DVec3::ZERO);
         }
-        for (term, buf) in self.terms.iter_mut().zip(out.term_forces.iter_mut()) {
-            buf.clear();
-            buf.resize(n, DVec3::ZERO);
-            out.energies.push(term.accumulate(&ctx, buf));
+        for (term, buf) in self.terms.iter().zip(&out.term_forces) {
             let sum = if term.kind() == ForceKind::Penalty {
                 &mut out.smoothed_penalty
             } else {
                 &mut out.total
             };
-            for (t, f) in sum.iter_mut().zip(buf.iter()) {
+            for (t, f) in sum.iter_mut().zip(buf) {
                 *t += *f;
             }
         }
         if has_penalty {
-            let t = topology;
             crate::energy::penalty::smooth_over_rings(
                 &mut out.smoothed_penalty,
-                &t.ring_offsets,
-                &t.ring,
+                &topology.ring_offsets,
+                &topology.ring,
                 self.penalty_smoothing,
                 &mut self.scratch,
             );
-            for (t, f) in out.total.iter_mut().zip(out.smoothed_penalty.iter()) {
+            for (t, f) in out.total.iter_mut().zip(&out.smoothed_penalty) {
                 *t += *f;
             }
         }

@@ -33,9 +33,11 @@ pub mod params;
 pub mod quality;
 pub mod report;
 pub mod scene;
+pub mod schedule;
 pub mod simulation;
 #[path = "../systems/mod.rs"]
 pub mod systems;
+pub mod timestep;
 pub mod validate;
 
 #[doc = include_str!("../README.md")]

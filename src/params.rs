@@ -147,3 +147,61 @@ fn default_k_area() -> f64 {
 fn default_k_local() -> f64 {
     12.0
 }
+
+/// Overdamped Langevin dynamics and run length.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DynamicsParams {
+    /// μ, vertex mobility (l̄²/(Ē·s); default 1000 as run; paper table: 100).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub mobility: f64,
+    /// k_BT of the thermal noise (Ē; default 0 as run; 0.1 = 300 K).
+    #[serde(deserialize_with = "crate::validate::non_negative")]
+    pub temperature: f64,
+    /// dt_max, cap of the adaptive time step (s; default 0.005).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub dt_max: f64,
+    /// s_max, largest displacement μ|F|Δt of any vertex per step (l̄;
+    /// default 10, i.e. effectively off, as run; tether phases use 0.01).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub max_displacement: f64,
+    /// Number of iterations (accepted ticks) of a run (default 1000).
+    pub iterations: u64,
+    /// Number of frames written over a run, evenly spaced, plus the initial
+    /// state (default 20; 0 = initial and final only).
+    pub frames: u32,
+}
+
+impl Default for DynamicsParams {
+    fn default() -> Self {
+        Self {
+            mobility: 1000.0,
+            temperature: 0.0,
+            dt_max: 0.005,
+            max_displacement: 10.0,
+            iterations: 1000,
+            frames: 20,
+        }
+    }
+}
+
+/// Barrier-crossing triggers (remeshing itself comes with the remesh stage).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RemeshParams {
+    /// l_−: an edge shorter than this crossed the near barrier (l̄; default 0.7).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub shorter_than: f64,
+    /// l_+: an edge longer than this crossed the far barrier (l̄; default 1.3).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub longer_than: f64,
+}
+
+impl Default for RemeshParams {
+    fn default() -> Self {
+        Self {
+            shorter_than: 0.7,
+            longer_than: 1.3,
+        }
+    }
+}

@@ -3,7 +3,7 @@
 
 use crate::geometry::{enclosed_volume, reduced_volume, total_area};
 use crate::quality::MeshQuality;
-use crate::simulation::Simulation;
+use crate::simulation::SimState;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -43,8 +43,8 @@ pub struct EnergyReport {
 
 impl EnergyReport {
     /// Summarises the last force evaluation of `sim` (call
-    /// [`Simulation::evaluate_forces`] first).
-    pub fn new(scene: &str, sim: &Simulation) -> Self {
+    /// [`crate::simulation::Simulation::evaluate_forces`] first).
+    pub fn new(scene: &str, sim: &SimState) -> Self {
         let t = sim.membrane.cached_topology();
         let p = &sim.positions;
         let area = total_area(p, &t.faces);
@@ -108,7 +108,7 @@ impl EnergyReport {
 /// each term (its exact −∇E), `smoothed_penalty_fx,…` when the scene has
 /// penalty terms (their sum after 1-ring smoothing), and `total_fx,…`, the
 /// force the dynamics uses (Ē/l̄).
-pub fn forces_csv(sim: &Simulation) -> String {
+pub fn forces_csv(sim: &SimState) -> String {
     let ev = &sim.evaluation;
     let mut names = sim.forces.names();
     if !ev.smoothed_penalty.is_empty() {

@@ -14,7 +14,10 @@ use crate::mesh::io::{MeshIoError, read_mesh};
 use crate::mesh::{
     MAX_ICOSPHERE_LEVEL, MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere,
 };
-use crate::params::{AreaParams, BendingParams, LocalTensionParams, SpringParams, VolumeParams};
+use crate::params::{
+    AreaParams, BendingParams, DynamicsParams, LocalTensionParams, RemeshParams, SpringParams,
+    VolumeParams,
+};
 use crate::simulation::{InitialState, Simulation};
 use crate::systems::{
     AreaForces, BendingForces, LocalTensionForces, SpringForces, VinForces, VolumeForces,
@@ -54,6 +57,12 @@ pub struct Scene {
     /// Fixed control points (used by the `Springs` term).
     #[serde(default)]
     pub control_points: Vec<ControlPointSpec>,
+    /// Dynamics: mobility, temperature, time-step limits, run length, frames.
+    #[serde(default)]
+    pub dynamics: DynamicsParams,
+    /// Barrier-crossing triggers l_− and l_+.
+    #[serde(default)]
+    pub remesh: RemeshParams,
 }
 
 fn default_seed() -> u64 {
@@ -390,10 +399,13 @@ impl Scene {
             Membrane::from_mesh(&mesh, self.lipid_density).map_err(|e| invalid(e.to_string()))?;
         let mut forces = ForceSet::new(self.penalty_smoothing);
         let mut spring_stiffness = SpringParams::default().stiffness;
+        let mut segmentation = None;
         for term in &self.energy {
             let system: Box<dyn crate::force::ForceTerm> = match *term {
                 EnergyTerm::Vin(p) => {
-                    Box::new(VinForces::new(Arc::new(Segmentation::new(p)), p.form))
+                    let seg = Arc::new(Segmentation::new(p));
+                    segmentation = Some(seg.clone());
+                    Box::new(VinForces::new(seg, p.form))
                 }
                 EnergyTerm::Bending(p) => Box::new(BendingForces::new(p)),
                 EnergyTerm::Volume(p) => {
@@ -420,6 +432,11 @@ impl Scene {
                 stiffness: cp.stiffness.unwrap_or(spring_stiffness),
             });
         }
-        Ok(Simulation::new(membrane, forces, initial))
+        let mut sim = Simulation::new(membrane, forces, initial);
+        sim.state.dynamics = self.dynamics;
+        sim.state.remesh = self.remesh;
+        sim.state.segmentation = segmentation;
+        sim.state.seed = self.seed;
+        Ok(sim)
     }
 }

@@ -297,6 +297,37 @@ impl Segmentation {
         s
     }
 
+    /// Midpoint of segment `s` (l̄).
+    #[inline]
+    pub fn midpoint(&self, s: usize) -> f64 {
+        0.5 * (self.breakpoints[s] + self.breakpoints[s + 1])
+    }
+
+    /// Where an edge in segment `s` may extend to in one step: the midpoint
+    /// of segment s+1 (past the last segment: half its width beyond the end).
+    #[inline]
+    pub fn midpoint_above(&self, s: usize) -> f64 {
+        let last = self.slopes.len() - 1;
+        if s < last {
+            self.midpoint(s + 1)
+        } else {
+            let b = &self.breakpoints;
+            b[last + 1] + 0.5 * (b[last + 1] - b[last])
+        }
+    }
+
+    /// Where an edge in segment `s` may shrink to in one step: the midpoint of
+    /// segment s−1 (below the first segment: half its width before it, ≥ 0).
+    #[inline]
+    pub fn midpoint_below(&self, s: usize) -> f64 {
+        if s > 0 {
+            self.midpoint(s - 1)
+        } else {
+            let b = &self.breakpoints;
+            (b[0] - 0.5 * (b[1] - b[0])).max(0.0)
+        }
+    }
+
     /// Piecewise-linear V_in(l) and its slope dV/dl (Ē, Ē/l̄).
     #[inline(always)]
     pub fn linear(&self, l: f64) -> (f64, f64) {

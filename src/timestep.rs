@@ -1,0 +1,98 @@
+//! The adaptive time-step controller (SPEC §3).
+//!
+//! For an edge (a, b) with d = r_b − r_a of length l in V_in segment s and
+//! B = 2μ d·(F_b − F_a) (the rate of change of l² under the forces), the
+//! edge may move at most to the midpoint of a neighbouring segment:
+//! Δt_e = (l_±² − l²)/B with l_+ the midpoint of segment s+1 when B > 0 and
+//! l_− the midpoint of segment s−1 when B < 0; B = 0 gives ∞. The tick's
+//! step is Δt = min(dt_max, min_e Δt_e, s_max / max_i |μF_i|).
+
+use crate::energy::vin::Segmentation;
+use glam::DVec3;
+
+/// What limited the chosen time step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub enum Limiter {
+    /// The cap dt_max.
+    #[default]
+    Cap,
+    /// An edge would otherwise cross more than one V_in segment (edge slot).
+    Edge(u32),
+    /// A vertex would otherwise move more than s_max (vertex slot).
+    Displacement(u32),
+}
+
+/// A chosen time step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct TimeStepChoice {
+    /// The step (s).
+    pub dt: f64,
+    /// What limited it.
+    pub limiter: Limiter,
+}
+
+/// Time step allowed by one edge of length `l` whose squared length changes
+/// at rate `b` = 2μ d·(F_b − F_a) (l̄²/s). Always > 0; ∞ when `b` = 0.
+#[inline]
+pub fn edge_time_step(segmentation: &Segmentation, l: f64, b: f64) -> f64 {
+    if b == 0.0 || b.is_nan() {
+        return f64::INFINITY;
+    }
+    let s = segmentation.segment_of(l);
+    let target = if b > 0.0 {
+        segmentation.midpoint_above(s)
+    } else {
+        segmentation.midpoint_below(s)
+    };
+    let dt = (target * target - l * l) / b;
+    // Round-off at a breakpoint can make the numerator vanish: never stall.
+    if dt > 0.0 { dt } else { f64::INFINITY }
+}
+
+/// Chooses Δt for the current forces. `segmentation = None` (no V_in in the
+/// scene) skips the edge criterion.
+pub fn choose_time_step(
+    segmentation: Option<&Segmentation>,
+    edges: &[[u32; 2]],
+    positions: &[DVec3],
+    forces: &[DVec3],
+    mobility: f64,
+    dt_max: f64,
+    max_displacement: f64,
+) -> TimeStepChoice {
+    let mut choice = TimeStepChoice {
+        dt: dt_max,
+        limiter: Limiter::Cap,
+    };
+    if let Some(seg) = segmentation {
+        for (e, &[a, b]) in edges.iter().enumerate() {
+            let (a, b) = (a as usize, b as usize);
+            let d = positions[b] - positions[a];
+            let rate = 2.0 * mobility * d.dot(forces[b] - forces[a]);
+            let dt = edge_time_step(seg, d.length(), rate);
+            if dt < choice.dt {
+                choice = TimeStepChoice {
+                    dt,
+                    limiter: Limiter::Edge(e as u32),
+                };
+            }
+        }
+    }
+    let mut max_force = 0.0f64;
+    let mut argmax = 0;
+    for (i, f) in forces.iter().enumerate() {
+        let m = f.length_squared();
+        if m > max_force {
+            max_force = m;
+            argmax = i;
+        }
+    }
+    let speed = mobility * max_force.sqrt();
+    if speed > 0.0 && max_displacement / speed < choice.dt {
+        choice = TimeStepChoice {
+            dt: max_displacement / speed,
+            limiter: Limiter::Displacement(argmax as u32),
+        };
+    }
+    choice
+}
