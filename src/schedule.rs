@@ -242,16 +242,10 @@ impl ScheduleBuilder {
             if seen.insert(name.clone(), ()).is_some() {
                 return Err(ScheduleError::DuplicateName(name));
             }
-            if e.stage == Stage::Forces {
-                if let Some(&data) = e
-                    .system
-                    .access()
-                    .writes
-                    .iter()
-                    .find(|d| **d != Data::ForceAccumulators)
-                {
-                    return Err(ScheduleError::ForceSystemWrites { system: name, data });
-                }
+            let access = e.system.access();
+            let forbidden = access.writes.iter().find(|d| **d != Data::ForceAccumulators);
+            if let (Stage::Forces, Some(&data)) = (e.stage, forbidden) {
+                return Err(ScheduleError::ForceSystemWrites { system: name, data });
             }
         }
         let mut entries = self.entries;
