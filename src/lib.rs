@@ -6,6 +6,7 @@ pub mod energy;
 pub mod geometry;
 pub mod membrane;
 pub mod mesh;
+pub mod output;
 pub mod topology;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
@@ -32,6 +33,7 @@ pub mod params;
 
 pub mod quality;
 pub mod report;
+pub mod run;
 pub mod scene;
 pub mod schedule;
 pub mod simulation;

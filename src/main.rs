@@ -16,6 +16,34 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run a scene and write frames, series, summary and the final mesh.
+    /// Without a scene, runs the bundled red-blood-cell scene.
+    Run {
+        /// Scene file (RON); default: the bundled red_blood_cell.ron.
+        scene: Option<PathBuf>,
+        /// Output directory (default: out/<scene name>, or out/<name>.N if
+        /// that exists).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Replace the output directory if it exists.
+        #[arg(long)]
+        overwrite: bool,
+        /// Seed (overrides the scene's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Iterations (overrides the scene's).
+        #[arg(long)]
+        iterations: Option<u64>,
+        /// Worker threads (default: all cores). Results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Frames to write (overrides the scene's).
+        #[arg(long)]
+        frames: Option<u32>,
+        /// No progress output.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Validate a scene and print what it declares.
     Check {
         /// Scene file (RON).
@@ -35,19 +63,164 @@ enum Command {
     },
 }
 
+/// The scene `remembrane run` uses when none is given.
+const BUNDLED_SCENE: &str = include_str!("../scenes/red_blood_cell.ron");
+const BUNDLED_SCENE_NAME: &str = "bundled:red_blood_cell.ron";
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(cli.command) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::from(2)
+    match cli.command {
+        Command::Run {
+            scene,
+            out,
+            overwrite,
+            seed,
+            iterations,
+            threads,
+            frames,
+            quiet,
+        } => {
+            let options = RunArgs {
+                out,
+                overwrite,
+                seed,
+                iterations,
+                threads,
+                frames,
+                quiet,
+            };
+            run_command(scene.as_deref(), options)
+        }
+        other => match run(other) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(message) => {
+                eprintln!("error: {message}");
+                ExitCode::from(2)
+            }
+        },
+    }
+}
+
+struct RunArgs {
+    out: Option<PathBuf>,
+    overwrite: bool,
+    seed: Option<u64>,
+    iterations: Option<u64>,
+    threads: Option<usize>,
+    frames: Option<u32>,
+    quiet: bool,
+}
+
+fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
+    use remembrane::run::{Progress, RunOptions, run_scene};
+    use std::io::IsTerminal;
+    let loaded = match scene_path {
+        Some(p) => Scene::load(p).map(|s| (s, p.to_path_buf())),
+        None => Scene::from_ron_str(BUNDLED_SCENE, Path::new(BUNDLED_SCENE_NAME))
+            .map(|s| (s, PathBuf::from(BUNDLED_SCENE_NAME))),
+    };
+    let (scene, path) = match loaded {
+        Ok(x) => x,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let pool = args.threads.map(|n| {
+        (
+            n,
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global(),
+        )
+    });
+    if let Some((n, Err(e))) = pool {
+        eprintln!("error: --threads {n}: {e}");
+        return ExitCode::from(2);
+    }
+    let name = scene_name(&scene, &path);
+    let out = args
+        .out
+        .unwrap_or_else(|| free_directory(Path::new("out").join(&name)));
+    let progress = if args.quiet {
+        Progress::Quiet
+    } else if std::io::stderr().is_terminal() {
+        Progress::Bar
+    } else {
+        Progress::Lines
+    };
+    let options = RunOptions {
+        out,
+        overwrite: args.overwrite,
+        seed: args.seed,
+        iterations: args.iterations,
+        frames: args.frames,
+        progress,
+    };
+    match run_scene(&scene, &path, &options, |_| Ok(())) {
+        Ok(summary) => {
+            if !args.quiet {
+                eprintln!(
+                    "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}, V = {:.3}, v = {:.4}",
+                    summary.scene,
+                    summary.iterations,
+                    summary.simulated_time,
+                    summary.wall_time_s,
+                    summary.total_energy,
+                    summary.area,
+                    summary.volume,
+                    summary.reduced_volume
+                );
+                eprintln!("outputs in {}", options.out.display());
+                let table = summary_table(&summary.timings);
+                eprint!("{table}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {}: {e}", path.display());
+            ExitCode::from(e.exit_code())
         }
     }
 }
 
+/// `base`, or `base.1`, `base.2`, … whichever does not exist yet, so a new
+/// run never mixes with an earlier one.
+fn free_directory(base: PathBuf) -> PathBuf {
+    if !base.exists() {
+        return base;
+    }
+    (1..)
+        .map(|k| {
+            let mut p = base.clone().into_os_string();
+            p.push(format!(".{k}"));
+            PathBuf::from(p)
+        })
+        .find(|p| !p.exists())
+        .unwrap_or(base)
+}
+
+fn summary_table(timings: &[remembrane::schedule::SystemTiming]) -> String {
+    let mut s = format!(
+        "{:<24} {:<13} {:>10} {:>12} {:>7}\n",
+        "system", "stage", "total s", "µs/tick", "share"
+    );
+    for t in timings {
+        s += &format!(
+            "{:<24} {:<13} {:>10.3} {:>12.2} {:>6.1}%\n",
+            t.system,
+            t.stage,
+            t.total_s,
+            t.per_tick_us,
+            100.0 * t.share
+        );
+    }
+    s
+}
+
 fn run(command: Command) -> Result<(), String> {
     match command {
+        Command::Run { .. } => unreachable!("handled in main"),
         Command::Check { scene } => check(&scene),
         Command::Energy {
             scene,

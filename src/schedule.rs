@@ -243,7 +243,10 @@ impl ScheduleBuilder {
                 return Err(ScheduleError::DuplicateName(name));
             }
             let access = e.system.access();
-            let forbidden = access.writes.iter().find(|d| **d != Data::ForceAccumulators);
+            let forbidden = access
+                .writes
+                .iter()
+                .find(|d| **d != Data::ForceAccumulators);
             if let (Stage::Forces, Some(&data)) = (e.stage, forbidden) {
                 return Err(ScheduleError::ForceSystemWrites { system: name, data });
             }

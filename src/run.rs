@@ -1,0 +1,288 @@
+//! Running a scene to completion with outputs: the driver behind
+//! `remembrane run`.
+
+use crate::output::{OutputError, RunOutput};
+use crate::quality::MeshQuality;
+use crate::report::TermEnergy;
+use crate::scene::{Scene, SceneError};
+use crate::schedule::SystemTiming;
+use crate::simulation::{SimError, Simulation};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How a run reports progress.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// A progress bar with iterations/s and ETA (terminals).
+    Bar,
+    /// A plain line every 10 % (logs, pipes).
+    Lines,
+    /// Nothing.
+    Quiet,
+}
+
+/// Options of a run; `None` keeps the scene's value.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Output directory.
+    pub out: PathBuf,
+    /// Replace an existing output directory.
+    pub overwrite: bool,
+    /// Override the scene's seed.
+    pub seed: Option<u64>,
+    /// Override the number of iterations.
+    pub iterations: Option<u64>,
+    /// Override the number of frames.
+    pub frames: Option<u32>,
+    /// Progress reporting.
+    pub progress: Progress,
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// All iterations done.
+    Completed,
+    /// Stopped by a non-finite value; the last frame is the last good state.
+    BlewUp,
+}
+
+/// `summary.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RunSummary {
+    /// Scene name.
+    pub scene: String,
+    /// Scene file.
+    pub scene_file: String,
+    /// Seed used.
+    pub seed: u64,
+    /// How the run ended.
+    pub status: RunStatus,
+    /// The error that stopped the run, if any.
+    pub error: Option<String>,
+    /// The last frame written, i.e. the last good state (relative path).
+    pub last_good_frame: Option<String>,
+    /// Iterations done.
+    pub iterations: u64,
+    /// Simulated time (s).
+    pub simulated_time: f64,
+    /// Wall time of the whole run (s).
+    pub wall_time_s: f64,
+    /// Final vertex count.
+    pub vertices: usize,
+    /// Final energies by term (Ē).
+    pub energies: Vec<TermEnergy>,
+    /// Final total energy (Ē).
+    pub total_energy: f64,
+    /// Final area (l̄²).
+    pub area: f64,
+    /// Final volume (l̄³).
+    pub volume: f64,
+    /// Final reduced volume.
+    pub reduced_volume: f64,
+    /// Final mesh quality.
+    pub quality: MeshQuality,
+    /// Edges outside [l_−, l_+] at the end.
+    pub abnormal_edges: usize,
+    /// Frames written.
+    pub frames: Vec<crate::output::FrameRecord>,
+    /// Wall time per system.
+    pub timings: Vec<SystemTiming>,
+}
+
+/// A run that could not start or finish.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The scene is invalid.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// Outputs could not be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The simulation stopped; the outputs up to then are in `dir`.
+    #[error("{source} (outputs up to the last good frame are in {})", dir.display())]
+    Stopped {
+        /// The simulation error.
+        source: SimError,
+        /// The run directory.
+        dir: PathBuf,
+    },
+    /// The simulation could not start (e.g. an invalid schedule).
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
+
+impl From<crate::topology::TopologyError> for RunError {
+    fn from(e: crate::topology::TopologyError) -> Self {
+        RunError::Sim(SimError::Topology(e))
+    }
+}
+
+impl RunError {
+    /// Exit code: 2 for bad input, 1 for a run that failed.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RunError::Scene(_) => 2,
+            RunError::Output(OutputError::Exists(_)) => 2,
+            _ => 1,
+        }
+    }
+}
+
+/// Builds `scene` (from `scene_path`) and runs it with `options`, writing all
+/// outputs. `customize` may add systems before the first tick.
+pub fn run_scene(
+    scene: &Scene,
+    scene_path: &Path,
+    options: &RunOptions,
+    customize: impl FnOnce(&mut Simulation) -> Result<(), SimError>,
+) -> Result<RunSummary, RunError> {
+    let started = Instant::now();
+    let mut scene = scene.clone();
+    if let Some(seed) = options.seed {
+        scene.seed = seed;
+    }
+    if let Some(n) = options.iterations {
+        scene.dynamics.iterations = n;
+    }
+    if let Some(f) = options.frames {
+        scene.dynamics.frames = f;
+    }
+    let name = if scene.name.is_empty() {
+        scene_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    } else {
+        scene.name.clone()
+    };
+    let mut sim = scene.build(scene_path)?;
+    customize(&mut sim)?;
+    sim.start()?;
+    let mut out = RunOutput::create(&options.out, options.overwrite)?;
+
+    let iterations = scene.dynamics.iterations;
+    let interval = if scene.dynamics.frames == 0 {
+        u64::MAX
+    } else {
+        iterations.div_ceil(scene.dynamics.frames as u64).max(1)
+    };
+    sim.evaluate_forces()?;
+    out.write_frame(&name, &sim.state)?;
+
+    let bar = progress_bar(options.progress, iterations);
+    let mut stop: Option<SimError> = None;
+    let mut next_line = iterations / 10;
+    while sim.state.clock.iteration < iterations {
+        if let Err(e) = sim.tick() {
+            stop = Some(e);
+            break;
+        }
+        let it = sim.state.clock.iteration;
+        if it % interval == 0 || it == iterations {
+            sim.evaluate_forces()?;
+            out.write_frame(&name, &sim.state)?;
+        }
+        if let Some(b) = &bar {
+            b.set_position(it);
+        } else if options.progress == Progress::Lines && it >= next_line && iterations >= 10 {
+            eprintln!(
+                "{name}: iteration {it}/{iterations} ({:.0} s)",
+                started.elapsed().as_secs_f64()
+            );
+            next_line += iterations / 10;
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    // Final state: a fresh evaluation at the last good positions.
+    if stop.is_none() {
+        sim.evaluate_forces()?;
+    } else {
+        // Positions in the world are the last good ones (integration checks
+        // before writing back); re-gather without the failing forces.
+        let s = &mut sim.state;
+        s.membrane.topology()?;
+        s.membrane.gather_positions(&mut s.positions);
+    }
+    let summary = summarize(
+        &name,
+        &scene,
+        scene_path,
+        &sim,
+        &out,
+        stop.as_ref(),
+        started,
+    );
+    let json =
+        serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
+    let mesh = sim.state.membrane.to_mesh()?;
+    let lipid = sim.state.lipid.clone();
+    let dir = out.finish(&json, &mesh, &lipid)?;
+    match stop {
+        None => Ok(summary),
+        Some(source) => Err(RunError::Stopped { source, dir }),
+    }
+}
+
+fn progress_bar(progress: Progress, iterations: u64) -> Option<indicatif::ProgressBar> {
+    if progress != Progress::Bar {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new(iterations);
+    let style = indicatif::ProgressStyle::with_template(
+        "{bar:40} {pos}/{len} iterations  {per_sec}  ETA {eta}",
+    )
+    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
+    bar.set_style(style);
+    Some(bar)
+}
+
+fn summarize(
+    name: &str,
+    scene: &Scene,
+    scene_path: &Path,
+    sim: &Simulation,
+    out: &RunOutput,
+    stop: Option<&SimError>,
+    started: Instant,
+) -> RunSummary {
+    let s = &sim.state;
+    let t = s.membrane.cached_topology();
+    let area = crate::geometry::total_area(&s.positions, &t.faces);
+    let volume = crate::geometry::enclosed_volume(&s.positions, &t.faces, s.positions[0]);
+    let energies: Vec<TermEnergy> = s
+        .forces
+        .names()
+        .into_iter()
+        .zip(&s.evaluation.energies)
+        .map(|(term, &energy)| TermEnergy { term, energy })
+        .collect();
+    RunSummary {
+        scene: name.to_string(),
+        scene_file: scene_path.display().to_string(),
+        seed: scene.seed,
+        status: if stop.is_some() {
+            RunStatus::BlewUp
+        } else {
+            RunStatus::Completed
+        },
+        error: stop.map(|e| e.to_string()),
+        last_good_frame: out.frames.last().map(|f| f.file.clone()),
+        iterations: s.clock.iteration,
+        simulated_time: s.clock.time,
+        wall_time_s: started.elapsed().as_secs_f64(),
+        vertices: t.vertex_count(),
+        total_energy: energies.iter().map(|e| e.energy).sum(),
+        energies,
+        area,
+        volume,
+        reduced_volume: crate::geometry::reduced_volume(volume, area),
+        quality: MeshQuality::measure(t, &s.positions),
+        abnormal_edges: s.abnormal_edges.len(),
+        frames: out.frames.clone(),
+        timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),
+    }
+}

@@ -1,0 +1,442 @@
+//! The schedule, the adaptive time step, integration, determinism, a short
+//! red-blood-cell run, blow-up reporting and frames read by VTK itself.
+
+use glam::DVec3;
+use remembrane::energy::vin::{Segmentation, VinParams};
+use remembrane::mesh::icosphere;
+use remembrane::run::{Progress, RunOptions, run_scene};
+use remembrane::scene::Scene;
+use remembrane::schedule::{Access, Data, ScheduleBuilder, ScheduleError, Stage, System};
+use remembrane::simulation::{SimError, SimState, Simulation};
+use remembrane::timestep::{Limiter, choose_time_step, edge_time_step};
+use std::path::{Path, PathBuf};
+
+fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+fn rbc() -> Simulation {
+    let path = scene_path("red_blood_cell.ron");
+    Scene::load(&path).unwrap().build(&path).unwrap()
+}
+
+struct Named(&'static str, Access);
+
+impl System for Named {
+    fn name(&self) -> &str {
+        self.0
+    }
+    fn access(&self) -> Access {
+        self.1.clone()
+    }
+    fn run(&mut self, _: &mut SimState) -> Result<(), SimError> {
+        Ok(())
+    }
+}
+
+fn sys(name: &'static str) -> Box<dyn System> {
+    Box::new(Named(name, Access::default()))
+}
+
+#[test]
+fn schedule_validation_errors() {
+    let mut b = ScheduleBuilder::new();
+    b.add(Stage::Prepare, sys("a"));
+    b.add(Stage::Observe, sys("a"));
+    assert_eq!(
+        b.build().err(),
+        Some(ScheduleError::DuplicateName("a".into()))
+    );
+
+    let mut b = ScheduleBuilder::new();
+    b.add(Stage::Prepare, sys("a")).after("nowhere");
+    assert!(matches!(
+        b.build().err(),
+        Some(ScheduleError::UnknownOrderTarget { .. })
+    ));
+
+    // Ordering constraints do not cross stages.
+    let mut b = ScheduleBuilder::new();
+    b.add(Stage::Prepare, sys("a"));
+    b.add(Stage::Observe, sys("b")).after("a");
+    assert!(matches!(
+        b.build().err(),
+        Some(ScheduleError::UnknownOrderTarget { .. })
+    ));
+
+    let mut b = ScheduleBuilder::new();
+    b.add(Stage::Remesh, sys("a")).before("b");
+    b.add(Stage::Remesh, sys("b")).before("c");
+    b.add(Stage::Remesh, sys("c")).before("a");
+    match b.build().err() {
+        Some(ScheduleError::Cycle { stage, systems }) => {
+            assert_eq!(stage, "Remesh");
+            assert!(systems.contains('a') && systems.contains('c'));
+        }
+        other => panic!("expected a cycle, got {other:?}"),
+    }
+
+    let mut b = ScheduleBuilder::new();
+    b.add(
+        Stage::Forces,
+        Box::new(Named("sneaky", Access::new(&[], &[Data::Positions]))),
+    );
+    assert_eq!(
+        b.build().err(),
+        Some(ScheduleError::ForceSystemWrites {
+            system: "sneaky".into(),
+            data: Data::Positions
+        })
+    );
+
+    let mut b = ScheduleBuilder::new();
+    assert!(matches!(
+        b.add_named("Forcez", sys("x")).err(),
+        Some(ScheduleError::UnknownStage(_))
+    ));
+}
+
+#[test]
+fn schedule_orders_within_stages_and_keeps_registration_order() {
+    let mut b = ScheduleBuilder::new();
+    b.add(Stage::Observe, sys("late"));
+    b.add(Stage::Prepare, sys("p1"));
+    b.add(Stage::Prepare, sys("p2")).before("p1");
+    b.add(Stage::Prepare, sys("p3"));
+    let order: Vec<String> = b
+        .build()
+        .unwrap()
+        .order()
+        .into_iter()
+        .map(|(_, n)| n)
+        .collect();
+    assert_eq!(order, ["p2", "p1", "p3", "late"]);
+}
+
+#[test]
+fn invalid_user_schedule_fails_before_tick_zero() {
+    let mut sim = rbc();
+    sim.add_system(
+        Stage::Forces,
+        Box::new(Named("bad", Access::new(&[], &[Data::Clock]))),
+    )
+    .unwrap();
+    let before = sim.state.positions.clone();
+    assert!(matches!(
+        sim.tick(),
+        Err(SimError::Schedule(ScheduleError::ForceSystemWrites { .. }))
+    ));
+    assert_eq!(sim.state.clock.iteration, 0);
+    assert_eq!(sim.state.positions, before);
+}
+
+#[test]
+fn time_step_controller_moves_no_edge_past_the_next_segment() {
+    let seg = Segmentation::new(VinParams::default());
+    let mut mesh = icosphere(2, 1.0);
+    mesh.jitter(0.3, 5);
+    let edges = mesh.edges();
+    let mobility = 1000.0;
+    // Pseudo-random forces of O(1) Ē/l̄.
+    let forces: Vec<DVec3> = (0..mesh.vertex_count())
+        .map(|i| {
+            let x = i as f64;
+            DVec3::new((x * 1.3).sin(), (x * 0.7).cos(), (x * 2.1).sin() * 0.5)
+        })
+        .collect();
+    let choice = choose_time_step(
+        Some(&seg),
+        &edges,
+        &mesh.positions,
+        &forces,
+        mobility,
+        1e9,
+        1e9,
+    );
+    assert!(matches!(choice.limiter, Limiter::Edge(_)));
+    let moved: Vec<DVec3> = mesh
+        .positions
+        .iter()
+        .zip(&forces)
+        .map(|(p, f)| *p + mobility * choice.dt * *f)
+        .collect();
+    for &[a, b] in &edges {
+        let before =
+            seg.segment_of(mesh.positions[a as usize].distance(mesh.positions[b as usize]));
+        let after = seg.segment_of(moved[a as usize].distance(moved[b as usize]));
+        assert!(
+            after.abs_diff(before) <= 1,
+            "edge ({a},{b}) jumped from segment {before} to {after}"
+        );
+    }
+    // Halving the forces doubles the step (the criterion is linear in F).
+    let half: Vec<DVec3> = forces.iter().map(|f| 0.5 * *f).collect();
+    let c2 = choose_time_step(
+        Some(&seg),
+        &edges,
+        &mesh.positions,
+        &half,
+        mobility,
+        1e9,
+        1e9,
+    );
+    assert!((c2.dt / choice.dt - 2.0).abs() < 1e-9);
+
+    // B = 0 never limits; caps are respected.
+    assert_eq!(edge_time_step(&seg, 1.0, 0.0), f64::INFINITY);
+    let zero = vec![DVec3::ZERO; mesh.vertex_count()];
+    let c = choose_time_step(
+        Some(&seg),
+        &edges,
+        &mesh.positions,
+        &zero,
+        mobility,
+        0.005,
+        10.0,
+    );
+    assert_eq!((c.dt, c.limiter), (0.005, Limiter::Cap));
+    let c = choose_time_step(
+        Some(&seg),
+        &edges,
+        &mesh.positions,
+        &forces,
+        mobility,
+        0.005,
+        1e-6,
+    );
+    assert!(matches!(c.limiter, Limiter::Displacement(_)));
+    let max_step = forces
+        .iter()
+        .map(|f| mobility * c.dt * f.length())
+        .fold(0.0, f64::max);
+    assert!(max_step <= 1e-6 * (1.0 + 1e-12));
+    // Without V_in only the caps apply.
+    let c = choose_time_step(
+        None,
+        &edges,
+        &mesh.positions,
+        &forces,
+        mobility,
+        0.005,
+        10.0,
+    );
+    assert_eq!(c.dt, 0.005);
+}
+
+#[test]
+fn time_step_targets_the_neighbouring_midpoints() {
+    let seg = Segmentation::new(VinParams::default());
+    for l in [0.02, 0.3, 0.75, 1.0, 1.3, 1.9, 2.15] {
+        let s = seg.segment_of(l);
+        let b = 1.0;
+        let up = edge_time_step(&seg, l, b);
+        let down = edge_time_step(&seg, l, -b);
+        let l_up = (l * l + b * up).sqrt();
+        let l_down = (l * l - b * down).max(0.0).sqrt();
+        assert!((l_up - seg.midpoint_above(s)).abs() < 1e-12, "l = {l}");
+        assert!((l_down - seg.midpoint_below(s)).abs() < 1e-9, "l = {l}");
+        assert!(up > 0.0 && down > 0.0);
+    }
+}
+
+fn run_ticks(sim: &mut Simulation, n: u64) {
+    for _ in 0..n {
+        sim.tick().unwrap();
+    }
+}
+
+#[test]
+fn runs_are_bit_identical_for_any_thread_count() {
+    let run = |threads: usize, temperature: f64, seed: u64| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut sim = rbc();
+            sim.state.dynamics.temperature = temperature;
+            sim.state.seed = seed;
+            run_ticks(&mut sim, 300);
+            sim.state.positions.clone()
+        })
+    };
+    let bits = |p: &[DVec3]| {
+        p.iter()
+            .flat_map(|v| v.to_array().map(f64::to_bits))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(bits(&run(1, 0.0, 1)), bits(&run(2, 0.0, 1)));
+    let noisy = run(1, 0.1, 7);
+    assert_eq!(bits(&noisy), bits(&run(2, 0.1, 7)));
+    assert_ne!(
+        bits(&noisy),
+        bits(&run(1, 0.1, 8)),
+        "the seed must matter with noise"
+    );
+    assert_ne!(
+        bits(&noisy),
+        bits(&run(1, 0.0, 7)),
+        "noise must move the vertices"
+    );
+}
+
+#[test]
+fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
+    let mut sim = rbc();
+    sim.evaluate_forces().unwrap();
+    let target = 733.8;
+    let volume = |s: &SimState| {
+        let f = &s.membrane.cached_topology().faces;
+        remembrane::geometry::enclosed_volume(&s.positions, f, s.positions[0])
+    };
+    // The deflating sphere first shrinks fast, then sits near a saddle
+    // (v ≈ 1 at reduced area) until the jitter grows into a shape change:
+    // compare iterations 0, 500, 5000 and 10000.
+    let mut energies = vec![sim.state.evaluation.total_energy()];
+    let mut volumes = vec![volume(&sim.state)];
+    for n in [500, 4500, 5000] {
+        run_ticks(&mut sim, n);
+        energies.push(sim.state.evaluation.total_energy());
+        volumes.push(volume(&sim.state));
+    }
+    println!("energies {energies:?}\nvolumes {volumes:?}");
+    for w in energies.windows(2) {
+        assert!(w[1] < w[0], "energy must decrease: {energies:?}");
+    }
+    for w in volumes.windows(2) {
+        assert!(
+            (w[1] - target).abs() < (w[0] - target).abs(),
+            "volumes {volumes:?}"
+        );
+    }
+    assert!(
+        (volumes[3] - target).abs() < 0.1 * (volumes[0] - target).abs(),
+        "volumes {volumes:?}"
+    );
+    // Simulated time advances by the adaptive steps, each ≤ dt_max.
+    assert!(sim.state.clock.time > 0.0 && sim.state.clock.time <= 10000.0 * 0.005);
+}
+
+fn options(out: &Path) -> RunOptions {
+    RunOptions {
+        out: out.to_path_buf(),
+        overwrite: false,
+        seed: None,
+        iterations: None,
+        frames: None,
+        progress: Progress::Quiet,
+    }
+}
+
+#[test]
+fn a_blow_up_is_reported_and_the_last_good_frame_kept() {
+    // A stiff volume penalty without V_in or displacement cap, stepped far
+    // above its stability limit: each overshoot grows until it overflows.
+    let text = r#"Scene(
+        name: "unstable",
+        membrane: Icosphere(level: 2, jitter: 0.05),
+        energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
+        penalty_smoothing: 0,
+        dynamics: (mobility: 1000.0, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
+    )"#;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("unstable.ron");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.path().join("run");
+    let scene = Scene::load(&path).unwrap();
+    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let msg = err.to_string();
+    println!("{msg}");
+    assert!(
+        msg.contains("blow-up at iteration") && msg.contains("vertex"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("`volume`") || msg.contains("`bending`") || msg.contains("langevin"),
+        "{msg}"
+    );
+    assert_eq!(err.exit_code(), 1);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "blew_up");
+    let last = summary["last_good_frame"].as_str().unwrap();
+    assert!(out.join(last).exists());
+    // Every written frame is finite.
+    for f in summary["frames"].as_array().unwrap() {
+        let text = std::fs::read_to_string(out.join(f["file"].as_str().unwrap())).unwrap();
+        assert!(!text.contains("NaN") && !text.contains("inf"));
+    }
+    assert!(!dir.path().join("run.incomplete").exists());
+}
+
+#[test]
+fn outputs_are_complete_and_existing_directories_are_not_mixed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rbc");
+    let path = scene_path("red_blood_cell.ron");
+    let scene = Scene::load(&path).unwrap();
+    let opts = RunOptions {
+        iterations: Some(200),
+        frames: Some(4),
+        ..options(&out)
+    };
+    let summary = run_scene(&scene, &path, &opts, |_| Ok(())).unwrap();
+    assert_eq!(summary.iterations, 200);
+    assert_eq!(summary.frames.len(), 5);
+    for f in ["summary.json", "series.csv", "run.pvd", "final.ply"] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    assert_eq!(series.lines().count(), 1 + 5);
+    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    assert_eq!(mesh.vertex_count(), 642);
+    assert!(
+        summary
+            .timings
+            .iter()
+            .any(|t| t.system == "bending" && t.per_tick_us > 0.0)
+    );
+    // A second run into the same directory is refused, not mixed.
+    let again = run_scene(&scene, &path, &opts, |_| Ok(())).unwrap_err();
+    assert_eq!(again.exit_code(), 2);
+    assert!(again.to_string().contains("already exists"));
+}
+
+#[test]
+fn frames_are_read_back_by_vtk() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rbc");
+    let path = scene_path("red_blood_cell.ron");
+    let scene = Scene::load(&path).unwrap();
+    let opts = RunOptions {
+        iterations: Some(50),
+        frames: Some(1),
+        ..options(&out)
+    };
+    let summary = run_scene(&scene, &path, &opts, |_| Ok(())).unwrap();
+    let frame = out.join(&summary.frames.last().unwrap().file);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/support/read_vtp.py");
+    let result = std::process::Command::new("python3")
+        .arg(&script)
+        .arg(&frame)
+        .output()
+        .expect("python3 runs");
+    assert!(
+        result.status.success(),
+        "VTK could not read the frame (is the `vtk` Python package installed? .ci/run installs it): {}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&result.stdout).unwrap();
+    assert_eq!(json["points"], 642);
+    assert_eq!(json["polys"], 1280);
+    assert_eq!(json["arrays"]["force"]["components"], 3);
+    assert_eq!(json["arrays"]["force"]["tuples"], 642);
+    assert_eq!(json["arrays"]["mean_curvature"]["tuples"], 642);
+    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    let p0 = mesh.positions[0];
+    for (k, c) in [p0.x, p0.y, p0.z].iter().enumerate() {
+        assert!((json["first_point"][k].as_f64().unwrap() - c).abs() < 1e-12);
+    }
+}
