@@ -54,3 +54,7 @@ pub struct ControlPoint {
     /// Spring constant k_ex (Ē/l̄²).
     pub stiffness: f64,
 }
+
+/// Declaration index of a control point in its scene (used by schedules).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ControlPointIndex(pub u32);

@@ -169,9 +169,12 @@ impl Membrane {
         }
     }
 
-    /// Spawns a fixed control point.
+    /// Spawns a fixed control point; its index is the number of control
+    /// points spawned before it.
     pub fn add_control_point(&mut self, point: ControlPoint) -> Entity {
-        self.world.spawn((point,))
+        let index = self.world.query::<&ControlPoint>().iter().count() as u32;
+        self.world
+            .spawn((point, crate::components::ControlPointIndex(index)))
     }
 
     /// All control points, in world order.

@@ -57,6 +57,9 @@ pub struct Scene {
     /// Fixed control points (used by the `Springs` term).
     #[serde(default)]
     pub control_points: Vec<ControlPointSpec>,
+    /// Scheduled changes of control points (by declaration index).
+    #[serde(default)]
+    pub control_point_schedule: Vec<crate::systems::control_point_schedule::ScheduledChange>,
     /// Dynamics: mobility, temperature, time-step limits, run length, frames.
     #[serde(default)]
     pub dynamics: DynamicsParams,
@@ -330,6 +333,48 @@ impl Scene {
                 ),
             ));
         }
+        for (i, c) in self.control_point_schedule.iter().enumerate() {
+            use crate::systems::control_point_schedule::{Change, When};
+            let field = |f: &str| format!("control_point_schedule[{i}].{f}");
+            if let Some(&p) = c
+                .points
+                .iter()
+                .find(|&&p| p as usize >= self.control_points.len())
+            {
+                return Err(invalid(
+                    &field("points"),
+                    format!(
+                        "point {p} does not exist ({} control points declared)",
+                        self.control_points.len()
+                    ),
+                ));
+            }
+            if c.points.is_empty() {
+                return Err(invalid(&field("points"), "selects no control point".into()));
+            }
+            if let When::Every { interval: 0, .. } = c.when {
+                return Err(invalid(&field("when"), "interval must be > 0".into()));
+            }
+            let bad = match c.change {
+                Change::MoveBy(v) | Change::MoveTo(v) => {
+                    !(v.0.is_finite() && v.1.is_finite() && v.2.is_finite())
+                }
+                Change::ScaleAbout { center: v, factor } => {
+                    !(v.0.is_finite()
+                        && v.1.is_finite()
+                        && v.2.is_finite()
+                        && factor.is_finite()
+                        && factor > 0.0)
+                }
+                Change::SetStiffness(k) => !(k.is_finite() && k >= 0.0),
+            };
+            if bad {
+                return Err(invalid(
+                    &field("change"),
+                    format!("impossible change {:?}", c.change),
+                ));
+            }
+        }
         if self.penalty_smoothing > 64 {
             return Err(invalid(
                 "penalty_smoothing",
@@ -433,6 +478,14 @@ impl Scene {
             });
         }
         let mut sim = Simulation::new(membrane, forces, initial);
+        if !self.control_point_schedule.is_empty() {
+            let system = crate::systems::control_point_schedule::ControlPointSchedule {
+                changes: self.control_point_schedule.clone(),
+            };
+            sim.add_system(crate::schedule::Stage::Prepare, Box::new(system))
+                .map_err(|e| invalid(e.to_string()))?
+                .before("gather_state");
+        }
         sim.state.dynamics = self.dynamics;
         sim.state.remesh = self.remesh;
         sim.state.segmentation = segmentation;

@@ -8,6 +8,7 @@ pub mod adaptive_time_step;
 pub mod area_forces;
 pub mod barrier_check;
 pub mod bending_forces;
+pub mod control_point_schedule;
 pub mod face_geometry;
 pub mod force_term;
 pub mod force_total;

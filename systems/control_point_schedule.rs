@@ -1,0 +1,126 @@
+//! Scheduled changes of control points (scene data: "at iteration N move or
+//! scale these points", "every I iterations move point k by d").
+//!
+//! Stage: Prepare. Reads: clock. Writes: control points (positions and
+//! stiffness of the [`ControlPoint`] entities, by declaration index). A
+//! change with `At(iteration: N)` is applied once N iterations are done,
+//! i.e. before iteration N + 1 is computed; `Every(interval: I, start: S)`
+//! applies at S, S + I, S + 2I, …
+
+use crate::components::{ControlPoint, ControlPointIndex};
+use crate::schedule::{Access, Data, System};
+use crate::simulation::{SimError, SimState};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// When a scheduled change applies.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum When {
+    /// Once, after this many iterations.
+    At {
+        /// Completed iterations.
+        iteration: u64,
+    },
+    /// Repeatedly: at `start`, `start + interval`, …
+    Every {
+        /// Iterations between applications (> 0).
+        interval: u64,
+        /// First application (default 0).
+        #[serde(default)]
+        start: u64,
+    },
+}
+
+impl When {
+    /// Whether the change applies after `iteration` completed iterations.
+    pub fn applies(&self, iteration: u64) -> bool {
+        match *self {
+            When::At { iteration: n } => iteration == n,
+            When::Every { interval, start } => {
+                iteration >= start && (iteration - start) % interval == 0
+            }
+        }
+    }
+}
+
+/// What a scheduled change does to each selected point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Change {
+    /// Translate by (dx, dy, dz) (l̄).
+    MoveBy((f64, f64, f64)),
+    /// Move to (x, y, z) (l̄).
+    MoveTo((f64, f64, f64)),
+    /// Scale the position about `center` by `factor`.
+    ScaleAbout {
+        /// Centre of the scaling (l̄).
+        center: (f64, f64, f64),
+        /// Factor (> 0).
+        factor: f64,
+    },
+    /// Set the spring constant (Ē/l̄²).
+    SetStiffness(f64),
+}
+
+/// One scheduled change.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScheduledChange {
+    /// When it applies.
+    pub when: When,
+    /// Indices of the control points (declaration order) it applies to.
+    pub points: Vec<u32>,
+    /// The change.
+    pub change: Change,
+}
+
+fn vec3(v: (f64, f64, f64)) -> DVec3 {
+    DVec3::new(v.0, v.1, v.2)
+}
+
+impl Change {
+    /// Applies the change to one point.
+    pub fn apply(&self, point: &mut ControlPoint) {
+        match *self {
+            Change::MoveBy(d) => point.position += vec3(d),
+            Change::MoveTo(p) => point.position = vec3(p),
+            Change::ScaleAbout { center, factor } => {
+                let c = vec3(center);
+                point.position = c + factor * (point.position - c);
+            }
+            Change::SetStiffness(k) => point.stiffness = k,
+        }
+    }
+}
+
+/// The control-point schedule system.
+pub struct ControlPointSchedule {
+    /// The changes, applied in order when due.
+    pub changes: Vec<ScheduledChange>,
+}
+
+impl System for ControlPointSchedule {
+    fn name(&self) -> &str {
+        "control_point_schedule"
+    }
+
+    fn access(&self) -> Access {
+        Access::new(&[Data::Clock], &[Data::ControlPoints])
+    }
+
+    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
+        let iteration = state.clock.iteration;
+        for change in self.changes.iter().filter(|c| c.when.applies(iteration)) {
+            for (index, point) in state
+                .membrane
+                .world
+                .query_mut::<(&ControlPointIndex, &mut ControlPoint)>()
+            {
+                if change.points.contains(&index.0) {
+                    change.change.apply(point);
+                }
+            }
+        }
+        Ok(())
+    }
+}
