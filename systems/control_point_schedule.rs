@@ -38,7 +38,7 @@ impl When {
         match *self {
             When::At { iteration: n } => iteration == n,
             When::Every { interval, start } => {
-                iteration >= start && (iteration - start) % interval == 0
+                iteration >= start && (iteration - start).is_multiple_of(interval)
             }
         }
     }
