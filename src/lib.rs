@@ -32,10 +32,12 @@ pub mod force;
 pub mod params;
 
 pub mod quality;
+pub mod render;
 pub mod report;
 pub mod run;
 pub mod scene;
 pub mod schedule;
+pub mod shape;
 pub mod simulation;
 #[path = "../systems/mod.rs"]
 pub mod systems;

@@ -1,6 +1,6 @@
 //! Run outputs (SPEC §7): VTK PolyData frames (`frames/*.vtp`) with a `.pvd`
-//! collection for ParaView, `series.csv` (one row per frame), `final.ply` and
-//! `summary.json`.
+//! collection for ParaView, `series.csv` (one row per frame), `final.ply`,
+//! `final.png` (side and top view) and `summary.json`.
 //!
 //! A run writes into `DIR.incomplete/` and renames it to `DIR` only when it
 //! ends (completed or stopped by a blow-up, which `summary.json` records),
@@ -154,6 +154,8 @@ impl RunOutput {
         )
         .map_err(|e| write_err(&self.staging.join("final.ply"), e))?;
         self.write("final.ply", &ply)?;
+        let png = crate::render::render_png(&final_mesh.positions, &final_mesh.faces, 400);
+        self.write("final.png", &png)?;
         self.write("summary.json", summary_json.as_bytes())?;
         std::fs::rename(&self.staging, &self.dir).map_err(|e| write_err(&self.dir, e))?;
         Ok(self.dir)

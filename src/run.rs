@@ -83,6 +83,9 @@ pub struct RunSummary {
     pub reduced_volume: f64,
     /// Final mesh quality.
     pub quality: MeshQuality,
+    /// Final shape in its principal frame (diameter, centre vs maximal
+    /// height, axisymmetry, discocyte/stomatocyte/convex).
+    pub shape: crate::shape::ShapeMetrics,
     /// Edges outside [l_−, l_+] at the end.
     pub abnormal_edges: usize,
     /// Frames written.
@@ -281,6 +284,7 @@ fn summarize(
         volume,
         reduced_volume: crate::geometry::reduced_volume(volume, area),
         quality: MeshQuality::measure(t, &s.positions),
+        shape: crate::shape::shape_metrics(&s.positions, &t.faces),
         abnormal_edges: s.abnormal_edges.len(),
         frames: out.frames.clone(),
         timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),
