@@ -2,6 +2,7 @@
 //! dynamics under their free energy, with free-energy-controlled remeshing.
 
 pub mod components;
+pub mod edit;
 pub mod energy;
 pub mod geometry;
 pub mod membrane;
@@ -32,6 +33,7 @@ pub mod force;
 pub mod params;
 
 pub mod quality;
+pub mod remesh;
 pub mod render;
 pub mod report;
 pub mod run;

@@ -1,0 +1,464 @@
+//! The mesh-edit layer: every topology change goes through
+//! [`Membrane::apply_patch`], which checks a proposed patch completely
+//! before touching the world (check-then-act).
+//!
+//! Contract of a [`PatchEdit`]:
+//! - `remove_faces` are despawned; `add_faces` (vertex entities, counter-
+//!   clockwise from outside) are spawned as new face entities;
+//! - `add_vertices` are spawned (their entities come from
+//!   [`Membrane::reserve_vertex`]); `remove_vertices` are despawned and must
+//!   be used by no remaining or new face; `move_vertices` get new positions;
+//! - an edge entity whose two vertices still share faces is **reused**
+//!   (its `faces` refreshed); an edge left without faces is despawned; an
+//!   edge that did not exist is spawned;
+//! - after the edit every affected edge has exactly one face on each side,
+//!   every affected vertex has a single closed fan and a valence in range,
+//!   and no new face is degenerate or folded over against the patch it
+//!   replaces.
+//!
+//! A patch that would break any of these is rejected with an [`EditError`]
+//! and the world is unchanged.
+
+use crate::components::{Edge, Face, Force, LipidDensity, Position};
+use crate::membrane::Membrane;
+use crate::mesh::ValenceRange;
+use glam::DVec3;
+use hecs::Entity;
+use std::collections::{HashMap, HashSet};
+
+/// A proposed topology change (see the module contract).
+#[derive(Clone, Debug, Default)]
+pub struct PatchEdit {
+    /// Face entities to remove.
+    pub remove_faces: Vec<Entity>,
+    /// Faces to add, as vertex entities counter-clockwise from outside.
+    pub add_faces: Vec<[Entity; 3]>,
+    /// New vertices: reserved entity, position, lipid density (if stored).
+    pub add_vertices: Vec<(Entity, DVec3, f64)>,
+    /// Vertex entities to remove.
+    pub remove_vertices: Vec<Entity>,
+    /// Existing vertices moved by the edit (e.g. a merge's midpoint).
+    pub move_vertices: Vec<(Entity, DVec3)>,
+}
+
+/// A new face with 2·area / (longest edge)² below this is degenerate (a
+/// sliver with an angle below ≈ 1e-4 degrees).
+pub const MIN_FACE_SHAPE: f64 = 1e-6;
+
+/// Why a patch was rejected.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EditError {
+    /// A face to remove is not a live face.
+    #[error("face {0:?} is not a live face")]
+    UnknownFace(Entity),
+    /// A new face repeats a vertex.
+    #[error("new face {0:?} repeats a vertex")]
+    DegenerateFace([Entity; 3]),
+    /// An edge would not have exactly one face per side.
+    #[error("edge {a:?}-{b:?} would have {forward} faces one way and {backward} the other")]
+    EdgeFaces {
+        /// First vertex.
+        a: Entity,
+        /// Second vertex.
+        b: Entity,
+        /// Faces traversing a → b.
+        forward: usize,
+        /// Faces traversing b → a.
+        backward: usize,
+    },
+    /// A vertex's faces would not form one closed fan.
+    #[error("vertex {0:?} would not have a single closed fan of faces")]
+    BrokenFan(Entity),
+    /// A vertex would leave the valence range.
+    #[error("vertex {vertex:?} would have valence {valence}")]
+    Valence {
+        /// The vertex.
+        vertex: Entity,
+        /// Its valence after the edit.
+        valence: usize,
+    },
+    /// A vertex to remove would still be used.
+    #[error("vertex {0:?} is removed but still used by a face")]
+    VertexStillUsed(Entity),
+    /// A new face would be (nearly) degenerate.
+    #[error("new face {0:?} would be degenerate")]
+    DegenerateGeometry([Entity; 3]),
+    /// A new face would point against the surface it replaces.
+    #[error("new face {0:?} would fold over")]
+    FoldOver([Entity; 3]),
+}
+
+/// Result of a successful edit.
+#[derive(Clone, Debug, Default)]
+pub struct EditOutcome {
+    /// New face entities, in `add_faces` order.
+    pub faces: Vec<Entity>,
+    /// Edge entities spawned.
+    pub edges_created: usize,
+    /// Edge entities despawned.
+    pub edges_removed: usize,
+}
+
+impl Membrane {
+    /// Reserves an entity for a vertex that a [`PatchEdit`] will add.
+    pub fn reserve_vertex(&self) -> Entity {
+        self.world.reserve_entity()
+    }
+
+    /// Faces (as vertex-entity triples) incident to `v` in the current
+    /// topology, with their entities. Empty for a vertex not yet spawned.
+    fn faces_around(&self, v: Entity) -> Vec<(Entity, [Entity; 3])> {
+        let t = self.cached_topology();
+        let Some(slot) = t
+            .slot(v)
+            .filter(|&s| t.vertex_entities.get(s as usize) == Some(&v))
+        else {
+            return Vec::new();
+        };
+        let (lo, hi) = (
+            t.ring_offsets[slot as usize] as usize,
+            t.ring_offsets[slot as usize + 1] as usize,
+        );
+        t.ring_faces[lo..hi]
+            .iter()
+            .map(|&f| {
+                (
+                    t.face_entities[f as usize],
+                    t.faces[f as usize].map(|s| t.vertex_entities[s as usize]),
+                )
+            })
+            .collect()
+    }
+
+    /// Checks `edit` against the current topology; the world is not changed.
+    /// Returns the valence of every affected vertex after the edit.
+    pub fn check_patch(
+        &self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+    ) -> Result<HashMap<Entity, usize>, EditError> {
+        let t = self.cached_topology();
+        let removed: HashSet<Entity> = edit.remove_faces.iter().copied().collect();
+        for &f in &edit.remove_faces {
+            let live = t
+                .slot(f)
+                .is_some_and(|s| t.face_entities.get(s as usize) == Some(&f));
+            if !live {
+                return Err(EditError::UnknownFace(f));
+            }
+        }
+        for f in &edit.add_faces {
+            if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+                return Err(EditError::DegenerateFace(*f));
+            }
+        }
+        let mut affected: Vec<Entity> = Vec::new();
+        let mut seen = HashSet::new();
+        let removed_triples: Vec<[Entity; 3]> = edit
+            .remove_faces
+            .iter()
+            .map(|&f| {
+                t.faces[t.slot(f).expect("checked") as usize].map(|s| t.vertex_entities[s as usize])
+            })
+            .collect();
+        for tri in removed_triples.iter().chain(&edit.add_faces) {
+            for &v in tri {
+                if seen.insert(v) {
+                    affected.push(v);
+                }
+            }
+        }
+        // Geometry of the new faces: not degenerate, not folded over
+        // against the area-weighted normal of the faces they replace.
+        let position = |v: Entity| -> DVec3 {
+            if let Some(&(_, p)) = edit.move_vertices.iter().find(|(e, _)| *e == v) {
+                return p;
+            }
+            if let Some(&(_, p, _)) = edit.add_vertices.iter().find(|(e, _, _)| *e == v) {
+                return p;
+            }
+            self.world
+                .get::<&Position>(v)
+                .map(|p| p.0)
+                .unwrap_or(DVec3::NAN)
+        };
+        let normal = |f: &[Entity; 3]| {
+            let [a, b, c] = f.map(|v| position(v));
+            ((b - a).cross(c - a), [a, b, c])
+        };
+        let patch_normal: DVec3 = removed_triples
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|v| {
+                    self.world
+                        .get::<&Position>(v)
+                        .map(|p| p.0)
+                        .unwrap_or(DVec3::ZERO)
+                });
+                (b - a).cross(c - a)
+            })
+            .sum();
+        for f in &edit.add_faces {
+            let (n, [a, b, c]) = normal(f);
+            let longest = a
+                .distance_squared(b)
+                .max(b.distance_squared(c))
+                .max(c.distance_squared(a));
+            if !(n.length() >= MIN_FACE_SHAPE * longest) {
+                return Err(EditError::DegenerateGeometry(*f));
+            }
+            if removed_triples
+                .iter()
+                .any(|t| t.iter().all(|v| f.contains(v)))
+            {
+                continue; // an unchanged face
+            }
+            if patch_normal.length_squared() > 0.0 && n.dot(patch_normal) <= 0.0 {
+                return Err(EditError::FoldOver(*f));
+            }
+        }
+        let removing: HashSet<Entity> = edit.remove_vertices.iter().copied().collect();
+        // Faces around each affected vertex after the edit.
+        let mut after: HashMap<Entity, Vec<[Entity; 3]>> = HashMap::new();
+        for &v in &affected {
+            let mut faces: Vec<[Entity; 3]> = self
+                .faces_around(v)
+                .into_iter()
+                .filter(|(e, _)| !removed.contains(e))
+                .map(|(_, f)| f)
+                .collect();
+            faces.extend(edit.add_faces.iter().filter(|f| f.contains(&v)).copied());
+            after.insert(v, faces);
+        }
+        let mut valences = HashMap::new();
+        for &v in &affected {
+            let faces = &after[&v];
+            if removing.contains(&v) {
+                if !faces.is_empty() {
+                    return Err(EditError::VertexStillUsed(v));
+                }
+                continue;
+            }
+            // Link of v: for face (v, a, b) the step a → b; one closed cycle.
+            let mut next: HashMap<Entity, Entity> = HashMap::with_capacity(faces.len());
+            for f in faces {
+                let k = f.iter().position(|&x| x == v).expect("face contains v");
+                if next.insert(f[(k + 1) % 3], f[(k + 2) % 3]).is_some() {
+                    return Err(EditError::BrokenFan(v));
+                }
+            }
+            let Some((&start, _)) = next.iter().next() else {
+                return Err(EditError::BrokenFan(v));
+            };
+            let mut cur = start;
+            let mut steps = 0;
+            loop {
+                cur = *next.get(&cur).ok_or(EditError::BrokenFan(v))?;
+                steps += 1;
+                if cur == start || steps > faces.len() {
+                    break;
+                }
+            }
+            if cur != start || steps != faces.len() {
+                return Err(EditError::BrokenFan(v));
+            }
+            if steps < valence.min as usize || steps > valence.max as usize {
+                return Err(EditError::Valence {
+                    vertex: v,
+                    valence: steps,
+                });
+            }
+            valences.insert(v, steps);
+        }
+        // Each affected edge: exactly one face per direction.
+        for tri in removed_triples.iter().chain(&edit.add_faces) {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                if removing.contains(&a) || removing.contains(&b) {
+                    continue;
+                }
+                let count = |x: Entity, y: Entity| {
+                    after[&x]
+                        .iter()
+                        .filter(|f| (0..3).any(|m| f[m] == x && f[(m + 1) % 3] == y))
+                        .count()
+                };
+                let (forward, backward) = (count(a, b), count(b, a));
+                if forward + backward == 0 {
+                    continue; // the edge disappears
+                }
+                if forward != 1 || backward != 1 {
+                    return Err(EditError::EdgeFaces {
+                        a,
+                        b,
+                        forward,
+                        backward,
+                    });
+                }
+            }
+        }
+        Ok(valences)
+    }
+
+    /// Checks `edit` and, if valid, applies it to the world (see the module
+    /// contract). The topology cache is rebuilt before returning.
+    pub fn apply_patch(
+        &mut self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+    ) -> Result<EditOutcome, EditError> {
+        self.topology()
+            .expect("the topology was valid before the edit");
+        self.check_patch(edit, valence)?;
+        let t = self.cached_topology();
+        // Affected undirected edges and their current entities.
+        let key = |a: Entity, b: Entity| {
+            if a.to_bits() < b.to_bits() {
+                (a, b)
+            } else {
+                (b, a)
+            }
+        };
+        let mut edge_entity: HashMap<(Entity, Entity), Entity> = HashMap::new();
+        let mut keys: Vec<(Entity, Entity)> = Vec::new();
+        let note = |a: Entity, b: Entity, keys: &mut Vec<(Entity, Entity)>| {
+            let k = key(a, b);
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
+        };
+        for &f in &edit.remove_faces {
+            let s = t.slot(f).expect("checked") as usize;
+            let tri = t.faces[s].map(|v| t.vertex_entities[v as usize]);
+            for m in 0..3 {
+                let e = t.edge_entities[t.face_edges[s][m] as usize];
+                edge_entity.insert(key(tri[m], tri[(m + 1) % 3]), e);
+                note(tri[m], tri[(m + 1) % 3], &mut keys);
+            }
+        }
+        for tri in &edit.add_faces {
+            for m in 0..3 {
+                note(tri[m], tri[(m + 1) % 3], &mut keys);
+            }
+        }
+        // Existing edges between affected vertices that no removed face
+        // touches (e.g. an edge that a new face reuses).
+        for &(a, b) in &keys {
+            if edge_entity.contains_key(&(a, b)) {
+                continue;
+            }
+            if let (Some(sa), Some(sb)) = (t.slot(a), t.slot(b)) {
+                if t.vertex_entities.get(sa as usize) == Some(&a)
+                    && t.vertex_entities.get(sb as usize) == Some(&b)
+                {
+                    let (lo, hi) = (
+                        t.ring_offsets[sa as usize] as usize,
+                        t.ring_offsets[sa as usize + 1] as usize,
+                    );
+                    if let Some(k) = (lo..hi).find(|&k| t.ring[k] == sb) {
+                        edge_entity.insert((a, b), t.edge_entities[t.ring_edges[k] as usize]);
+                    }
+                }
+            }
+        }
+        // Faces after the edit, per affected edge key.
+        let removed: HashSet<Entity> = edit.remove_faces.iter().copied().collect();
+        let new_face_entities: Vec<Entity> = edit
+            .add_faces
+            .iter()
+            .map(|_| self.world.reserve_entity())
+            .collect();
+        let mut faces_of: HashMap<(Entity, Entity), Vec<(Entity, [Entity; 3])>> = HashMap::new();
+        for &(a, b) in &keys {
+            let mut list: Vec<(Entity, [Entity; 3])> = self
+                .faces_around(a)
+                .into_iter()
+                .filter(|(e, f)| !removed.contains(e) && f.contains(&b))
+                .collect();
+            for (i, f) in edit.add_faces.iter().enumerate() {
+                if f.contains(&a) && f.contains(&b) {
+                    list.push((new_face_entities[i], *f));
+                }
+            }
+            faces_of.insert((a, b), list);
+        }
+
+        // Act.
+        for &f in &edit.remove_faces {
+            let _ = self.world.despawn(f);
+        }
+        let lipid = self.has_lipid();
+        for &(v, p, rho) in &edit.add_vertices {
+            if lipid {
+                self.world
+                    .spawn_at(v, (Position(p), Force::default(), LipidDensity(rho)));
+            } else {
+                self.world.spawn_at(v, (Position(p), Force::default()));
+            }
+        }
+        let mut outcome = EditOutcome {
+            faces: new_face_entities.clone(),
+            ..Default::default()
+        };
+        let mut final_edge: HashMap<(Entity, Entity), Entity> = HashMap::new();
+        for &(a, b) in &keys {
+            let list = &faces_of[&(a, b)];
+            let existing = edge_entity.get(&(a, b)).copied();
+            if list.is_empty() {
+                if let Some(e) = existing {
+                    let _ = self.world.despawn(e);
+                    outcome.edges_removed += 1;
+                }
+                continue;
+            }
+            let left = list
+                .iter()
+                .find(|(_, f)| (0..3).any(|m| f[m] == a && f[(m + 1) % 3] == b));
+            let right = list
+                .iter()
+                .find(|(_, f)| (0..3).any(|m| f[m] == b && f[(m + 1) % 3] == a));
+            let (Some(left), Some(right)) = (left, right) else {
+                unreachable!("checked: one face per side");
+            };
+            let edge = Edge {
+                vertices: [a, b],
+                faces: [left.0, right.0],
+            };
+            let e = match existing {
+                Some(e) => {
+                    if let Ok(mut c) = self.world.get::<&mut Edge>(e) {
+                        *c = edge;
+                    }
+                    e
+                }
+                None => {
+                    outcome.edges_created += 1;
+                    self.world.spawn((edge,))
+                }
+            };
+            final_edge.insert((a, b), e);
+        }
+        for (i, tri) in edit.add_faces.iter().enumerate() {
+            let edges = [0, 1, 2].map(|m| final_edge[&key(tri[m], tri[(m + 1) % 3])]);
+            self.world.spawn_at(
+                new_face_entities[i],
+                (Face {
+                    vertices: *tri,
+                    edges,
+                },),
+            );
+        }
+        for &v in &edit.remove_vertices {
+            let _ = self.world.despawn(v);
+        }
+        for &(v, p) in &edit.move_vertices {
+            if let Ok(mut pos) = self.world.get::<&mut Position>(v) {
+                pos.0 = p;
+            }
+        }
+        self.mark_structure_changed();
+        self.topology()
+            .expect("a checked edit keeps the topology valid");
+        Ok(outcome)
+    }
+}

@@ -1,0 +1,372 @@
+//! Split and merge of one edge (SPEC §4) on top of the mesh-edit layer.
+//!
+//! For an edge (i1, i2): j1 is the apex of the face (i1, i2, j1), j2 of
+//! (i2, i1, j2); k1…k4 are the far apexes across edges i1–j1, j1–i2, i2–j2
+//! and j2–i1. A split inserts n at the midpoint and re-triangulates the four
+//! quadrilaterals (i1, n, j1, k1), (n, i2, k2, j1), (i2, n, j2, k3),
+//! (n, i1, k4, j2), each by its old i–j diagonal or the new k–n one
+//! (2⁴ = 16 options). A merge moves i1 to the midpoint, removes i2 (its
+//! other faces are relabelled to i1) and re-triangulates (j1, k1, i, k2) and
+//! (j2, k3, i, k4) by i–j or k–k (2² = 4 options). Options that the edit
+//! layer rejects (valence range, non-manifold results) are dropped; the one
+//! with the least valence variance over the affected vertices wins, ties
+//! broken by the most uniform lengths of the quadrilaterals' diagonals.
+//!
+//! Lipid density is conserved: split ρ_i1, ρ_i2 ×= 2/3 and ρ_n = (ρ_i1 + ρ_i2)/3;
+//! merge ρ_i = ρ_i1 + ρ_i2.
+
+use crate::components::{LipidDensity, Position};
+use crate::edit::{EditError, PatchEdit};
+use crate::membrane::Membrane;
+use crate::mesh::ValenceRange;
+use glam::DVec3;
+use hecs::Entity;
+
+/// The vertices and faces around an edge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeRegion {
+    /// The edge's end points.
+    pub i: [Entity; 2],
+    /// Apexes of the faces (i1, i2, j1) and (i2, i1, j2).
+    pub j: [Entity; 2],
+    /// Far apexes across i1–j1, j1–i2, i2–j2, j2–i1.
+    pub k: [Entity; 4],
+    /// Faces (i1, i2, j1), (i2, i1, j2).
+    pub central: [Entity; 2],
+    /// Faces (i1, j1, k1), (j1, i2, k2), (i2, j2, k3), (j2, i1, k4).
+    pub outer: [Entity; 4],
+}
+
+/// A candidate re-triangulation.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    /// For each quadrilateral: `true` = the new diagonal (k–n or k–k).
+    pub diagonals: Vec<bool>,
+    /// The edit.
+    pub edit: PatchEdit,
+    /// The chosen diagonal of every quadrilateral (vertex pairs, old or
+    /// new); the spread of their lengths breaks valence ties.
+    pub diagonal_edges: Vec<(Entity, Entity)>,
+}
+
+/// Why an edge could not be split or merged.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RemeshError {
+    /// The region around the edge is not the generic two-triangle,
+    /// four-neighbour configuration (e.g. a tetrahedral neighbourhood).
+    #[error("the neighbourhood of the edge is degenerate")]
+    DegenerateRegion,
+    /// No re-triangulation keeps the mesh valid with valences in range.
+    #[error("no valid re-triangulation (last rejection: {0})")]
+    NoValidOption(EditError),
+}
+
+/// Finds the region around edge slot `edge` of the current topology.
+pub fn edge_region(m: &Membrane, edge: u32) -> Result<EdgeRegion, RemeshError> {
+    let t = m.cached_topology();
+    let [a, b] = t.edges[edge as usize];
+    let [fl, fr] = t.edge_faces[edge as usize];
+    let ent = |v: u32| t.vertex_entities[v as usize];
+    // Apex of face f opposite the directed edge x → y.
+    let apex = |f: u32, x: u32, y: u32| -> Option<u32> {
+        let tri = t.faces[f as usize];
+        (0..3)
+            .find(|&m| tri[m] == x && tri[(m + 1) % 3] == y)
+            .map(|m| tri[(m + 2) % 3])
+    };
+    // Face across the directed edge x → y (the one traversing y → x).
+    let across = |x: u32, y: u32| -> Option<(u32, u32)> {
+        let (lo, hi) = (
+            t.ring_offsets[y as usize] as usize,
+            t.ring_offsets[y as usize + 1] as usize,
+        );
+        (lo..hi).find(|&k| t.ring[k] == x).map(|k| {
+            // ring_faces[k] is (y, x, next): it traverses y → x.
+            let f = t.ring_faces[k];
+            (f, apex(f, y, x).unwrap_or(u32::MAX))
+        })
+    };
+    let j1 = apex(fl, a, b).ok_or(RemeshError::DegenerateRegion)?;
+    let j2 = apex(fr, b, a).ok_or(RemeshError::DegenerateRegion)?;
+    if j1 == j2 {
+        return Err(RemeshError::DegenerateRegion);
+    }
+    // Outer faces: (i1, j1, k1) traverses i1 → j1, i.e. the face across j1 → i1.
+    let (o1, k1) = across(j1, a).ok_or(RemeshError::DegenerateRegion)?;
+    let (o2, k2) = across(b, j1).ok_or(RemeshError::DegenerateRegion)?;
+    let (o3, k3) = across(j2, b).ok_or(RemeshError::DegenerateRegion)?;
+    let (o4, k4) = across(a, j2).ok_or(RemeshError::DegenerateRegion)?;
+    let ks = [k1, k2, k3, k4];
+    let faces = [fl, fr, o1, o2, o3, o4];
+    let distinct = faces
+        .iter()
+        .enumerate()
+        .all(|(x, f)| !faces[..x].contains(f));
+    if ks.contains(&u32::MAX) || !distinct || ks.iter().any(|k| [a, b].contains(k)) {
+        return Err(RemeshError::DegenerateRegion);
+    }
+    let fe = |f: u32| t.face_entities[f as usize];
+    Ok(EdgeRegion {
+        i: [ent(a), ent(b)],
+        j: [ent(j1), ent(j2)],
+        k: ks.map(ent),
+        central: [fe(fl), fe(fr)],
+        outer: [fe(o1), fe(o2), fe(o3), fe(o4)],
+    })
+}
+
+/// The 16 split candidates for region `r` with new vertex `n` at `position`
+/// (lipid density `rho_n`).
+pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3, rho_n: f64) -> Vec<Candidate> {
+    let [i1, i2] = r.i;
+    let [j1, j2] = r.j;
+    let [k1, k2, k3, k4] = r.k;
+    // Per quadrilateral: (old-diagonal faces, new-diagonal faces, old and
+    // new diagonal).
+    let quads = [
+        (
+            [[i1, n, j1], [i1, j1, k1]],
+            [[n, j1, k1], [n, k1, i1]],
+            (i1, j1),
+            (n, k1),
+        ),
+        (
+            [[n, i2, j1], [j1, i2, k2]],
+            [[n, i2, k2], [n, k2, j1]],
+            (i2, j1),
+            (n, k2),
+        ),
+        (
+            [[i2, n, j2], [i2, j2, k3]],
+            [[n, j2, k3], [n, k3, i2]],
+            (i2, j2),
+            (n, k3),
+        ),
+        (
+            [[n, i1, j2], [j2, i1, k4]],
+            [[n, i1, k4], [n, k4, j2]],
+            (i1, j2),
+            (n, k4),
+        ),
+    ];
+    let mut out = Vec::with_capacity(16);
+    for bits in 0..16u32 {
+        let diagonals: Vec<bool> = (0..4).map(|q| bits & (1 << q) != 0).collect();
+        let mut edit = PatchEdit {
+            remove_faces: [r.central.as_slice(), r.outer.as_slice()].concat(),
+            add_vertices: vec![(n, position, rho_n)],
+            ..Default::default()
+        };
+        let mut diagonal_edges = Vec::new();
+        for (q, &(old, new, old_diag, new_diag)) in quads.iter().enumerate() {
+            if diagonals[q] {
+                edit.add_faces.extend_from_slice(&new);
+                diagonal_edges.push(new_diag);
+            } else {
+                edit.add_faces.extend_from_slice(&old);
+                diagonal_edges.push(old_diag);
+            }
+        }
+        out.push(Candidate {
+            diagonals,
+            edit,
+            diagonal_edges,
+        });
+    }
+    out
+}
+
+/// The 4 merge candidates: i1 survives as i at `mid`, i2 is removed.
+pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candidate> {
+    let [i, i2] = r.i;
+    let [j1, j2] = r.j;
+    let [k1, k2, k3, k4] = r.k;
+    // Other faces of i2's fan, relabelled to i.
+    let t = m.cached_topology();
+    let patch: Vec<Entity> = [r.central.as_slice(), r.outer.as_slice()].concat();
+    let s2 = t.slot(i2).expect("live vertex") as usize;
+    let (lo, hi) = (t.ring_offsets[s2] as usize, t.ring_offsets[s2 + 1] as usize);
+    let mut relabelled_remove = Vec::new();
+    let mut relabelled_add = Vec::new();
+    for &f in &t.ring_faces[lo..hi] {
+        let fe = t.face_entities[f as usize];
+        if patch.contains(&fe) {
+            continue;
+        }
+        relabelled_remove.push(fe);
+        let tri = t.faces[f as usize].map(|v| t.vertex_entities[v as usize]);
+        relabelled_add.push(tri.map(|v| if v == i2 { i } else { v }));
+    }
+    let quads = [
+        (
+            [[i, j1, k1], [j1, i, k2]],
+            [[k1, i, k2], [k2, j1, k1]],
+            (i, j1),
+            (k1, k2),
+        ),
+        (
+            [[i, j2, k3], [j2, i, k4]],
+            [[k3, i, k4], [k4, j2, k3]],
+            (i, j2),
+            (k3, k4),
+        ),
+    ];
+    let mut out = Vec::with_capacity(4);
+    for bits in 0..4u32 {
+        let diagonals: Vec<bool> = (0..2).map(|q| bits & (1 << q) != 0).collect();
+        let mut edit = PatchEdit {
+            remove_faces: [patch.as_slice(), relabelled_remove.as_slice()].concat(),
+            add_faces: relabelled_add.clone(),
+            remove_vertices: vec![i2],
+            move_vertices: vec![(i, mid)],
+            ..Default::default()
+        };
+        let mut diagonal_edges = Vec::new();
+        for (q, &(old, new, old_diag, new_diag)) in quads.iter().enumerate() {
+            if diagonals[q] {
+                edit.add_faces.extend_from_slice(&new);
+                diagonal_edges.push(new_diag);
+            } else {
+                edit.add_faces.extend_from_slice(&old);
+                diagonal_edges.push(old_diag);
+            }
+        }
+        out.push(Candidate {
+            diagonals,
+            edit,
+            diagonal_edges,
+        });
+    }
+    out
+}
+
+/// A candidate's score: (valence variance, std of the diagonal lengths).
+fn score(valences: &std::collections::HashMap<Entity, usize>, lengths: &[f64]) -> (f64, f64) {
+    let n = valences.len().max(1) as f64;
+    let mean = valences.values().sum::<usize>() as f64 / n;
+    let var = valences
+        .values()
+        .map(|&v| (v as f64 - mean).powi(2))
+        .sum::<f64>()
+        / n;
+    let lm = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
+    let spread = (lengths.iter().map(|l| (l - lm).powi(2)).sum::<f64>()
+        / lengths.len().max(1) as f64)
+        .sqrt();
+    (var, spread)
+}
+
+/// Picks the valid candidate with the least valence variance (ties: most
+/// uniform diagonal lengths at `position_of`), or the last rejection.
+pub fn choose(
+    m: &Membrane,
+    candidates: &[Candidate],
+    valence: ValenceRange,
+    position_of: impl Fn(Entity) -> DVec3,
+) -> Result<usize, RemeshError> {
+    let mut best: Option<((f64, f64), usize)> = None;
+    let mut last_error = None;
+    for (c, cand) in candidates.iter().enumerate() {
+        match m.check_patch(&cand.edit, valence) {
+            Ok(valences) => {
+                let lengths: Vec<f64> = cand
+                    .diagonal_edges
+                    .iter()
+                    .map(|&(a, b)| position_of(a).distance(position_of(b)))
+                    .collect();
+                let s = score(&valences, &lengths);
+                let better = best.is_none_or(|(bs, _)| {
+                    s.0 < bs.0 - 1e-12 || (s.0 <= bs.0 + 1e-12 && s.1 < bs.1)
+                });
+                if better {
+                    best = Some((s, c));
+                }
+            }
+            Err(e) => last_error = Some(e),
+        }
+    }
+    best.map(|(_, c)| c).ok_or_else(|| {
+        RemeshError::NoValidOption(last_error.unwrap_or(EditError::BrokenFan(Entity::DANGLING)))
+    })
+}
+
+fn position(m: &Membrane, v: Entity) -> DVec3 {
+    m.world
+        .get::<&Position>(v)
+        .map(|p| p.0)
+        .unwrap_or(DVec3::NAN)
+}
+
+fn density(m: &Membrane, v: Entity) -> f64 {
+    m.world.get::<&LipidDensity>(v).map(|p| p.0).unwrap_or(1.0)
+}
+
+/// What a split or merge did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RemeshOutcome {
+    /// The new vertex (split) or the surviving vertex (merge).
+    pub vertex: Entity,
+    /// Where the event happened (midpoint of the edge, l̄).
+    pub position: DVec3,
+    /// Chosen diagonals per quadrilateral (`true` = new diagonal).
+    pub diagonals: Vec<bool>,
+}
+
+/// Splits edge slot `edge` at its midpoint with the best valid triangulation.
+/// The world is unchanged on error.
+pub fn split_edge(
+    m: &mut Membrane,
+    edge: u32,
+    valence: ValenceRange,
+) -> Result<RemeshOutcome, RemeshError> {
+    let r = edge_region(m, edge)?;
+    let [i1, i2] = r.i;
+    let mid = 0.5 * (position(m, i1) + position(m, i2));
+    let (rho1, rho2) = (density(m, i1), density(m, i2));
+    let n = m.reserve_vertex();
+    let candidates = split_candidates(&r, n, mid, (rho1 + rho2) / 3.0);
+    let pos = |v: Entity| if v == n { mid } else { position(m, v) };
+    let best = choose(m, &candidates, valence, pos)?;
+    m.apply_patch(&candidates[best].edit, valence)
+        .map_err(RemeshError::NoValidOption)?;
+    if m.has_lipid() {
+        for (v, rho) in [(i1, rho1), (i2, rho2)] {
+            if let Ok(mut d) = m.world.get::<&mut LipidDensity>(v) {
+                d.0 = rho * 2.0 / 3.0;
+            }
+        }
+    }
+    Ok(RemeshOutcome {
+        vertex: n,
+        position: mid,
+        diagonals: candidates[best].diagonals.clone(),
+    })
+}
+
+/// Merges edge slot `edge`: i1 moves to the midpoint, i2 is removed, with
+/// the best valid triangulation. The world is unchanged on error.
+pub fn merge_edge(
+    m: &mut Membrane,
+    edge: u32,
+    valence: ValenceRange,
+) -> Result<RemeshOutcome, RemeshError> {
+    let r = edge_region(m, edge)?;
+    let [i1, i2] = r.i;
+    let mid = 0.5 * (position(m, i1) + position(m, i2));
+    let (rho1, rho2) = (density(m, i1), density(m, i2));
+    let candidates = merge_candidates(m, &r, mid);
+    let pos = |v: Entity| if v == i1 { mid } else { position(m, v) };
+    let best = choose(m, &candidates, valence, pos)?;
+    m.apply_patch(&candidates[best].edit, valence)
+        .map_err(RemeshError::NoValidOption)?;
+    if m.has_lipid() {
+        if let Ok(mut d) = m.world.get::<&mut LipidDensity>(i1) {
+            d.0 = rho1 + rho2;
+        }
+    }
+    Ok(RemeshOutcome {
+        vertex: i1,
+        position: mid,
+        diagonals: candidates[best].diagonals.clone(),
+    })
+}

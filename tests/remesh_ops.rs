@@ -1,0 +1,155 @@
+//! Split and merge through the mesh-edit layer: hand-worked option sets,
+//! and thousands of random edits that keep every invariant and Σρ.
+
+use glam::DVec3;
+use rand::{RngExt, SeedableRng};
+use remembrane::components::LipidDensity;
+use remembrane::membrane::Membrane;
+use remembrane::mesh::{ValenceRange, check_mesh, icosphere};
+use remembrane::remesh::{
+    choose, edge_region, merge_candidates, merge_edge, split_candidates, split_edge,
+};
+
+const RANGE: ValenceRange = ValenceRange { min: 5, max: 8 };
+
+fn membrane(level: u32, jitter: f64, seed: u64) -> Membrane {
+    let mut mesh = icosphere(level, 1.0);
+    mesh.jitter(jitter, seed);
+    let mut m = Membrane::from_mesh(&mesh, true).unwrap();
+    m.topology().unwrap();
+    m
+}
+
+/// An edge whose end points, apexes and far apexes all have valence 6.
+fn regular_edge(m: &Membrane) -> u32 {
+    let t = m.cached_topology();
+    (0..t.edges.len() as u32)
+        .find(|&e| {
+            edge_region(m, e).is_ok_and(|r| {
+                r.i.iter()
+                    .chain(&r.j)
+                    .chain(&r.k)
+                    .all(|&v| t.valence(t.slot(v).unwrap() as usize) == 6)
+            })
+        })
+        .expect("a level-3 icosphere has regular edges")
+}
+
+#[test]
+fn split_options_of_a_regular_neighbourhood_match_the_hand_count() {
+    // Valences after a split, all neighbours 6: i1 = 4 + #old(q1, q4),
+    // i2 = 4 + #old(q2, q3), n = 4 + #new, j1 = 5 + #old(q1, q2),
+    // j2 = 5 + #old(q3, q4), k_q = 6 + new(q). In 5..=8 exactly when at
+    // least one quad is new, q1 or q4 is old, and q2 or q3 is old: the masks
+    // {1, 2, 4, 8, 3, 5, 10, 12} (bit q set = quad q+1 takes the new diagonal).
+    let m = membrane(3, 0.0, 1);
+    let e = regular_edge(&m);
+    let r = edge_region(&m, e).unwrap();
+    let n = m.reserve_vertex();
+    let candidates = split_candidates(&r, n, DVec3::ZERO, 1.0);
+    assert_eq!(candidates.len(), 16);
+    let mut valid: Vec<u32> = candidates
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| m.check_patch(&c.edit, RANGE).is_ok())
+        .map(|(bits, _)| bits as u32)
+        .collect();
+    valid.sort();
+    assert_eq!(valid, [1, 2, 3, 4, 5, 8, 10, 12]);
+    // Best variance 4/9 is reached by the one-new masks and 5 and 10.
+    let best = choose(&m, &candidates, RANGE, |_| DVec3::ZERO).unwrap() as u32;
+    assert!([1, 2, 4, 8, 5, 10].contains(&best), "chose {best}");
+}
+
+#[test]
+fn merge_options_of_a_regular_neighbourhood_match_the_hand_count() {
+    // After a merge with all neighbours 6: i = 6 + #old, j1 = 4 + old(A),
+    // j2 = 4 + old(B), k = 6 + new. Only "both old" keeps j1, j2 ≥ 5 (and i = 8).
+    let m = membrane(3, 0.0, 1);
+    let e = regular_edge(&m);
+    let r = edge_region(&m, e).unwrap();
+    let at = |v| {
+        m.world
+            .get::<&remembrane::components::Position>(v)
+            .unwrap()
+            .0
+    };
+    let mid = 0.5 * (at(r.i[0]) + at(r.i[1]));
+    let candidates = merge_candidates(&m, &r, mid);
+    assert_eq!(candidates.len(), 4);
+    let valid: Vec<usize> = (0..4)
+        .filter(|&c| m.check_patch(&candidates[c].edit, RANGE).is_ok())
+        .collect();
+    assert_eq!(valid, [0]);
+    let valences = m.check_patch(&candidates[0].edit, RANGE).unwrap();
+    assert_eq!(valences[&r.i[0]], 8);
+    assert_eq!(valences[&r.j[0]], 5);
+    // With a tighter range nothing is valid and the world is untouched.
+    let mut m2 = membrane(3, 0.0, 1);
+    let before = m2.to_mesh().unwrap();
+    assert!(merge_edge(&mut m2, e, ValenceRange { min: 5, max: 7 }).is_err());
+    assert_eq!(m2.to_mesh().unwrap(), before);
+}
+
+fn total_density(m: &Membrane) -> f64 {
+    let mut v: Vec<f64> = m
+        .world
+        .query::<&LipidDensity>()
+        .iter()
+        .map(|d| d.0)
+        .collect();
+    v.sort_by(f64::total_cmp);
+    v.iter().sum()
+}
+
+#[test]
+fn random_split_merge_sequences_keep_every_invariant_and_conserve_density() {
+    let mut applied = (0, 0);
+    let mut rejected = 0;
+    for seed in 0..3u64 {
+        let mut m = membrane(2 + (seed % 2) as u32, 0.1, seed);
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let initial = total_density(&m);
+        for _ in 0..700 {
+            let edges = m.cached_topology().edges.len() as u32;
+            let e = rng.random_range(0..edges);
+            let split = rng.random_bool(0.55);
+            let before_vertices = m.cached_topology().vertex_count();
+            let result = if split {
+                split_edge(&mut m, e, RANGE)
+            } else {
+                merge_edge(&mut m, e, RANGE)
+            };
+            let t = m.topology().unwrap().clone();
+            match result {
+                Ok(_) => {
+                    if split {
+                        applied.0 += 1;
+                        assert_eq!(t.vertex_count(), before_vertices + 1);
+                    } else {
+                        applied.1 += 1;
+                        assert_eq!(t.vertex_count(), before_vertices - 1);
+                    }
+                }
+                Err(_) => {
+                    rejected += 1;
+                    assert_eq!(t.vertex_count(), before_vertices);
+                }
+            }
+            let mesh = m.to_mesh().unwrap();
+            check_mesh(&mesh.positions, &mesh.faces, Some(RANGE))
+                .unwrap_or_else(|err| panic!("seed {seed}: {err}"));
+            assert_eq!(t.edges.len(), 3 * t.vertex_count() - 6, "Euler: E = 3V − 6");
+            let total = total_density(&m);
+            assert!(
+                (total - initial).abs() < 1e-12 * initial,
+                "Σρ {total} vs {initial}"
+            );
+        }
+    }
+    println!("applied {applied:?} (splits, merges), rejected {rejected}");
+    assert!(
+        applied.0 > 300 && applied.1 > 100,
+        "too few edits applied: {applied:?}"
+    );
+}
