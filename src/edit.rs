@@ -88,6 +88,9 @@ pub enum EditError {
     FoldOver([Entity; 3]),
 }
 
+/// A face entity with its vertex entities.
+type FaceRef = (Entity, [Entity; 3]);
+
 /// Result of a successful edit.
 #[derive(Clone, Debug, Default)]
 pub struct EditOutcome {
@@ -107,7 +110,7 @@ impl Membrane {
 
     /// Faces (as vertex-entity triples) incident to `v` in the current
     /// topology, with their entities. Empty for a vertex not yet spawned.
-    fn faces_around(&self, v: Entity) -> Vec<(Entity, [Entity; 3])> {
+    fn faces_around(&self, v: Entity) -> Vec<FaceRef> {
         let t = self.cached_topology();
         let Some(slot) = t
             .slot(v)
@@ -183,7 +186,7 @@ impl Membrane {
                 .unwrap_or(DVec3::NAN)
         };
         let normal = |f: &[Entity; 3]| {
-            let [a, b, c] = f.map(|v| position(v));
+            let [a, b, c] = f.map(&position);
             ((b - a).cross(c - a), [a, b, c])
         };
         let patch_normal: DVec3 = removed_triples
@@ -204,7 +207,8 @@ impl Membrane {
                 .distance_squared(b)
                 .max(b.distance_squared(c))
                 .max(c.distance_squared(a));
-            if !(n.length() >= MIN_FACE_SHAPE * longest) {
+            let shape = n.length() / longest;
+            if shape.is_nan() || shape < MIN_FACE_SHAPE {
                 return Err(EditError::DegenerateGeometry(*f));
             }
             if removed_triples
@@ -347,18 +351,9 @@ impl Membrane {
             if edge_entity.contains_key(&(a, b)) {
                 continue;
             }
-            if let (Some(sa), Some(sb)) = (t.slot(a), t.slot(b)) {
-                if t.vertex_entities.get(sa as usize) == Some(&a)
-                    && t.vertex_entities.get(sb as usize) == Some(&b)
-                {
-                    let (lo, hi) = (
-                        t.ring_offsets[sa as usize] as usize,
-                        t.ring_offsets[sa as usize + 1] as usize,
-                    );
-                    if let Some(k) = (lo..hi).find(|&k| t.ring[k] == sb) {
-                        edge_entity.insert((a, b), t.edge_entities[t.ring_edges[k] as usize]);
-                    }
-                }
+            let slots = t.vertex_slot(a).zip(t.vertex_slot(b));
+            if let Some(e) = slots.and_then(|(sa, sb)| t.edge_between(sa, sb)) {
+                edge_entity.insert((a, b), t.edge_entities[e as usize]);
             }
         }
         // Faces after the edit, per affected edge key.
@@ -368,9 +363,9 @@ impl Membrane {
             .iter()
             .map(|_| self.world.reserve_entity())
             .collect();
-        let mut faces_of: HashMap<(Entity, Entity), Vec<(Entity, [Entity; 3])>> = HashMap::new();
+        let mut faces_of: HashMap<(Entity, Entity), Vec<FaceRef>> = HashMap::new();
         for &(a, b) in &keys {
-            let mut list: Vec<(Entity, [Entity; 3])> = self
+            let mut list: Vec<FaceRef> = self
                 .faces_around(a)
                 .into_iter()
                 .filter(|(e, f)| !removed.contains(e) && f.contains(&b))

@@ -359,10 +359,8 @@ pub fn merge_edge(
     let best = choose(m, &candidates, valence, pos)?;
     m.apply_patch(&candidates[best].edit, valence)
         .map_err(RemeshError::NoValidOption)?;
-    if m.has_lipid() {
-        if let Ok(mut d) = m.world.get::<&mut LipidDensity>(i1) {
-            d.0 = rho1 + rho2;
-        }
+    if let (true, Ok(mut d)) = (m.has_lipid(), m.world.get::<&mut LipidDensity>(i1)) {
+        d.0 = rho1 + rho2;
     }
     Ok(RemeshOutcome {
         vertex: i1,

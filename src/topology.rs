@@ -94,6 +94,23 @@ impl Topology {
         (s != NO_SLOT).then_some(s)
     }
 
+    /// Dense slot of a live vertex entity (generation checked).
+    pub fn vertex_slot(&self, entity: Entity) -> Option<u32> {
+        self.slot(entity)
+            .filter(|&s| self.vertex_entities.get(s as usize) == Some(&entity))
+    }
+
+    /// Slot of the edge joining vertex slots `a` and `b`, if any.
+    pub fn edge_between(&self, a: u32, b: u32) -> Option<u32> {
+        let (lo, hi) = (
+            self.ring_offsets[a as usize] as usize,
+            self.ring_offsets[a as usize + 1] as usize,
+        );
+        (lo..hi)
+            .find(|&k| self.ring[k] == b)
+            .map(|k| self.ring_edges[k])
+    }
+
     /// Builds the cache from the world's vertex ([`Position`]), [`Edge`] and
     /// [`Face`] entities. Slots follow the world's iteration order, which is
     /// deterministic for a given sequence of world edits.
