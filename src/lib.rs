@@ -33,6 +33,7 @@ pub mod force;
 pub mod params;
 
 pub mod quality;
+pub mod relax;
 pub mod remesh;
 pub mod render;
 pub mod report;

@@ -258,16 +258,19 @@ pub fn series_row(state: &SimState) -> (String, String) {
         header += &format!(",energy_{name}");
         row += &format!(",{e:e}");
     }
-    header += ",energy_total,area,volume,reduced_volume,edge_min,edge_max,abnormal_edges";
+    header += ",energy_total,area,volume,reduced_volume,edge_min,edge_max,abnormal_edges,splits,merges,remesh_spread";
     row += &format!(
-        ",{:e},{:e},{:e},{:e},{:e},{:e},{}",
+        ",{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e}",
         state.evaluation.total_energy(),
         area,
         volume,
         crate::geometry::reduced_volume(volume, area),
         lmin,
         lmax,
-        state.abnormal_edges.len()
+        state.abnormal_edges.len(),
+        state.remesh_stats.split.success,
+        state.remesh_stats.merge.success,
+        state.remesh_stats.position_spread()
     );
     (header, row)
 }

@@ -368,3 +368,56 @@ pub fn merge_edge(
         diagonals: candidates[best].diagonals.clone(),
     })
 }
+
+/// Counts of one operation's outcomes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct OutcomeCounts {
+    /// Relaxed past the goal and re-triangulated.
+    pub success: u64,
+    /// The edge relaxed back into the normal range: restored, nothing changed.
+    pub cancel: u64,
+    /// Relaxed past the goal but no valid triangulation (or a degenerate
+    /// neighbourhood): restored and pushed back into range.
+    pub impossible: u64,
+    /// The relaxation hit its iteration cap: restored.
+    pub failure: u64,
+}
+
+/// Remeshing statistics of a run.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RemeshStats {
+    /// Split outcomes.
+    pub split: OutcomeCounts,
+    /// Merge outcomes.
+    pub merge: OutcomeCounts,
+    /// Ticks that hit the per-tick event cap.
+    pub overflow_ticks: u64,
+    /// Ticks that ended with abnormal edges although every one was attempted.
+    pub unresolved_ticks: u64,
+    /// Abnormal edges left at the end of those ticks (summed).
+    pub unresolved_edges: u64,
+    /// Positions of successful events (edge midpoints, l̄).
+    pub events: Vec<[f64; 3]>,
+}
+
+impl RemeshStats {
+    /// Successful splits and merges.
+    pub fn successes(&self) -> u64 {
+        self.split.success + self.merge.success
+    }
+
+    /// σ(|r|): standard deviation of the distance of the events from the
+    /// origin (paper Fig 3D), or 0 without events.
+    pub fn position_spread(&self) -> f64 {
+        let r: Vec<f64> = self
+            .events
+            .iter()
+            .map(|p| DVec3::from_array(*p).length())
+            .collect();
+        if r.len() < 2 {
+            return 0.0;
+        }
+        let mean = r.iter().sum::<f64>() / r.len() as f64;
+        (r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (r.len() - 1) as f64).sqrt()
+    }
+}

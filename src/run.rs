@@ -88,10 +88,29 @@ pub struct RunSummary {
     pub shape: crate::shape::ShapeMetrics,
     /// Edges outside [l_−, l_+] at the end.
     pub abnormal_edges: usize,
+    /// Remeshing outcome counts (split/merge × success/cancel/impossible/failure).
+    pub remesh: RemeshSummary,
     /// Frames written.
     pub frames: Vec<crate::output::FrameRecord>,
     /// Wall time per system.
     pub timings: Vec<SystemTiming>,
+}
+
+/// Remeshing counts in `summary.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RemeshSummary {
+    /// Split outcomes.
+    pub split: crate::remesh::OutcomeCounts,
+    /// Merge outcomes.
+    pub merge: crate::remesh::OutcomeCounts,
+    /// Ticks that hit the per-tick event cap.
+    pub overflow_ticks: u64,
+    /// Ticks that ended with abnormal edges although each was attempted.
+    pub unresolved_ticks: u64,
+    /// Successful events.
+    pub events: u64,
+    /// σ(|r|) of the event positions (l̄).
+    pub event_position_spread: f64,
 }
 
 /// A run that could not start or finish.
@@ -286,6 +305,14 @@ fn summarize(
         quality: MeshQuality::measure(t, &s.positions),
         shape: crate::shape::shape_metrics(&s.positions, &t.faces),
         abnormal_edges: s.abnormal_edges.len(),
+        remesh: RemeshSummary {
+            split: s.remesh_stats.split,
+            merge: s.remesh_stats.merge,
+            overflow_ticks: s.remesh_stats.overflow_ticks,
+            unresolved_ticks: s.remesh_stats.unresolved_ticks,
+            events: s.remesh_stats.successes(),
+            event_position_spread: s.remesh_stats.position_spread(),
+        },
         frames: out.frames.clone(),
         timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),
     }

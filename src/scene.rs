@@ -375,6 +375,32 @@ impl Scene {
                 ));
             }
         }
+        if self.remesh.mode != crate::params::RemeshMode::Off && !has("Vin") {
+            return Err(invalid(
+                "remesh.mode",
+                "remeshing needs the Vin term (its barriers trigger it)".into(),
+            ));
+        }
+        let r = self.remesh;
+        if !(r.merge_done < r.shorter_than
+            && r.shorter_than < r.normal_range.0
+            && r.normal_range.0 < r.normal_range.1
+            && r.normal_range.1 < r.longer_than
+            && r.longer_than < r.split_done)
+        {
+            return Err(invalid(
+                "remesh",
+                format!(
+                    "need merge_done < shorter_than < normal_range.0 < normal_range.1 < longer_than < split_done (got {} < {} < {} < {} < {} < {})",
+                    r.merge_done,
+                    r.shorter_than,
+                    r.normal_range.0,
+                    r.normal_range.1,
+                    r.longer_than,
+                    r.split_done
+                ),
+            ));
+        }
         if self.penalty_smoothing > 64 {
             return Err(invalid(
                 "penalty_smoothing",
@@ -450,6 +476,11 @@ impl Scene {
                 EnergyTerm::Vin(p) => {
                     let seg = Arc::new(Segmentation::new(p));
                     segmentation = Some(seg.clone());
+                    if self.remesh.mode == crate::params::RemeshMode::Geometric {
+                        // The geometric baseline: V_in sets Δt and drives the
+                        // local relaxation but exerts no global force.
+                        continue;
+                    }
                     Box::new(VinForces::new(seg, p.form))
                 }
                 EnergyTerm::Bending(p) => Box::new(BendingForces::new(p)),
@@ -490,6 +521,14 @@ impl Scene {
         sim.state.remesh = self.remesh;
         sim.state.segmentation = segmentation;
         sim.state.seed = self.seed;
+        sim.state.valence = self.valence;
+        if self.remesh.mode != crate::params::RemeshMode::Off {
+            sim.add_system(
+                crate::schedule::Stage::Remesh,
+                Box::new(crate::systems::remesh::Remesh),
+            )
+            .map_err(|e| invalid(e.to_string()))?;
+        }
         Ok(sim)
     }
 }

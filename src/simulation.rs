@@ -59,6 +59,10 @@ pub struct SimState {
     pub seed: u64,
     /// Edges (slots) outside [l_−, l_+] after the last integration.
     pub abnormal_edges: Vec<u32>,
+    /// Allowed valences (remeshing keeps every vertex inside).
+    pub valence: crate::mesh::ValenceRange,
+    /// Remeshing outcome counts and event positions.
+    pub remesh_stats: crate::remesh::RemeshStats,
 }
 
 /// A run cannot continue.
@@ -118,6 +122,8 @@ impl Simulation {
             initial,
             seed: 1,
             abnormal_edges: Vec::new(),
+            valence: crate::mesh::ValenceRange::default(),
+            remesh_stats: crate::remesh::RemeshStats::default(),
         };
         let mut builder = ScheduleBuilder::new();
         crate::systems::register_builtin(&mut builder, &terms);

@@ -15,6 +15,7 @@ pub mod force_total;
 pub mod gather_state;
 pub mod langevin_integration;
 pub mod local_tension_forces;
+pub mod remesh;
 pub mod spring_forces;
 pub mod vin_forces;
 pub mod volume_forces;

@@ -1,0 +1,366 @@
+//! Free-energy remeshing (SPEC §4): every abnormal edge (outside [l_−, l_+])
+//! is processed once per tick, in a seeded random order, until none remain
+//! or `max_events_per_tick` is reached (an overflow, counted).
+//!
+//! Stage: Remesh. Reads: positions, topology, V_in segmentation, remesh
+//! parameters, valence range. Writes: positions (patch relaxation), mesh
+//! entities (splits and merges through the mesh-edit layer), lipid density
+//! (split/merge policies), remesh statistics.
+//!
+//! Per edge: pre-relax the patch (edge ends and their 1-ring move, the
+//! 2-ring is fixed) under V_in plus Lévy kicks, extending (split) or
+//! compressing (merge) the edge. Success → split/merge with the best valid
+//! triangulation, then relax the new vertex's 1-ring into the normal range;
+//! no valid triangulation, cancel or failure → restore and push the edge
+//! back into range by moving its two ends. An edge still abnormal at the end
+//! of the tick is counted as unresolved (never dropped silently).
+
+use crate::components::Position;
+use crate::params::RemeshParams;
+use crate::relax::{Goal, Patch, RelaxOutcome, RelaxSettings, relax};
+use crate::remesh::{OutcomeCounts, edge_region, merge_edge, split_edge};
+use crate::schedule::{Access, Data, System};
+use crate::simulation::{SimError, SimState};
+use crate::systems::langevin_integration::stream_seed;
+use hecs::Entity;
+use rand::{RngExt, SeedableRng};
+use std::collections::HashSet;
+
+/// Stream id of the remeshing randomness (edge order, kicks).
+const REMESH_STREAM: u64 = 0x7265_6d65_7368_0001;
+
+/// The remesh system.
+pub struct Remesh;
+
+impl System for Remesh {
+    fn name(&self) -> &str {
+        "remesh"
+    }
+
+    fn access(&self) -> Access {
+        Access::new(
+            &[Data::Positions, Data::Topology, Data::BarrierCrossings],
+            &[
+                Data::Positions,
+                Data::Topology,
+                Data::LipidDensity,
+                Data::BarrierCrossings,
+            ],
+        )
+    }
+
+    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
+        if state.abnormal_edges.is_empty() {
+            return Ok(());
+        }
+        let Some(seg) = state.segmentation.clone() else {
+            return Ok(());
+        };
+        let p = state.remesh;
+        let settings = RelaxSettings {
+            normal: p.normal_range,
+            kick_scale: p.kick_scale,
+            mobility: state.dynamics.mobility,
+            max_iterations: p.relax_iterations,
+        };
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(stream_seed(
+            state.seed,
+            REMESH_STREAM,
+            state.clock.iteration,
+        ));
+        let mut attempted: HashSet<(Entity, Entity)> = HashSet::new();
+        let mut events = 0;
+        loop {
+            let candidates = abnormal_edges(state, &p, &attempted);
+            if candidates.is_empty() {
+                break;
+            }
+            if events >= p.max_events_per_tick {
+                state.remesh_stats.overflow_ticks += 1;
+                break;
+            }
+            let (edge, long) = candidates[rng.random_range(0..candidates.len())];
+            let t = state.membrane.cached_topology();
+            let [a, b] = t.edges[edge as usize];
+            attempted.insert(ordered(
+                t.vertex_entities[a as usize],
+                t.vertex_entities[b as usize],
+            ));
+            events += 1;
+            process(state, edge, long, &seg, &settings, &mut rng)?;
+        }
+        let abnormal: Vec<u32> = abnormal_edges(state, &p, &HashSet::new())
+            .into_iter()
+            .map(|(e, _)| e)
+            .collect();
+        if !abnormal.is_empty() && events < p.max_events_per_tick {
+            state.remesh_stats.unresolved_ticks += 1;
+            state.remesh_stats.unresolved_edges += abnormal.len() as u64;
+        }
+        state.abnormal_edges = abnormal;
+        Ok(())
+    }
+}
+
+fn ordered(a: Entity, b: Entity) -> (Entity, Entity) {
+    if a.to_bits() < b.to_bits() {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// Abnormal edges not yet attempted this tick: (slot, too long?).
+fn abnormal_edges(
+    state: &SimState,
+    p: &RemeshParams,
+    attempted: &HashSet<(Entity, Entity)>,
+) -> Vec<(u32, bool)> {
+    let t = state.membrane.cached_topology();
+    let pos = &state.positions;
+    let mut out = Vec::new();
+    for (e, &[a, b]) in t.edges.iter().enumerate() {
+        let l = pos[a as usize].distance(pos[b as usize]);
+        if (p.shorter_than..=p.longer_than).contains(&l) {
+            continue;
+        }
+        if attempted.contains(&ordered(
+            t.vertex_entities[a as usize],
+            t.vertex_entities[b as usize],
+        )) {
+            continue;
+        }
+        out.push((e as u32, l > p.longer_than));
+    }
+    out
+}
+
+/// A patch around `moveable` vertex slots: moveable first, then their
+/// neighbours (fixed); edges incident to a moveable vertex; `target` edge.
+fn build_patch(state: &SimState, moveable: &[u32], target: Option<[u32; 2]>) -> (Patch, Vec<u32>) {
+    let t = state.membrane.cached_topology();
+    let mut slots: Vec<u32> = moveable.to_vec();
+    for &v in moveable {
+        for &w in t.neighbours(v as usize) {
+            if !slots.contains(&w) {
+                slots.push(w);
+            }
+        }
+    }
+    let local = |s: u32| slots.iter().position(|&x| x == s).expect("in patch");
+    let mut edges: Vec<[usize; 2]> = Vec::new();
+    let mut target_index = None;
+    for &v in moveable {
+        for &w in t.neighbours(v as usize) {
+            let e = [local(v), local(w)];
+            if edges
+                .iter()
+                .any(|x| (x[0] == e[1] && x[1] == e[0]) || *x == e)
+            {
+                continue;
+            }
+            if target.is_some_and(|[a, b]| (v, w) == (a, b) || (v, w) == (b, a)) {
+                target_index = Some(edges.len());
+            }
+            edges.push(e);
+        }
+    }
+    let positions = slots.iter().map(|&s| state.positions[s as usize]).collect();
+    (
+        Patch {
+            positions,
+            moveable: moveable.len(),
+            edges,
+            target: target_index,
+        },
+        slots,
+    )
+}
+
+/// In debug builds (and so in every test), the full invariant check after
+/// each topology edit.
+fn debug_check_invariants(state: &SimState) {
+    if cfg!(debug_assertions) {
+        let t = state.membrane.cached_topology();
+        if let Err(e) = crate::mesh::check_mesh(&state.positions, &t.faces, Some(state.valence)) {
+            panic!(
+                "mesh invariant broken after a remesh edit at iteration {}: {e}",
+                state.clock.iteration
+            );
+        }
+    }
+}
+
+/// `seeds` and every vertex within `depth` rings of them.
+fn rings(state: &SimState, seeds: &[u32], depth: usize) -> Vec<u32> {
+    let t = state.membrane.cached_topology();
+    let mut out: Vec<u32> = seeds.to_vec();
+    let mut frontier = out.clone();
+    for _ in 0..depth {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &w in t.neighbours(v as usize) {
+                if !out.contains(&w) {
+                    out.push(w);
+                    next.push(w);
+                }
+            }
+        }
+        frontier = next;
+    }
+    out
+}
+
+/// Writes a patch's moveable positions back (dense mirror and world).
+fn write_back(state: &mut SimState, patch: &Patch, slots: &[u32]) {
+    let t = state.membrane.cached_topology();
+    let entities: Vec<Entity> = slots[..patch.moveable]
+        .iter()
+        .map(|&s| t.vertex_entities[s as usize])
+        .collect();
+    for (k, e) in entities.into_iter().enumerate() {
+        let p = patch.positions[k];
+        state.positions[slots[k] as usize] = p;
+        if let Ok(mut pos) = state.membrane.world.get::<&mut Position>(e) {
+            pos.0 = p;
+        }
+    }
+}
+
+/// Re-gathers the dense mirror after a topology change.
+fn refresh(state: &mut SimState) -> Result<(), SimError> {
+    state.membrane.topology()?;
+    state.membrane.gather_positions(&mut state.positions);
+    state.membrane.gather_lipid(&mut state.lipid);
+    Ok(())
+}
+
+fn process(
+    state: &mut SimState,
+    edge: u32,
+    long: bool,
+    seg: &crate::energy::vin::Segmentation,
+    settings: &RelaxSettings,
+    rng: &mut impl RngExt,
+) -> Result<(), SimError> {
+    let p = state.remesh;
+    let valence = state.valence;
+    let t = state.membrane.cached_topology();
+    let [a, b] = t.edges[edge as usize];
+    let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
+    let counts: &mut OutcomeCounts = if long {
+        &mut state.remesh_stats.split
+    } else {
+        &mut state.remesh_stats.merge
+    };
+    if edge_region(&state.membrane, edge).is_err() {
+        counts.impossible += 1;
+        push_back(state, a, b, seg, settings, rng);
+        return Ok(());
+    }
+    // Pre-relaxation with the 1-ring moveable; under tension the fixed 2-ring
+    // may leave no room, so a failure is retried once with the 2-ring
+    // moveable (the reference code's fallback after repeated failures).
+    let goal = if long {
+        Goal::Extend(p.split_done)
+    } else {
+        Goal::Compress(p.merge_done)
+    };
+    let attempt = |depth: usize, rng: &mut _| {
+        let moveable = rings(state, &[a, b], depth);
+        let (mut patch, slots) = build_patch(state, &moveable, Some([a, b]));
+        let outcome = relax(&mut patch, goal, seg, settings, rng);
+        (outcome, patch, slots)
+    };
+    let (mut outcome, mut patch, mut slots) = attempt(1, rng);
+    if outcome == RelaxOutcome::Failure {
+        (outcome, patch, slots) = attempt(2, rng);
+    }
+    let counts: &mut OutcomeCounts = if long {
+        &mut state.remesh_stats.split
+    } else {
+        &mut state.remesh_stats.merge
+    };
+    match outcome {
+        RelaxOutcome::Cancel | RelaxOutcome::Failure => {
+            if outcome == RelaxOutcome::Cancel {
+                counts.cancel += 1;
+            } else {
+                counts.failure += 1;
+            }
+            // The patch was relaxed on a copy: the world is as before. Push
+            // the edge back into range by moving only its two ends.
+            push_back(state, a, b, seg, settings, rng);
+            return Ok(());
+        }
+        RelaxOutcome::Success => {}
+    }
+    let saved: Vec<glam::DVec3> = slots[..patch.moveable]
+        .iter()
+        .map(|&s| state.positions[s as usize])
+        .collect();
+    write_back(state, &patch, &slots);
+    // The edge's slot is unchanged until the topology changes.
+    let result = if long {
+        split_edge(&mut state.membrane, edge, valence)
+    } else {
+        merge_edge(&mut state.membrane, edge, valence)
+    };
+    let counts: &mut OutcomeCounts = if long {
+        &mut state.remesh_stats.split
+    } else {
+        &mut state.remesh_stats.merge
+    };
+    match result {
+        Ok(out) => {
+            counts.success += 1;
+            state.remesh_stats.events.push(out.position.to_array());
+            refresh(state)?;
+            debug_check_invariants(state);
+            // Post-relaxation: the new (or surviving) vertex and its 1-ring.
+            let t = state.membrane.cached_topology();
+            let v = t
+                .vertex_slot(out.vertex)
+                .expect("the edit keeps this vertex");
+            let mut moveable = vec![v];
+            moveable.extend_from_slice(t.neighbours(v as usize));
+            let (mut post, post_slots) = build_patch(state, &moveable, None);
+            if relax(&mut post, Goal::Normalize, seg, settings, rng) != RelaxOutcome::Failure {
+                write_back(state, &post, &post_slots);
+            }
+        }
+        Err(_) => {
+            counts.impossible += 1;
+            // Restore the pre-relaxation positions, then push the edge back.
+            let restore = Patch {
+                positions: saved,
+                moveable: patch.moveable,
+                ..Default::default()
+            };
+            write_back(state, &restore, &slots);
+            let t = state.membrane.cached_topology();
+            let (a, b) = (
+                t.vertex_slot(ea).expect("live"),
+                t.vertex_slot(eb).expect("live"),
+            );
+            push_back(state, a, b, seg, settings, rng);
+        }
+    }
+    Ok(())
+}
+
+/// Moves only the edge's two ends (their neighbours fixed) until every
+/// incident edge is in the normal range; keeps the result unless it fails.
+fn push_back(
+    state: &mut SimState,
+    a: u32,
+    b: u32,
+    seg: &crate::energy::vin::Segmentation,
+    settings: &RelaxSettings,
+    rng: &mut impl RngExt,
+) {
+    let (mut patch, slots) = build_patch(state, &[a, b], Some([a, b]));
+    if relax(&mut patch, Goal::Normalize, seg, settings, rng) != RelaxOutcome::Failure {
+        write_back(state, &patch, &slots);
+    }
+}

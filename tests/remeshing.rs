@@ -1,0 +1,227 @@
+//! The Lévy sampler, the local relaxation, and remeshing runs: after every
+//! tick all edges are within the triggers (or an overflow was counted),
+//! valences stay in range and Σρ is conserved.
+
+use glam::DVec3;
+use rand::SeedableRng;
+use remembrane::components::LipidDensity;
+use remembrane::energy::vin::{Segmentation, VinParams};
+use remembrane::relax::{Goal, Patch, RelaxOutcome, RelaxSettings, relax, stable_alpha1_beta1};
+use remembrane::scene::Scene;
+use std::f64::consts::PI;
+use std::path::Path;
+
+#[test]
+fn levy_sampler_matches_the_stable_characteristic_function() {
+    // S(α = 1, β = 1, γ = 1, δ = 0) in the S1 parametrisation:
+    // E[e^{itX}] = exp(−|t| (1 + i β (2/π) sign(t) ln|t|)).
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(42);
+    let n = 400_000;
+    let xs: Vec<f64> = (0..n).map(|_| stable_alpha1_beta1(&mut rng)).collect();
+    for t in [0.25f64, 0.5, 1.0, 2.0] {
+        let (re, im) = xs.iter().fold((0.0, 0.0), |(r, i), x| {
+            (r + (t * x).cos(), i + (t * x).sin())
+        });
+        let (re, im) = (re / n as f64, im / n as f64);
+        let modulus = (-t.abs()).exp();
+        let phase = -t.abs() * (2.0 / PI) * t.signum() * t.abs().ln();
+        let (er, ei) = (modulus * phase.cos(), modulus * phase.sin());
+        // Standard error of an empirical characteristic function ≤ 1/√n ≈ 1.6e-3.
+        assert!(
+            (re - er).abs() < 6e-3 && (im - ei).abs() < 6e-3,
+            "t = {t}: ({re}, {im}) vs ({er}, {ei})"
+        );
+    }
+    // Right-skewed but not positive-only; heavy right tail.
+    let negative = xs.iter().filter(|&&x| x < 0.0).count() as f64 / n as f64;
+    assert!(negative > 0.05 && negative < 0.5, "P(X < 0) = {negative}");
+    assert!(xs.iter().any(|&x| x > 100.0));
+}
+
+fn stretched_patch() -> (Patch, Segmentation) {
+    let seg = Segmentation::new(VinParams::default());
+    let mesh = remembrane::mesh::icosphere(3, 1.0);
+    let mut m = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let t = m.topology().unwrap().clone();
+    let [a, b] = t.edges[100];
+    let mut slots = vec![a, b];
+    for v in [a, b] {
+        slots.extend(
+            t.neighbours(v as usize)
+                .iter()
+                .filter(|w| ![a, b].contains(w)),
+        );
+    }
+    slots.sort_by_key(|&s| {
+        if s == a {
+            0
+        } else if s == b {
+            1
+        } else {
+            2
+        }
+    });
+    slots.dedup();
+    let moveable = slots.len();
+    for k in 0..moveable {
+        for &w in t.neighbours(slots[k] as usize) {
+            if !slots.contains(&w) {
+                slots.push(w);
+            }
+        }
+    }
+    let local = |s: u32| slots.iter().position(|&x| x == s).unwrap();
+    let mut edges: Vec<[usize; 2]> = Vec::new();
+    let mut target = None;
+    for &v in &slots[..moveable] {
+        for &w in t.neighbours(v as usize) {
+            let e = [local(v), local(w)];
+            if edges.iter().any(|x| *x == e || *x == [e[1], e[0]]) {
+                continue;
+            }
+            if (v, w) == (a, b) || (v, w) == (b, a) {
+                target = Some(edges.len());
+            }
+            edges.push(e);
+        }
+    }
+    let mut positions: Vec<DVec3> = slots.iter().map(|&s| mesh.positions[s as usize]).collect();
+    let d = positions[1] - positions[0];
+    positions[0] -= 0.2 * d;
+    positions[1] += 0.2 * d;
+    (
+        Patch {
+            positions,
+            moveable,
+            edges,
+            target,
+        },
+        seg,
+    )
+}
+
+#[test]
+fn relaxation_extends_compresses_and_keeps_the_boundary_fixed() {
+    let (patch, seg) = stretched_patch();
+    let settings = RelaxSettings {
+        normal: (0.8, 1.2),
+        kick_scale: 10.0,
+        mobility: 1000.0,
+        max_iterations: 50_000,
+    };
+    let len = |p: &Patch, k: usize| p.positions[p.edges[k][0]].distance(p.positions[p.edges[k][1]]);
+    for seed in 0..3 {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut p = patch.clone();
+        assert_eq!(
+            relax(&mut p, Goal::Extend(1.8), &seg, &settings, &mut rng),
+            RelaxOutcome::Success
+        );
+        assert!(len(&p, p.target.unwrap()) > 1.8);
+        for k in (0..p.edges.len()).filter(|&k| Some(k) != p.target) {
+            assert!((0.8..=1.2).contains(&len(&p, k)));
+        }
+        assert_eq!(
+            p.positions[p.moveable..],
+            patch.positions[patch.moveable..],
+            "boundary moved"
+        );
+        // Back into range: Normalize.
+        let mut q = patch.clone();
+        assert_eq!(
+            relax(&mut q, Goal::Normalize, &seg, &settings, &mut rng),
+            RelaxOutcome::Success
+        );
+        assert!((0.8..=1.2).contains(&len(&q, q.target.unwrap())));
+    }
+    // A cap of zero iterations fails without moving anything.
+    let mut p = patch.clone();
+    let capped = RelaxSettings {
+        max_iterations: 0,
+        ..settings
+    };
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(0);
+    assert_eq!(
+        relax(&mut p, Goal::Extend(1.8), &seg, &capped, &mut rng),
+        RelaxOutcome::Failure
+    );
+    assert_eq!(p.positions, patch.positions);
+}
+
+#[test]
+fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell_stiff.ron");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.lipid_density = true;
+    let mut sim = scene.build(&path).unwrap();
+    let total = |sim: &remembrane::simulation::Simulation| -> f64 {
+        let mut v: Vec<f64> = sim
+            .state
+            .membrane
+            .world
+            .query::<&LipidDensity>()
+            .iter()
+            .map(|d| d.0)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v.iter().sum()
+    };
+    let initial = total(&sim);
+    let mut reported = 0;
+    for _ in 0..3000 {
+        sim.tick().unwrap();
+        let s = &sim.state;
+        // A tick may end with abnormal edges only if it says so.
+        let now = s.remesh_stats.overflow_ticks + s.remesh_stats.unresolved_ticks;
+        if now > reported {
+            reported = now;
+            assert!(!s.abnormal_edges.is_empty());
+            continue;
+        }
+        let t = s.membrane.cached_topology();
+        for &[a, b] in &t.edges {
+            let l = s.positions[a as usize].distance(s.positions[b as usize]);
+            assert!(
+                (0.7..=1.3).contains(&l),
+                "iteration {}: edge length {l}",
+                s.clock.iteration
+            );
+        }
+        for v in 0..t.vertex_count() {
+            assert!((5..=8).contains(&t.valence(v)));
+        }
+        assert!((total(&sim) - initial).abs() < 1e-12 * initial);
+    }
+    let stats = &sim.state.remesh_stats;
+    println!(
+        "{:?} {:?} overflow {} unresolved {}",
+        stats.split, stats.merge, stats.overflow_ticks, stats.unresolved_ticks
+    );
+    let summary = format!(
+        "{:?} {:?} overflow {} unresolved {}",
+        stats.split, stats.merge, stats.overflow_ticks, stats.unresolved_ticks
+    );
+    assert!(
+        stats.split.success > 10 && stats.merge.success > 10,
+        "{summary}"
+    );
+    // Measured: 52 of 3000 ticks end with an unmergeable short edge left
+    // (reported as unresolved); bound at 5 % of ticks.
+    assert!(
+        stats.unresolved_ticks + stats.overflow_ticks < 150,
+        "{summary}"
+    );
+}
+
+#[test]
+fn geometric_mode_removes_the_global_vin_force_only() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell.ron");
+    let mut scene = Scene::load(&path).unwrap();
+    scene.remesh.mode = remembrane::params::RemeshMode::Geometric;
+    let sim = scene.build(&path).unwrap();
+    assert!(!sim.state.forces.names().contains(&"vin".to_string()));
+    assert!(
+        sim.state.segmentation.is_some(),
+        "V_in still sets Δt and relaxes patches"
+    );
+}
