@@ -224,7 +224,10 @@ pub struct RemeshParams {
     /// D, scale of the Lévy kicks (Ē/l̄; default 10).
     #[serde(deserialize_with = "crate::validate::positive")]
     pub kick_scale: f64,
-    /// Iteration cap of one local relaxation (default 20000).
+    /// Iteration cap of one local relaxation (default 5000; in the
+    /// filopodium scene successful pre-relaxations took a median of 725
+    /// iterations, 99 % under 6500; a failed 1-ring relaxation is retried
+    /// once with a 2-ring patch).
     pub relax_iterations: u32,
     /// Most remesh events per tick; abnormal edges left over are counted as
     /// an overflow and retried next tick (default 64).
@@ -241,7 +244,7 @@ impl Default for RemeshParams {
             merge_done: 0.05,
             normal_range: (0.8, 1.2),
             kick_scale: 10.0,
-            relax_iterations: 20000,
+            relax_iterations: 5000,
             max_events_per_tick: 64,
         }
     }

@@ -9,7 +9,7 @@
 //! the global time step, so no edge crosses more than one V_in segment.
 
 use crate::energy::vin::Segmentation;
-use crate::timestep::edge_time_step;
+use crate::timestep::edge_time_step_in;
 use glam::DVec3;
 use rand::RngExt;
 use std::f64::consts::FRAC_PI_2;
@@ -85,19 +85,33 @@ pub fn relax(
     let (lo, hi) = settings.normal;
     let n = patch.positions.len();
     let mut force = vec![DVec3::ZERO; n];
+    // Per edge and iteration: vector, length and V_in segment, computed once.
+    let mut geometry: Vec<(DVec3, f64, usize)> = vec![(DVec3::ZERO, 0.0, 0); patch.edges.len()];
     let start = patch.positions.clone();
     let last_segment = seg.segment_count() - 1;
     for _ in 0..settings.max_iterations {
+        let mut near_wall = false;
+        for (g, &[a, b]) in geometry.iter_mut().zip(&patch.edges) {
+            let d = patch.positions[b] - patch.positions[a];
+            let l = d.length();
+            let s = seg.segment_of(l);
+            near_wall |= s < 2 || s + 2 > last_segment;
+            *g = (d, l, s);
+        }
+        if near_wall {
+            // An edge drifted next to a wall of V_in: start over (reference
+            // "restored!!").
+            patch.positions.copy_from_slice(&start);
+            continue;
+        }
         // Outcome checks.
-        let len = |e: [usize; 2], p: &[DVec3]| p[e[0]].distance(p[e[1]]);
-        let others_normal = patch
-            .edges
+        let others_normal = geometry
             .iter()
             .enumerate()
             .filter(|(k, _)| Some(*k) != patch.target)
-            .all(|(_, &e)| (lo..=hi).contains(&len(e, &patch.positions)));
+            .all(|(_, g)| (lo..=hi).contains(&g.1));
         if let Some(t) = patch.target {
-            let l = len(patch.edges[t], &patch.positions);
+            let l = geometry[t].1;
             match goal {
                 Goal::Extend(past) if others_normal && l > past => return RelaxOutcome::Success,
                 Goal::Compress(below) if others_normal && l < below => {
@@ -116,16 +130,8 @@ pub fn relax(
         }
         // Forces: V_in chords plus kicks.
         force.iter_mut().for_each(|f| *f = DVec3::ZERO);
-        let mut near_wall = false;
-        for (k, &[a, b]) in patch.edges.iter().enumerate() {
-            let d = patch.positions[b] - patch.positions[a];
-            let l = d.length();
-            let s = seg.segment_of(l);
-            if s < 2 || s + 2 > last_segment {
-                near_wall = true;
-            }
-            let (_, slope) = seg.linear(l);
-            let mut magnitude = -slope; // > 0 pushes the ends apart
+        for (k, (&[a, b], &(d, l, s))) in patch.edges.iter().zip(&geometry).enumerate() {
+            let mut magnitude = -seg.slopes[s]; // > 0 pushes the ends apart
             let is_target = Some(k) == patch.target;
             let kick = match (is_target, goal) {
                 (true, Goal::Extend(past)) if l <= past => Some(1.0),
@@ -142,21 +148,14 @@ pub fn relax(
             force[b] += f;
             force[a] -= f;
         }
-        if near_wall {
-            // An edge drifted next to a wall of V_in: start over (reference
-            // "restored!!").
-            patch.positions.copy_from_slice(&start);
-            continue;
-        }
         for f in &mut force[patch.moveable..] {
             *f = DVec3::ZERO;
         }
         let mu = settings.mobility;
         let mut dt = f64::INFINITY;
-        for &[a, b] in &patch.edges {
-            let d = patch.positions[b] - patch.positions[a];
+        for (&[a, b], &(d, l, s)) in patch.edges.iter().zip(&geometry) {
             let rate = 2.0 * mu * d.dot(force[b] - force[a]);
-            dt = dt.min(edge_time_step(seg, d.length(), rate));
+            dt = dt.min(edge_time_step_in(seg, s, l, rate));
         }
         if !dt.is_finite() {
             continue; // no force this iteration: draw new kicks

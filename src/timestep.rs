@@ -33,12 +33,17 @@ pub struct TimeStepChoice {
 
 /// Time step allowed by one edge of length `l` whose squared length changes
 /// at rate `b` = 2μ d·(F_b − F_a) (l̄²/s). Always > 0; ∞ when `b` = 0.
-#[inline]
+#[inline(always)]
 pub fn edge_time_step(segmentation: &Segmentation, l: f64, b: f64) -> f64 {
+    edge_time_step_in(segmentation, segmentation.segment_of(l), l, b)
+}
+
+/// [`edge_time_step`] for an edge already known to lie in segment `s`.
+#[inline(always)]
+pub fn edge_time_step_in(segmentation: &Segmentation, s: usize, l: f64, b: f64) -> f64 {
     if b == 0.0 || b.is_nan() {
         return f64::INFINITY;
     }
-    let s = segmentation.segment_of(l);
     let target = if b > 0.0 {
         segmentation.midpoint_above(s)
     } else {
