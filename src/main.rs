@@ -21,28 +21,8 @@ enum Command {
     Run {
         /// Scene file (RON); default: the bundled red_blood_cell.ron.
         scene: Option<PathBuf>,
-        /// Output directory (default: out/<scene name>, or out/<name>.N if
-        /// that exists).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Replace the output directory if it exists.
-        #[arg(long)]
-        overwrite: bool,
-        /// Seed (overrides the scene's).
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Iterations (overrides the scene's).
-        #[arg(long)]
-        iterations: Option<u64>,
-        /// Worker threads (default: all cores). Results do not depend on it.
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Frames to write (overrides the scene's).
-        #[arg(long)]
-        frames: Option<u32>,
-        /// No progress output.
-        #[arg(long)]
-        quiet: bool,
+        #[command(flatten)]
+        args: RunArgs,
     },
     /// Validate a scene and print what it declares.
     Check {
@@ -70,27 +50,7 @@ const BUNDLED_SCENE_NAME: &str = "bundled:red_blood_cell.ron";
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Run {
-            scene,
-            out,
-            overwrite,
-            seed,
-            iterations,
-            threads,
-            frames,
-            quiet,
-        } => {
-            let options = RunArgs {
-                out,
-                overwrite,
-                seed,
-                iterations,
-                threads,
-                frames,
-                quiet,
-            };
-            run_command(scene.as_deref(), options)
-        }
+        Command::Run { scene, args } => run_command(scene.as_deref(), args),
         other => match run(other) {
             Ok(()) => ExitCode::SUCCESS,
             Err(message) => {
@@ -101,13 +61,30 @@ fn main() -> ExitCode {
     }
 }
 
+/// Options of `remembrane run`.
+#[derive(clap::Args)]
 struct RunArgs {
+    /// Output directory (default: out/<scene name>, or out/<name>.N if
+    /// that exists).
+    #[arg(long)]
     out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
     overwrite: bool,
+    /// Seed (overrides the scene's).
+    #[arg(long)]
     seed: Option<u64>,
+    /// Iterations (overrides the scene's).
+    #[arg(long)]
     iterations: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long)]
     threads: Option<usize>,
+    /// Frames to write (overrides the scene's).
+    #[arg(long)]
     frames: Option<u32>,
+    /// No progress output.
+    #[arg(long)]
     quiet: bool,
 }
 
@@ -172,7 +149,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
                     summary.reduced_volume
                 );
                 eprintln!("outputs in {}", options.out.display());
-                let table = summary_table(&summary.timings);
+                let table = remembrane::schedule::format_timings(&summary.timings);
                 eprint!("{table}");
             }
             ExitCode::SUCCESS
@@ -198,24 +175,6 @@ fn free_directory(base: PathBuf) -> PathBuf {
         })
         .find(|p| !p.exists())
         .unwrap_or(base)
-}
-
-fn summary_table(timings: &[remembrane::schedule::SystemTiming]) -> String {
-    let mut s = format!(
-        "{:<24} {:<13} {:>10} {:>12} {:>7}\n",
-        "system", "stage", "total s", "µs/tick", "share"
-    );
-    for t in timings {
-        s += &format!(
-            "{:<24} {:<13} {:>10.3} {:>12.2} {:>6.1}%\n",
-            t.system,
-            t.stage,
-            t.total_s,
-            t.per_tick_us,
-            100.0 * t.share
-        );
-    }
-    s
 }
 
 fn run(command: Command) -> Result<(), String> {

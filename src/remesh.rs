@@ -115,6 +115,36 @@ pub fn edge_region(m: &Membrane, edge: u32) -> Result<EdgeRegion, RemeshError> {
     })
 }
 
+/// A quadrilateral of a split or merge: the two faces with its old
+/// diagonal, the two with the new one, and both diagonals.
+type Quad = (
+    [[Entity; 3]; 2],
+    [[Entity; 3]; 2],
+    (Entity, Entity),
+    (Entity, Entity),
+);
+
+/// The candidate for diagonal choice `bits` (bit q set: quad q takes its new
+/// diagonal), added to `base`.
+fn triangulate(quads: &[Quad], bits: u32, mut edit: PatchEdit) -> Candidate {
+    let diagonals: Vec<bool> = (0..quads.len()).map(|q| bits & (1 << q) != 0).collect();
+    let mut diagonal_edges = Vec::with_capacity(quads.len());
+    for (q, &(old, new, old_diag, new_diag)) in quads.iter().enumerate() {
+        let (faces, diag) = if diagonals[q] {
+            (new, new_diag)
+        } else {
+            (old, old_diag)
+        };
+        edit.add_faces.extend_from_slice(&faces);
+        diagonal_edges.push(diag);
+    }
+    Candidate {
+        diagonals,
+        edit,
+        diagonal_edges,
+    }
+}
+
 /// The 16 split candidates for region `r` with new vertex `n` at `position`
 /// (lipid density `rho_n`).
 pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3, rho_n: f64) -> Vec<Candidate> {
@@ -149,31 +179,14 @@ pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3, rho_n: f64) 
             (n, k4),
         ),
     ];
-    let mut out = Vec::with_capacity(16);
-    for bits in 0..16u32 {
-        let diagonals: Vec<bool> = (0..4).map(|q| bits & (1 << q) != 0).collect();
-        let mut edit = PatchEdit {
-            remove_faces: [r.central.as_slice(), r.outer.as_slice()].concat(),
-            add_vertices: vec![(n, position, rho_n)],
-            ..Default::default()
-        };
-        let mut diagonal_edges = Vec::new();
-        for (q, &(old, new, old_diag, new_diag)) in quads.iter().enumerate() {
-            if diagonals[q] {
-                edit.add_faces.extend_from_slice(&new);
-                diagonal_edges.push(new_diag);
-            } else {
-                edit.add_faces.extend_from_slice(&old);
-                diagonal_edges.push(old_diag);
-            }
-        }
-        out.push(Candidate {
-            diagonals,
-            edit,
-            diagonal_edges,
-        });
-    }
-    out
+    let base = PatchEdit {
+        remove_faces: [r.central.as_slice(), r.outer.as_slice()].concat(),
+        add_vertices: vec![(n, position, rho_n)],
+        ..Default::default()
+    };
+    (0..16)
+        .map(|bits| triangulate(&quads, bits, base.clone()))
+        .collect()
 }
 
 /// The 4 merge candidates: i1 survives as i at `mid`, i2 is removed.
@@ -211,33 +224,16 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candida
             (k3, k4),
         ),
     ];
-    let mut out = Vec::with_capacity(4);
-    for bits in 0..4u32 {
-        let diagonals: Vec<bool> = (0..2).map(|q| bits & (1 << q) != 0).collect();
-        let mut edit = PatchEdit {
-            remove_faces: [patch.as_slice(), relabelled_remove.as_slice()].concat(),
-            add_faces: relabelled_add.clone(),
-            remove_vertices: vec![i2],
-            move_vertices: vec![(i, mid)],
-            ..Default::default()
-        };
-        let mut diagonal_edges = Vec::new();
-        for (q, &(old, new, old_diag, new_diag)) in quads.iter().enumerate() {
-            if diagonals[q] {
-                edit.add_faces.extend_from_slice(&new);
-                diagonal_edges.push(new_diag);
-            } else {
-                edit.add_faces.extend_from_slice(&old);
-                diagonal_edges.push(old_diag);
-            }
-        }
-        out.push(Candidate {
-            diagonals,
-            edit,
-            diagonal_edges,
-        });
-    }
-    out
+    let base = PatchEdit {
+        remove_faces: [patch.as_slice(), relabelled_remove.as_slice()].concat(),
+        add_faces: relabelled_add,
+        remove_vertices: vec![i2],
+        move_vertices: vec![(i, mid)],
+        ..Default::default()
+    };
+    (0..4)
+        .map(|bits| triangulate(&quads, bits, base.clone()))
+        .collect()
 }
 
 /// A candidate's score: (valence variance, std of the diagonal lengths).

@@ -16,6 +16,17 @@ pub struct TermEnergy {
     pub energy: f64,
 }
 
+/// The energy of each force term of `state`'s last evaluation, in order.
+pub fn term_energies(state: &SimState) -> Vec<TermEnergy> {
+    state
+        .forces
+        .names()
+        .into_iter()
+        .zip(&state.evaluation.energies)
+        .map(|(term, &energy)| TermEnergy { term, energy })
+        .collect()
+}
+
 /// State summary of a membrane.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EnergyReport {
@@ -49,13 +60,7 @@ impl EnergyReport {
         let p = &sim.positions;
         let area = total_area(p, &t.faces);
         let volume = enclosed_volume(p, &t.faces, p[0]);
-        let energies: Vec<TermEnergy> = sim
-            .forces
-            .names()
-            .into_iter()
-            .zip(&sim.evaluation.energies)
-            .map(|(term, &energy)| TermEnergy { term, energy })
-            .collect();
+        let energies = term_energies(sim);
         Self {
             scene: scene.to_string(),
             vertices: t.vertex_count(),

@@ -275,13 +275,7 @@ fn summarize(
     let t = s.membrane.cached_topology();
     let area = crate::geometry::total_area(&s.positions, &t.faces);
     let volume = crate::geometry::enclosed_volume(&s.positions, &t.faces, s.positions[0]);
-    let energies: Vec<TermEnergy> = s
-        .forces
-        .names()
-        .into_iter()
-        .zip(&s.evaluation.energies)
-        .map(|(term, &energy)| TermEnergy { term, energy })
-        .collect();
+    let energies = crate::report::term_energies(s);
     RunSummary {
         scene: name.to_string(),
         scene_file: scene_path.display().to_string(),

@@ -405,20 +405,25 @@ impl Schedule {
 
     /// The timing table as aligned text.
     pub fn timing_table(&self) -> String {
-        let mut s = format!(
-            "{:<24} {:<13} {:>10} {:>12} {:>7}\n",
-            "system", "stage", "total s", "µs/tick", "share"
-        );
-        for t in self.timings() {
-            s += &format!(
-                "{:<24} {:<13} {:>10.3} {:>12.2} {:>6.1}%\n",
-                t.system,
-                t.stage,
-                t.total_s,
-                t.per_tick_us,
-                100.0 * t.share
-            );
-        }
-        s
+        format_timings(&self.timings())
     }
+}
+
+/// A timing table as aligned text (system, stage, total, per tick, share).
+pub fn format_timings(timings: &[SystemTiming]) -> String {
+    let mut s = format!(
+        "{:<24} {:<13} {:>10} {:>12} {:>7}\n",
+        "system", "stage", "total s", "µs/tick", "share"
+    );
+    for t in timings {
+        s += &format!(
+            "{:<24} {:<13} {:>10.3} {:>12.2} {:>6.1}%\n",
+            t.system,
+            t.stage,
+            t.total_s,
+            t.per_tick_us,
+            100.0 * t.share
+        );
+    }
+    s
 }
