@@ -20,7 +20,15 @@ fn scene(name: &str) -> String {
 
 #[test]
 fn bundled_scenes_check_and_evaluate() {
-    for name in ["sphere.ron", "reference.ron", "red_blood_cell.ron"] {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".ron"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 9, "{names:?}");
+    for name in &names {
         let out = remembrane(&["check", &scene(name)]);
         assert!(
             out.status.success(),
@@ -114,4 +122,98 @@ fn forces_file_is_not_written_on_error() {
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(!csv.exists());
+}
+
+#[test]
+fn run_without_a_scene_uses_the_bundled_default_and_writes_a_complete_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rbc");
+    let out_s = out.to_str().unwrap();
+    let result = remembrane(&[
+        "run",
+        "--iterations",
+        "30",
+        "--frames",
+        "2",
+        "--out",
+        out_s,
+        "--quiet",
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    assert!(result.stderr.is_empty(), "--quiet prints nothing");
+    for f in [
+        "summary.json",
+        "series.csv",
+        "run.pvd",
+        "final.ply",
+        "final.png",
+        "frames/frame_000000.vtp",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["scene"], "red_blood_cell");
+    assert_eq!(summary["status"], "completed");
+    assert_eq!(summary["iterations"], 30);
+    // The same run again into the same directory is refused (exit 2), and
+    // --overwrite replaces it.
+    let again = remembrane(&["run", "--iterations", "30", "--out", out_s, "--quiet"]);
+    assert_eq!(again.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("already exists"));
+    let replaced = remembrane(&[
+        "run",
+        "--iterations",
+        "10",
+        "--out",
+        out_s,
+        "--quiet",
+        "--overwrite",
+    ]);
+    assert!(replaced.status.success());
+    // Same seed, same output, whatever the thread count.
+    let other = dir.path().join("rbc2");
+    let r2 = remembrane(&[
+        "run",
+        "--iterations",
+        "10",
+        "--out",
+        other.to_str().unwrap(),
+        "--quiet",
+        "--threads",
+        "1",
+    ]);
+    assert!(r2.status.success());
+    assert_eq!(
+        std::fs::read(out.join("final.ply")).unwrap(),
+        std::fs::read(other.join("final.ply")).unwrap()
+    );
+}
+
+#[test]
+fn run_rejects_bad_scenes_and_flags_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.ron");
+    std::fs::write(
+        &bad,
+        "Scene(membrane: Icosphere(level: 2), energy: [Bending()], remesh: (mode: FreeEnergy))",
+    )
+    .unwrap();
+    let out = remembrane(&[
+        "run",
+        bad.to_str().unwrap(),
+        "--out",
+        dir.path().join("o").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("bad.ron") && err.contains("remesh.mode") && err.contains("Vin"),
+        "{err}"
+    );
+    assert!(!dir.path().join("o").exists() && !dir.path().join("o.incomplete").exists());
 }
