@@ -1,6 +1,7 @@
 //! remembrane: closed triangulated membranes moved by overdamped Langevin
 //! dynamics under their free energy, with free-energy-controlled remeshing.
 
+pub mod compare;
 pub mod components;
 pub mod edit;
 pub mod energy;

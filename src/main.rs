@@ -24,6 +24,30 @@ enum Command {
         #[command(flatten)]
         args: RunArgs,
     },
+    /// Run two remeshing scenes (e.g. free-energy vs geometric) and compare
+    /// their remesh events and σ(|r|) (paper Fig 3C/D): a table, CSV and PNG.
+    Compare {
+        /// First scene (e.g. scenes/vesicle_fusion.ron).
+        first: PathBuf,
+        /// Second scene (e.g. scenes/fusion_geometric.ron).
+        second: PathBuf,
+        /// Iterations for both runs (overrides the scenes').
+        #[arg(long)]
+        iterations: Option<u64>,
+        /// Output directory (default out/compare-<first>-<second>); each run
+        /// goes into a subfolder named after its scene.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Replace the output directory if it exists.
+        #[arg(long)]
+        overwrite: bool,
+        /// Seed for both runs (overrides the scenes').
+        #[arg(long)]
+        seed: Option<u64>,
+        /// No progress output.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Validate a scene and print what it declares.
     Check {
         /// Scene file (RON).
@@ -51,6 +75,15 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Run { scene, args } => run_command(scene.as_deref(), args),
+        Command::Compare {
+            first,
+            second,
+            iterations,
+            out,
+            overwrite,
+            seed,
+            quiet,
+        } => compare_command(&first, &second, iterations, out, overwrite, seed, quiet),
         other => match run(other) {
             Ok(()) => ExitCode::SUCCESS,
             Err(message) => {
@@ -161,6 +194,87 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
     }
 }
 
+fn compare_command(
+    first: &Path,
+    second: &Path,
+    iterations: Option<u64>,
+    out: Option<PathBuf>,
+    overwrite: bool,
+    seed: Option<u64>,
+    quiet: bool,
+) -> ExitCode {
+    use remembrane::compare::{ComparisonRow, chart_png, csv, table};
+    use remembrane::run::{Progress, RunOptions, run_scene};
+    let mut scenes = Vec::new();
+    for path in [first, second] {
+        match Scene::load(path) {
+            Ok(s) => scenes.push((s, path.to_path_buf())),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let names: Vec<String> = scenes.iter().map(|(s, p)| scene_name(s, p)).collect();
+    if names[0] == names[1] {
+        eprintln!(
+            "error: both scenes are named `{}`; give them different `name`s",
+            names[0]
+        );
+        return ExitCode::from(2);
+    }
+    let dir = out.unwrap_or_else(|| {
+        free_directory(Path::new("out").join(format!("compare-{}-{}", names[0], names[1])))
+    });
+    if dir.exists() {
+        if !overwrite {
+            eprintln!(
+                "error: {}: output directory already exists (choose another --out or pass --overwrite)",
+                dir.display()
+            );
+            return ExitCode::from(2);
+        }
+        if let Err(e) = std::fs::remove_dir_all(&dir) {
+            eprintln!("error: {}: cannot replace: {e}", dir.display());
+            return ExitCode::from(1);
+        }
+    }
+    let mut rows = Vec::new();
+    for ((scene, path), name) in scenes.iter().zip(&names) {
+        let options = RunOptions {
+            out: dir.join(name),
+            overwrite: false,
+            seed,
+            iterations,
+            frames: None,
+            progress: if quiet {
+                Progress::Quiet
+            } else {
+                Progress::Lines
+            },
+        };
+        match run_scene(scene, path, &options, |_| Ok(())) {
+            Ok(summary) => rows.push(ComparisonRow::from_summary(&summary)),
+            Err(e) => {
+                eprintln!("error: {}: {e}", path.display());
+                return ExitCode::from(e.exit_code());
+            }
+        }
+    }
+    let rows: [ComparisonRow; 2] = [rows[0].clone(), rows[1].clone()];
+    let written = remembrane::atomic_write(&dir.join("comparison.csv"), csv(&rows).as_bytes())
+        .and_then(|_| remembrane::atomic_write(&dir.join("comparison.png"), &chart_png(&rows)));
+    if let Err(e) = written {
+        eprintln!("error: {}: cannot write the comparison: {e}", dir.display());
+        return ExitCode::from(1);
+    }
+    print!("{}", table(&rows));
+    if !quiet {
+        eprintln!("comparison in {}", dir.display());
+    }
+    ExitCode::SUCCESS
+}
+
 /// `base`, or `base.1`, `base.2`, … whichever does not exist yet, so a new
 /// run never mixes with an earlier one.
 fn free_directory(base: PathBuf) -> PathBuf {
@@ -179,7 +293,7 @@ fn free_directory(base: PathBuf) -> PathBuf {
 
 fn run(command: Command) -> Result<(), String> {
     match command {
-        Command::Run { .. } => unreachable!("handled in main"),
+        Command::Run { .. } | Command::Compare { .. } => unreachable!("handled in main"),
         Command::Check { scene } => check(&scene),
         Command::Energy {
             scene,

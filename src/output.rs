@@ -130,6 +130,56 @@ impl RunOutput {
         self.write("series.csv", self.series.as_bytes())
     }
 
+    /// Writes the remesh events as `events.vtp` (one vertex per event, point
+    /// data `split` = 1/0 and `iteration`, for ParaView) and `events.csv`.
+    pub fn write_events(&self, events: &[crate::remesh::RemeshEvent]) -> Result<(), OutputError> {
+        let mut csv = String::from("iteration,kind,x,y,z\n");
+        for e in events {
+            let kind = if e.split { "split" } else { "merge" };
+            let [x, y, z] = e.position;
+            csv += &format!("{},{kind},{x:e},{y:e},{z:e}\n", e.iteration);
+        }
+        self.write("events.csv", csv.as_bytes())?;
+        let n = events.len() as u64;
+        let vtk = Vtk {
+            version: Version { major: 1, minor: 0 },
+            title: "remesh events".to_string(),
+            byte_order: ByteOrder::LittleEndian,
+            file_path: None,
+            data: DataSet::PolyData {
+                meta: None,
+                pieces: vec![Piece::Inline(Box::new(PolyDataPiece {
+                    points: IOBuffer::F64(events.iter().flat_map(|e| e.position).collect()),
+                    verts: Some(VertexNumbers::XML {
+                        connectivity: (0..n).collect(),
+                        offsets: (1..=n).collect(),
+                    }),
+                    lines: None,
+                    polys: None,
+                    strips: None,
+                    data: Attributes {
+                        point: vec![
+                            Attribute::scalars("split", 1).with_data(
+                                events
+                                    .iter()
+                                    .map(|e| u8::from(e.split))
+                                    .collect::<Vec<u8>>(),
+                            ),
+                            Attribute::scalars("iteration", 1).with_data(
+                                events.iter().map(|e| e.iteration).collect::<Vec<u64>>(),
+                            ),
+                        ],
+                        cell: Vec::new(),
+                    },
+                }))],
+            },
+        };
+        let mut out = Vec::new();
+        vtk.write_xml(&mut out)
+            .map_err(|e| write_err(&self.staging.join("events.vtp"), e))?;
+        self.write("events.vtp", &out)
+    }
+
     /// Writes `final.ply` and `summary.json`, then moves the run into place.
     pub fn finish(
         self,

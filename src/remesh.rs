@@ -392,8 +392,19 @@ pub struct RemeshStats {
     pub unresolved_ticks: u64,
     /// Abnormal edges left at the end of those ticks (summed).
     pub unresolved_edges: u64,
-    /// Positions of successful events (edge midpoints, l̄).
-    pub events: Vec<[f64; 3]>,
+    /// Successful events.
+    pub events: Vec<RemeshEvent>,
+}
+
+/// One successful split or merge.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct RemeshEvent {
+    /// Iteration during which it happened.
+    pub iteration: u64,
+    /// `true` for a split, `false` for a merge.
+    pub split: bool,
+    /// Midpoint of the edge (l̄).
+    pub position: [f64; 3],
 }
 
 impl RemeshStats {
@@ -408,7 +419,7 @@ impl RemeshStats {
         let r: Vec<f64> = self
             .events
             .iter()
-            .map(|p| DVec3::from_array(*p).length())
+            .map(|e| DVec3::from_array(e.position).length())
             .collect();
         if r.len() < 2 {
             return 0.0;

@@ -242,6 +242,9 @@ pub fn run_scene(
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
     let mesh = sim.state.membrane.to_mesh()?;
     let lipid = sim.state.lipid.clone();
+    if scene.remesh.mode != crate::params::RemeshMode::Off {
+        out.write_events(&sim.state.remesh_stats.events)?;
+    }
     let dir = out.finish(&json, &mesh, &lipid)?;
     match stop {
         None => Ok(summary),

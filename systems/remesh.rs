@@ -314,7 +314,11 @@ fn process(
     match result {
         Ok(out) => {
             counts.success += 1;
-            state.remesh_stats.events.push(out.position.to_array());
+            state.remesh_stats.events.push(crate::remesh::RemeshEvent {
+                iteration: state.clock.iteration,
+                split: long,
+                position: out.position.to_array(),
+            });
             refresh(state)?;
             debug_check_invariants(state);
             // Post-relaxation: the new (or surviving) vertex and its 1-ring.

@@ -217,3 +217,42 @@ fn run_rejects_bad_scenes_and_flags_cleanly() {
     );
     assert!(!dir.path().join("o").exists() && !dir.path().join("o.incomplete").exists());
 }
+
+#[test]
+fn compare_runs_both_scenes_and_writes_table_csv_and_chart() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    let result = remembrane(&[
+        "compare",
+        &scene("vesicle_fusion.ron"),
+        &scene("fusion_geometric.ron"),
+        "--iterations",
+        "150",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let table = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        table.contains("vesicle_fusion")
+            && table.contains("fusion_geometric")
+            && table.contains("ratio"),
+        "{table}"
+    );
+    let csv = std::fs::read_to_string(out.join("comparison.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3);
+    let png = std::fs::read(out.join("comparison.png")).unwrap();
+    let reader = png::Decoder::new(std::io::Cursor::new(png))
+        .read_info()
+        .unwrap();
+    assert_eq!((reader.info().width, reader.info().height), (640, 360));
+    for name in ["vesicle_fusion", "fusion_geometric"] {
+        assert!(out.join(name).join("summary.json").exists());
+        assert!(out.join(name).join("events.vtp").exists());
+    }
+}
