@@ -161,6 +161,17 @@ impl Membrane {
         }
     }
 
+    /// Writes dense lipid densities back to the world (no-op without lipid).
+    pub fn scatter_lipid(&mut self, density: &[f64]) {
+        if !self.has_lipid {
+            return;
+        }
+        let t = &self.topology;
+        for (e, rho) in self.world.query_mut::<(Entity, &mut LipidDensity)>() {
+            rho.0 = density[t.slot_of[e.id() as usize] as usize];
+        }
+    }
+
     /// Writes dense total forces back to the world's [`Force`] components.
     pub fn scatter_forces(&mut self, forces: &[DVec3]) {
         let t = &self.topology;

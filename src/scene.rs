@@ -63,9 +63,12 @@ pub struct Scene {
     /// Dynamics: mobility, temperature, time-step limits, run length, frames.
     #[serde(default)]
     pub dynamics: DynamicsParams,
-    /// Barrier-crossing triggers l_− and l_+.
+    /// Barrier-crossing remeshing.
     #[serde(default)]
     pub remesh: RemeshParams,
+    /// Lipid diffusion (needs `lipid_density: true`; default none).
+    #[serde(default)]
+    pub diffusion: Option<crate::params::DiffusionParams>,
 }
 
 fn default_seed() -> u64 {
@@ -375,6 +378,37 @@ impl Scene {
                 ));
             }
         }
+        if let Some(d) = &self.diffusion {
+            if !self.lipid_density {
+                return Err(invalid(
+                    "lipid_density",
+                    "diffusion needs `lipid_density: true`".into(),
+                ));
+            }
+            if let crate::params::DiffusionRate::Finite(k) = d.rate {
+                if !(k > 0.0 && k <= 1.0) {
+                    return Err(invalid(
+                        "diffusion.rate",
+                        format!("k_d must be in (0, 1] (got {k})"),
+                    ));
+                }
+            }
+            for (i, r) in d.barrier.iter().enumerate() {
+                let crate::params::BlockedRegion::Slab { half_width, gap } = *r;
+                if !(half_width > 0.0 && half_width.is_finite() && (0.0..1.0).contains(&gap)) {
+                    return Err(invalid(
+                        &format!("diffusion.barrier[{i}]"),
+                        format!("need half_width > 0 and 0 <= gap < 1 (got {half_width}, {gap})"),
+                    ));
+                }
+            }
+            if self.remesh.mode == crate::params::RemeshMode::Off {
+                return Err(invalid(
+                    "diffusion",
+                    "diffusion runs after remeshing: set remesh.mode".into(),
+                ));
+            }
+        }
         if self.remesh.mode != crate::params::RemeshMode::Off && !has("Vin") {
             return Err(invalid(
                 "remesh.mode",
@@ -528,6 +562,11 @@ impl Scene {
                 Box::new(crate::systems::remesh::Remesh),
             )
             .map_err(|e| invalid(e.to_string()))?;
+        }
+        if let Some(d) = &self.diffusion {
+            let system = crate::systems::lipid_diffusion::LipidDiffusion::new(d.clone());
+            sim.add_system(crate::schedule::Stage::Diffuse, Box::new(system))
+                .map_err(|e| invalid(e.to_string()))?;
         }
         Ok(sim)
     }

@@ -63,6 +63,8 @@ pub struct SimState {
     pub valence: crate::mesh::ValenceRange,
     /// Remeshing outcome counts and event positions.
     pub remesh_stats: crate::remesh::RemeshStats,
+    /// Whether this tick's remeshing was triggered (abnormal edges existed).
+    pub remesh_triggered: bool,
 }
 
 /// A run cannot continue.
@@ -124,6 +126,7 @@ impl Simulation {
             abnormal_edges: Vec::new(),
             valence: crate::mesh::ValenceRange::default(),
             remesh_stats: crate::remesh::RemeshStats::default(),
+            remesh_triggered: false,
         };
         let mut builder = ScheduleBuilder::new();
         crate::systems::register_builtin(&mut builder, &terms);

@@ -14,6 +14,7 @@ pub mod force_term;
 pub mod force_total;
 pub mod gather_state;
 pub mod langevin_integration;
+pub mod lipid_diffusion;
 pub mod local_tension_forces;
 pub mod remesh;
 pub mod spring_forces;

@@ -50,7 +50,8 @@ impl System for Remesh {
     }
 
     fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        if state.abnormal_edges.is_empty() {
+        state.remesh_triggered = !state.abnormal_edges.is_empty();
+        if !state.remesh_triggered {
             return Ok(());
         }
         let Some(seg) = state.segmentation.clone() else {

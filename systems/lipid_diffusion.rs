@@ -1,0 +1,113 @@
+//! Lipid diffusion over mesh edges (SPEC §5, paper Eq. 11).
+//!
+//! Stage: Diffuse. Runs after every tick whose remeshing was triggered.
+//! Reads: positions (barrier regions), topology, valences. Writes: lipid
+//! density (dense mirror and world). Each of `sweeps` synchronous sweeps
+//! moves k_d ρ_a / v_a from a to b and k_d ρ_b / v_b from b to a over every
+//! allowed edge (a, b) (v = valence), so Σρ is conserved; an edge touching a
+//! blocked vertex does not diffuse. `Instant` sets ρ = Σρ / N everywhere.
+
+use crate::params::{BlockedRegion, DiffusionParams, DiffusionRate};
+use crate::schedule::{Access, Data, System};
+use crate::simulation::{SimError, SimState};
+use glam::DVec3;
+
+/// The diffusion system.
+pub struct LipidDiffusion {
+    /// Rate, sweeps and barrier regions.
+    pub params: DiffusionParams,
+    next: Vec<f64>,
+}
+
+impl LipidDiffusion {
+    /// A diffusion system with `params`.
+    pub fn new(params: DiffusionParams) -> Self {
+        Self {
+            params,
+            next: Vec::new(),
+        }
+    }
+}
+
+/// Whether a vertex at `p` lies in a blocked region.
+pub fn blocked(regions: &[BlockedRegion], p: DVec3) -> bool {
+    regions.iter().any(|r| match *r {
+        BlockedRegion::Slab { half_width, gap } => {
+            p.x.abs() < half_width && p.y.abs() > gap * p.length()
+        }
+    })
+}
+
+/// `sweeps` synchronous diffusion sweeps at rate `k` over the edges not
+/// touching a blocked vertex; `scratch` is reused.
+pub fn diffuse(
+    density: &mut [f64],
+    edges: &[[u32; 2]],
+    valence: impl Fn(usize) -> usize,
+    allowed: impl Fn(usize) -> bool,
+    k: f64,
+    sweeps: u32,
+    scratch: &mut Vec<f64>,
+) {
+    let open: Vec<[u32; 2]> = edges
+        .iter()
+        .copied()
+        .filter(|&[a, b]| allowed(a as usize) && allowed(b as usize))
+        .collect();
+    let share: Vec<f64> = (0..density.len()).map(|v| k / valence(v) as f64).collect();
+    for _ in 0..sweeps {
+        scratch.clear();
+        scratch.extend_from_slice(density);
+        for &[a, b] in &open {
+            let (a, b) = (a as usize, b as usize);
+            let flow = scratch[a] * share[a] - scratch[b] * share[b];
+            density[a] -= flow;
+            density[b] += flow;
+        }
+    }
+}
+
+impl System for LipidDiffusion {
+    fn name(&self) -> &str {
+        "lipid_diffusion"
+    }
+
+    fn access(&self) -> Access {
+        Access::new(
+            &[Data::Positions, Data::Topology, Data::LipidDensity],
+            &[Data::LipidDensity],
+        )
+    }
+
+    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
+        if !state.remesh_triggered || state.lipid.is_empty() {
+            return Ok(());
+        }
+        let t = state.membrane.cached_topology();
+        match self.params.rate {
+            DiffusionRate::Instant => {
+                let mean = state.lipid.iter().sum::<f64>() / state.lipid.len() as f64;
+                state.lipid.iter_mut().for_each(|r| *r = mean);
+            }
+            DiffusionRate::Finite(k) => {
+                let regions = &self.params.barrier;
+                let free: Vec<bool> = state
+                    .positions
+                    .iter()
+                    .map(|&p| !blocked(regions, p))
+                    .collect();
+                diffuse(
+                    &mut state.lipid,
+                    &t.edges,
+                    |v| t.valence(v),
+                    |v| free[v],
+                    k,
+                    self.params.sweeps,
+                    &mut self.next,
+                );
+            }
+        }
+        state.membrane.scatter_lipid(&state.lipid);
+        Ok(())
+    }
+}
