@@ -385,13 +385,13 @@ impl Scene {
                     "diffusion needs `lipid_density: true`".into(),
                 ));
             }
-            if let crate::params::DiffusionRate::Finite(k) = d.rate {
-                if !(k > 0.0 && k <= 1.0) {
-                    return Err(invalid(
-                        "diffusion.rate",
-                        format!("k_d must be in (0, 1] (got {k})"),
-                    ));
-                }
+            if let crate::params::DiffusionRate::Finite(k) = d.rate
+                && !(k > 0.0 && k <= 1.0)
+            {
+                return Err(invalid(
+                    "diffusion.rate",
+                    format!("k_d must be in (0, 1] (got {k})"),
+                ));
             }
             for (i, r) in d.barrier.iter().enumerate() {
                 let crate::params::BlockedRegion::Slab { half_width, gap } = *r;
