@@ -119,6 +119,9 @@ struct RunArgs {
     /// No progress output.
     #[arg(long)]
     quiet: bool,
+    /// Check every mesh invariant after each remesh edit (debug mode; slow).
+    #[arg(long)]
+    check_invariants: bool,
 }
 
 fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
@@ -166,6 +169,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         iterations: args.iterations,
         frames: args.frames,
         progress,
+        check_invariants: args.check_invariants,
     };
     match run_scene(&scene, &path, &options, |_| Ok(())) {
         Ok(summary) => {
@@ -252,6 +256,7 @@ fn compare_command(
             } else {
                 Progress::Lines
             },
+            check_invariants: false,
         };
         match run_scene(scene, path, &options, |_| Ok(())) {
             Ok(summary) => rows.push(ComparisonRow::from_summary(&summary)),

@@ -36,6 +36,9 @@ pub struct RunOptions {
     pub frames: Option<u32>,
     /// Progress reporting.
     pub progress: Progress,
+    /// Check every mesh invariant after each topology edit (slow; always on
+    /// in debug builds).
+    pub check_invariants: bool,
 }
 
 /// How a run ended.
@@ -180,6 +183,7 @@ pub fn run_scene(
         scene.name.clone()
     };
     let mut sim = scene.build(scene_path)?;
+    sim.state.check_invariants |= options.check_invariants;
     customize(&mut sim)?;
     sim.start()?;
     let mut out = RunOutput::create(&options.out, options.overwrite)?;

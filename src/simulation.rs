@@ -65,6 +65,9 @@ pub struct SimState {
     pub remesh_stats: crate::remesh::RemeshStats,
     /// Whether this tick's remeshing was triggered (abnormal edges existed).
     pub remesh_triggered: bool,
+    /// Run the full mesh invariant check after every topology edit (always
+    /// on in debug builds; `remembrane run --check-invariants` in release).
+    pub check_invariants: bool,
 }
 
 /// A run cannot continue.
@@ -127,6 +130,7 @@ impl Simulation {
             valence: crate::mesh::ValenceRange::default(),
             remesh_stats: crate::remesh::RemeshStats::default(),
             remesh_triggered: false,
+            check_invariants: cfg!(debug_assertions),
         };
         let mut builder = ScheduleBuilder::new();
         crate::systems::register_builtin(&mut builder, &terms);

@@ -178,18 +178,19 @@ fn build_patch(state: &SimState, moveable: &[u32], target: Option<[u32; 2]>) -> 
     )
 }
 
-/// In debug builds (and so in every test), the full invariant check after
-/// each topology edit.
-fn debug_check_invariants(state: &SimState) {
-    if cfg!(debug_assertions) {
+/// With `check_invariants` (debug builds, every test, and
+/// `--check-invariants`), the full invariant check after each topology edit.
+fn debug_check_invariants(state: &SimState) -> Result<(), SimError> {
+    if state.check_invariants {
         let t = state.membrane.cached_topology();
         if let Err(e) = crate::mesh::check_mesh(&state.positions, &t.faces, Some(state.valence)) {
-            panic!(
+            return Err(SimError::Output(format!(
                 "mesh invariant broken after a remesh edit at iteration {}: {e}",
-                state.clock.iteration
-            );
+                state.clock.iteration + 1
+            )));
         }
     }
+    Ok(())
 }
 
 /// `seeds` and every vertex within `depth` rings of them.
@@ -321,7 +322,7 @@ fn process(
                 position: out.position.to_array(),
             });
             refresh(state)?;
-            debug_check_invariants(state);
+            debug_check_invariants(state)?;
             // Post-relaxation: the new (or surviving) vertex and its 1-ring.
             let t = state.membrane.cached_topology();
             let v = t

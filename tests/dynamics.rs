@@ -327,6 +327,7 @@ fn options(out: &Path) -> RunOptions {
         iterations: None,
         frames: None,
         progress: Progress::Quiet,
+        check_invariants: true,
     }
 }
 
