@@ -10,7 +10,7 @@ use rand::SeedableRng;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::membrane::Membrane;
 use remembrane::mesh::{ValenceRange, icosphere};
-use remembrane::relax::{Goal, Patch, RelaxSettings, relax};
+use remembrane::relax::{Goal, Patch, RelaxSettings, relax, rings};
 use remembrane::remesh::{merge_edge, split_edge};
 use std::hint::black_box;
 
@@ -48,47 +48,11 @@ fn pre_relaxation(c: &mut Criterion) {
     let m = membrane(3);
     let t = m.cached_topology();
     let [a, b] = t.edges[100];
-    let mut slots = vec![a, b];
-    for v in [a, b] {
-        for &w in t.neighbours(v as usize) {
-            if !slots.contains(&w) {
-                slots.push(w);
-            }
-        }
-    }
-    let moveable = slots.len();
-    for k in 0..moveable {
-        for &w in t.neighbours(slots[k] as usize) {
-            if !slots.contains(&w) {
-                slots.push(w);
-            }
-        }
-    }
-    let local = |s: u32| slots.iter().position(|&x| x == s).unwrap();
-    let mut edges: Vec<[usize; 2]> = Vec::new();
-    let mut target = None;
-    for &v in &slots[..moveable] {
-        for &w in t.neighbours(v as usize) {
-            let e = [local(v), local(w)];
-            if edges.iter().any(|x| *x == e || *x == [e[1], e[0]]) {
-                continue;
-            }
-            if (v, w) == (a, b) || (v, w) == (b, a) {
-                target = Some(edges.len());
-            }
-            edges.push(e);
-        }
-    }
-    let mut positions: Vec<_> = slots.iter().map(|&s| mesh.positions[s as usize]).collect();
-    let d = positions[1] - positions[0];
-    positions[0] -= 0.2 * d;
-    positions[1] += 0.2 * d;
-    let patch = Patch {
-        positions,
-        moveable,
-        edges,
-        target,
-    };
+    let moveable = rings(t, &[a, b], 1);
+    let (mut patch, _) = Patch::around(t, &mesh.positions, &moveable, Some([a, b]));
+    let d = patch.positions[1] - patch.positions[0];
+    patch.positions[0] -= 0.2 * d;
+    patch.positions[1] += 0.2 * d;
     let settings = RelaxSettings {
         normal: (0.8, 1.2),
         kick_scale: 10.0,

@@ -10,6 +10,7 @@
 
 use crate::energy::vin::Segmentation;
 use crate::timestep::edge_time_step_in;
+use crate::topology::Topology;
 use glam::DVec3;
 use rand::RngExt;
 use std::f64::consts::FRAC_PI_2;
@@ -59,6 +60,72 @@ pub struct Patch {
     pub edges: Vec<[usize; 2]>,
     /// Index of the target edge in `edges`, if any.
     pub target: Option<usize>,
+}
+
+impl Patch {
+    /// The patch of the `moveable` vertex slots of `topology`: the moveable
+    /// vertices first, then their neighbours (fixed); every edge incident to
+    /// a moveable vertex; `target` (a slot pair) marked if given. Returns the
+    /// patch and the slot of each local vertex.
+    pub fn around(
+        topology: &Topology,
+        positions: &[DVec3],
+        moveable: &[u32],
+        target: Option<[u32; 2]>,
+    ) -> (Patch, Vec<u32>) {
+        let mut slots: Vec<u32> = moveable.to_vec();
+        for &v in moveable {
+            for &w in topology.neighbours(v as usize) {
+                if !slots.contains(&w) {
+                    slots.push(w);
+                }
+            }
+        }
+        let local = |s: u32| slots.iter().position(|&x| x == s).expect("in patch");
+        let mut edges: Vec<[usize; 2]> = Vec::new();
+        let mut target_index = None;
+        for &v in moveable {
+            for &w in topology.neighbours(v as usize) {
+                let e = [local(v), local(w)];
+                if edges.iter().any(|x| *x == e || *x == [e[1], e[0]]) {
+                    continue;
+                }
+                if target.is_some_and(|[a, b]| (v, w) == (a, b) || (v, w) == (b, a)) {
+                    target_index = Some(edges.len());
+                }
+                edges.push(e);
+            }
+        }
+        let positions = slots.iter().map(|&s| positions[s as usize]).collect();
+        (
+            Patch {
+                positions,
+                moveable: moveable.len(),
+                edges,
+                target: target_index,
+            },
+            slots,
+        )
+    }
+}
+
+/// `seeds` and every vertex within `depth` rings of them (slots).
+pub fn rings(topology: &Topology, seeds: &[u32], depth: usize) -> Vec<u32> {
+    let mut out: Vec<u32> = seeds.to_vec();
+    let mut frontier = out.clone();
+    for _ in 0..depth {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &w in topology.neighbours(v as usize) {
+                if !out.contains(&w) {
+                    out.push(w);
+                    next.push(w);
+                }
+            }
+        }
+        frontier = next;
+    }
+    out
 }
 
 /// Relaxation settings.

@@ -17,7 +17,7 @@
 
 use crate::components::Position;
 use crate::params::RemeshParams;
-use crate::relax::{Goal, Patch, RelaxOutcome, RelaxSettings, relax};
+use crate::relax::{Goal, Patch, RelaxOutcome, RelaxSettings, relax, rings};
 use crate::remesh::{OutcomeCounts, edge_region, merge_edge, split_edge};
 use crate::schedule::{Access, Data, System};
 use crate::simulation::{SimError, SimState};
@@ -136,48 +136,6 @@ fn abnormal_edges(
     out
 }
 
-/// A patch around `moveable` vertex slots: moveable first, then their
-/// neighbours (fixed); edges incident to a moveable vertex; `target` edge.
-fn build_patch(state: &SimState, moveable: &[u32], target: Option<[u32; 2]>) -> (Patch, Vec<u32>) {
-    let t = state.membrane.cached_topology();
-    let mut slots: Vec<u32> = moveable.to_vec();
-    for &v in moveable {
-        for &w in t.neighbours(v as usize) {
-            if !slots.contains(&w) {
-                slots.push(w);
-            }
-        }
-    }
-    let local = |s: u32| slots.iter().position(|&x| x == s).expect("in patch");
-    let mut edges: Vec<[usize; 2]> = Vec::new();
-    let mut target_index = None;
-    for &v in moveable {
-        for &w in t.neighbours(v as usize) {
-            let e = [local(v), local(w)];
-            if edges
-                .iter()
-                .any(|x| (x[0] == e[1] && x[1] == e[0]) || *x == e)
-            {
-                continue;
-            }
-            if target.is_some_and(|[a, b]| (v, w) == (a, b) || (v, w) == (b, a)) {
-                target_index = Some(edges.len());
-            }
-            edges.push(e);
-        }
-    }
-    let positions = slots.iter().map(|&s| state.positions[s as usize]).collect();
-    (
-        Patch {
-            positions,
-            moveable: moveable.len(),
-            edges,
-            target: target_index,
-        },
-        slots,
-    )
-}
-
 /// With `check_invariants` (debug builds, every test, and
 /// `--check-invariants`), the full invariant check after each topology edit.
 fn debug_check_invariants(state: &SimState) -> Result<(), SimError> {
@@ -191,26 +149,6 @@ fn debug_check_invariants(state: &SimState) -> Result<(), SimError> {
         }
     }
     Ok(())
-}
-
-/// `seeds` and every vertex within `depth` rings of them.
-fn rings(state: &SimState, seeds: &[u32], depth: usize) -> Vec<u32> {
-    let t = state.membrane.cached_topology();
-    let mut out: Vec<u32> = seeds.to_vec();
-    let mut frontier = out.clone();
-    for _ in 0..depth {
-        let mut next = Vec::new();
-        for &v in &frontier {
-            for &w in t.neighbours(v as usize) {
-                if !out.contains(&w) {
-                    out.push(w);
-                    next.push(w);
-                }
-            }
-        }
-        frontier = next;
-    }
-    out
 }
 
 /// Writes a patch's moveable positions back (dense mirror and world).
@@ -269,8 +207,13 @@ fn process(
         Goal::Compress(p.merge_done)
     };
     let attempt = |depth: usize, rng: &mut _| {
-        let moveable = rings(state, &[a, b], depth);
-        let (mut patch, slots) = build_patch(state, &moveable, Some([a, b]));
+        let moveable = rings(state.membrane.cached_topology(), &[a, b], depth);
+        let (mut patch, slots) = Patch::around(
+            state.membrane.cached_topology(),
+            &state.positions,
+            &moveable,
+            Some([a, b]),
+        );
         let outcome = relax(&mut patch, goal, seg, settings, rng);
         (outcome, patch, slots)
     };
@@ -330,7 +273,12 @@ fn process(
                 .expect("the edit keeps this vertex");
             let mut moveable = vec![v];
             moveable.extend_from_slice(t.neighbours(v as usize));
-            let (mut post, post_slots) = build_patch(state, &moveable, None);
+            let (mut post, post_slots) = Patch::around(
+                state.membrane.cached_topology(),
+                &state.positions,
+                &moveable,
+                None,
+            );
             if relax(&mut post, Goal::Normalize, seg, settings, rng) != RelaxOutcome::Failure {
                 write_back(state, &post, &post_slots);
             }
@@ -365,7 +313,12 @@ fn push_back(
     settings: &RelaxSettings,
     rng: &mut impl RngExt,
 ) {
-    let (mut patch, slots) = build_patch(state, &[a, b], Some([a, b]));
+    let (mut patch, slots) = Patch::around(
+        state.membrane.cached_topology(),
+        &state.positions,
+        &[a, b],
+        Some([a, b]),
+    );
     if relax(&mut patch, Goal::Normalize, seg, settings, rng) != RelaxOutcome::Failure {
         write_back(state, &patch, &slots);
     }

@@ -2,11 +2,12 @@
 //! tick all edges are within the triggers (or an overflow was counted),
 //! valences stay in range and Σρ is conserved.
 
-use glam::DVec3;
 use rand::SeedableRng;
 use remembrane::components::LipidDensity;
 use remembrane::energy::vin::{Segmentation, VinParams};
-use remembrane::relax::{Goal, Patch, RelaxOutcome, RelaxSettings, relax, stable_alpha1_beta1};
+use remembrane::relax::{
+    Goal, Patch, RelaxOutcome, RelaxSettings, relax, rings, stable_alpha1_beta1,
+};
 use remembrane::scene::Scene;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -44,60 +45,13 @@ fn stretched_patch() -> (Patch, Segmentation) {
     let mut m = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let t = m.topology().unwrap().clone();
     let [a, b] = t.edges[100];
-    let mut slots = vec![a, b];
-    for v in [a, b] {
-        slots.extend(
-            t.neighbours(v as usize)
-                .iter()
-                .filter(|w| ![a, b].contains(w)),
-        );
-    }
-    slots.sort_by_key(|&s| {
-        if s == a {
-            0
-        } else if s == b {
-            1
-        } else {
-            2
-        }
-    });
-    slots.dedup();
-    let moveable = slots.len();
-    for k in 0..moveable {
-        for &w in t.neighbours(slots[k] as usize) {
-            if !slots.contains(&w) {
-                slots.push(w);
-            }
-        }
-    }
-    let local = |s: u32| slots.iter().position(|&x| x == s).unwrap();
-    let mut edges: Vec<[usize; 2]> = Vec::new();
-    let mut target = None;
-    for &v in &slots[..moveable] {
-        for &w in t.neighbours(v as usize) {
-            let e = [local(v), local(w)];
-            if edges.iter().any(|x| *x == e || *x == [e[1], e[0]]) {
-                continue;
-            }
-            if (v, w) == (a, b) || (v, w) == (b, a) {
-                target = Some(edges.len());
-            }
-            edges.push(e);
-        }
-    }
-    let mut positions: Vec<DVec3> = slots.iter().map(|&s| mesh.positions[s as usize]).collect();
-    let d = positions[1] - positions[0];
-    positions[0] -= 0.2 * d;
-    positions[1] += 0.2 * d;
-    (
-        Patch {
-            positions,
-            moveable,
-            edges,
-            target,
-        },
-        seg,
-    )
+    let moveable = rings(&t, &[a, b], 1);
+    let (mut patch, _) = Patch::around(&t, &mesh.positions, &moveable, Some([a, b]));
+    // Stretch the target edge from ≈ 1 to ≈ 1.4.
+    let d = patch.positions[1] - patch.positions[0];
+    patch.positions[0] -= 0.2 * d;
+    patch.positions[1] += 0.2 * d;
+    (patch, seg)
 }
 
 #[test]
