@@ -98,6 +98,9 @@ pub enum SimError {
     /// An output could not be written.
     #[error("{0}")]
     Output(String),
+    /// A system was added after the schedule was fixed by the first tick.
+    #[error("system `{0}` can only be added before the first tick")]
+    AlreadyStarted(String),
 }
 
 /// A simulation: state plus schedule.
@@ -148,9 +151,11 @@ impl Simulation {
         stage: Stage,
         system: Box<dyn System>,
     ) -> Result<crate::schedule::Registered<'_>, SimError> {
-        let builder = self.builder.as_mut().ok_or_else(|| {
-            SimError::Output("systems can only be added before the first tick".into())
-        })?;
+        let name = system.name().to_string();
+        let builder = self
+            .builder
+            .as_mut()
+            .ok_or(SimError::AlreadyStarted(name))?;
         Ok(builder.add(stage, system))
     }
 

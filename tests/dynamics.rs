@@ -441,3 +441,14 @@ fn frames_are_read_back_by_vtk() {
         assert!((json["first_point"][k].as_f64().unwrap() - c).abs() < 1e-12);
     }
 }
+
+#[test]
+fn systems_cannot_be_added_after_the_first_tick() {
+    let mut sim = rbc();
+    sim.tick().unwrap();
+    let err = sim.add_system(Stage::Observe, sys("late")).err().unwrap();
+    assert!(
+        matches!(err, SimError::AlreadyStarted(ref n) if n == "late"),
+        "{err}"
+    );
+}
