@@ -26,7 +26,7 @@ impl ComparisonRow {
     /// The row of a finished run.
     pub fn from_summary(s: &RunSummary) -> Self {
         Self {
-            scene: s.scene.clone(),
+            scene: s.last.scene.clone(),
             events: s.remesh.events,
             splits: s.remesh.split.success,
             merges: s.remesh.merge.success,

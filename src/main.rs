@@ -176,14 +176,14 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
             if !args.quiet {
                 eprintln!(
                     "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}, V = {:.3}, v = {:.4}",
-                    summary.scene,
+                    summary.last.scene,
                     summary.iterations,
                     summary.simulated_time,
                     summary.wall_time_s,
-                    summary.total_energy,
-                    summary.area,
-                    summary.volume,
-                    summary.reduced_volume
+                    summary.last.total_energy,
+                    summary.last.area,
+                    summary.last.volume,
+                    summary.last.reduced_volume
                 );
                 eprintln!("outputs in {}", options.out.display());
                 let table = remembrane::schedule::format_timings(&summary.timings);

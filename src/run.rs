@@ -2,8 +2,7 @@
 //! `remembrane run`.
 
 use crate::output::{OutputError, RunOutput};
-use crate::quality::MeshQuality;
-use crate::report::TermEnergy;
+use crate::report::EnergyReport;
 use crate::scene::{Scene, SceneError};
 use crate::schedule::SystemTiming;
 use crate::simulation::{SimError, Simulation};
@@ -54,8 +53,6 @@ pub enum RunStatus {
 /// `summary.json`.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct RunSummary {
-    /// Scene name.
-    pub scene: String,
     /// Scene file.
     pub scene_file: String,
     /// Seed used.
@@ -72,20 +69,10 @@ pub struct RunSummary {
     pub simulated_time: f64,
     /// Wall time of the whole run (s).
     pub wall_time_s: f64,
-    /// Final vertex count.
-    pub vertices: usize,
-    /// Final energies by term (Ē).
-    pub energies: Vec<TermEnergy>,
-    /// Final total energy (Ē).
-    pub total_energy: f64,
-    /// Final area (l̄²).
-    pub area: f64,
-    /// Final volume (l̄³).
-    pub volume: f64,
-    /// Final reduced volume.
-    pub reduced_volume: f64,
-    /// Final mesh quality.
-    pub quality: MeshQuality,
+    /// The final state: scene name, mesh size, energies by term, area,
+    /// volume, reduced volume and mesh quality (flattened into the JSON).
+    #[serde(flatten)]
+    pub last: EnergyReport,
     /// Final shape in its principal frame (diameter, centre vs maximal
     /// height, axisymmetry, discocyte/stomatocyte/convex).
     pub shape: crate::shape::ShapeMetrics,
@@ -280,11 +267,7 @@ fn summarize(
 ) -> RunSummary {
     let s = &sim.state;
     let t = s.membrane.cached_topology();
-    let area = crate::geometry::total_area(&s.positions, &t.faces);
-    let volume = crate::geometry::enclosed_volume(&s.positions, &t.faces, s.positions[0]);
-    let energies = crate::report::term_energies(s);
     RunSummary {
-        scene: name.to_string(),
         scene_file: scene_path.display().to_string(),
         seed: scene.seed,
         status: if stop.is_some() {
@@ -297,13 +280,7 @@ fn summarize(
         iterations: s.clock.iteration,
         simulated_time: s.clock.time,
         wall_time_s: started.elapsed().as_secs_f64(),
-        vertices: t.vertex_count(),
-        total_energy: energies.iter().map(|e| e.energy).sum(),
-        energies,
-        area,
-        volume,
-        reduced_volume: crate::geometry::reduced_volume(volume, area),
-        quality: MeshQuality::measure(t, &s.positions),
+        last: EnergyReport::new(name, s),
         shape: crate::shape::shape_metrics(&s.positions, &t.faces),
         abnormal_edges: s.abnormal_edges.len(),
         remesh: RemeshSummary {
