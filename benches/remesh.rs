@@ -10,7 +10,7 @@ use rand::SeedableRng;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::membrane::Membrane;
 use remembrane::mesh::{ValenceRange, icosphere};
-use remembrane::relax::{Goal, Patch, RelaxSettings, relax, rings};
+use remembrane::relax::{Goal, KickTable, Patch, RelaxSettings, relax, rings};
 use remembrane::remesh::{merge_edge, split_edge};
 use std::hint::black_box;
 
@@ -59,6 +59,7 @@ fn pre_relaxation(c: &mut Criterion) {
         mobility: 1000.0,
         max_iterations: 50_000,
     };
+    let kicks = KickTable::new(&mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(7));
     let mut seed = 0;
     c.bench_function("split_pre_relaxation/642", |bench| {
         bench.iter_batched(
@@ -70,7 +71,14 @@ fn pre_relaxation(c: &mut Criterion) {
                 )
             },
             |(mut p, mut rng)| {
-                black_box(relax(&mut p, Goal::Extend(1.8), &seg, &settings, &mut rng))
+                black_box(relax(
+                    &mut p,
+                    Goal::Extend(1.8),
+                    &seg,
+                    &settings,
+                    &kicks,
+                    &mut rng,
+                ))
             },
             BatchSize::SmallInput,
         )

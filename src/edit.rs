@@ -133,12 +133,34 @@ impl Membrane {
             .collect()
     }
 
-    /// Checks `edit` against the current topology; the world is not changed.
-    /// Returns the valence of every affected vertex after the edit.
+    /// Checks `edit` against the current topology and geometry; the world is
+    /// not changed. Returns the valence of every affected vertex after the
+    /// edit.
     pub fn check_patch(
         &self,
         edit: &PatchEdit,
         valence: ValenceRange,
+    ) -> Result<HashMap<Entity, usize>, EditError> {
+        self.check_patch_with(edit, valence, true)
+    }
+
+    /// [`Membrane::check_patch`] without the geometric checks (degenerate or
+    /// folded faces): whether the edit is valid as a triangulation with
+    /// valences in range, wherever the vertices are. Positions of added or
+    /// moved vertices are ignored.
+    pub fn check_patch_topology(
+        &self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+    ) -> Result<HashMap<Entity, usize>, EditError> {
+        self.check_patch_with(edit, valence, false)
+    }
+
+    fn check_patch_with(
+        &self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+        geometry: bool,
     ) -> Result<HashMap<Entity, usize>, EditError> {
         let t = self.cached_topology();
         let removed: HashSet<Entity> = edit.remove_faces.iter().copied().collect();
@@ -201,7 +223,7 @@ impl Membrane {
                 (b - a).cross(c - a)
             })
             .sum();
-        for f in &edit.add_faces {
+        for f in edit.add_faces.iter().filter(|_| geometry) {
             let (n, [a, b, c]) = normal(f);
             let longest = a
                 .distance_squared(b)

@@ -141,29 +141,126 @@ pub struct RelaxSettings {
     pub max_iterations: u32,
 }
 
-/// Relaxes `patch` toward `goal`. Positions are updated in place.
+/// A table of pre-sampled stable (α = 1, β = 1) draws, indexed uniformly at
+/// random, as the reference code does (it draws from 10000 pre-sampled
+/// numbers). Keeps the transcendental functions of the sampler out of the
+/// relaxation loop. 2^14 draws (128 KiB, cache-resident) reach the ~10^4
+/// tail; any larger kick would still move an edge by only one V_in segment
+/// per step.
+#[derive(Clone, Debug)]
+pub struct KickTable {
+    draws: Vec<f64>,
+}
+
+impl KickTable {
+    /// Table size (a power of two, so an index is a mask of a random word).
+    pub const SIZE: usize = 1 << 14;
+
+    /// Samples the table from `rng`.
+    pub fn new(rng: &mut impl RngExt) -> Self {
+        Self {
+            draws: (0..Self::SIZE).map(|_| stable_alpha1_beta1(rng)).collect(),
+        }
+    }
+
+    /// The pre-sampled draws.
+    pub fn draws(&self) -> &[f64] {
+        &self.draws
+    }
+
+    /// One draw, picked uniformly from the table.
+    #[inline(always)]
+    pub fn draw(&self, rng: &mut impl RngExt) -> f64 {
+        self.draws[(rng.random::<u64>() as usize) & (Self::SIZE - 1)]
+    }
+}
+
+/// The result of a relaxation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Relaxed {
+    /// How it ended.
+    pub outcome: RelaxOutcome,
+    /// Iterations used (at most the cap).
+    pub iterations: u32,
+}
+
+/// Relaxes `patch` toward `goal` with kicks drawn from `kicks`. Positions
+/// are updated in place.
 pub fn relax(
     patch: &mut Patch,
     goal: Goal,
     seg: &Segmentation,
     settings: &RelaxSettings,
+    kicks: &KickTable,
     rng: &mut impl RngExt,
+) -> Relaxed {
+    let mut iterations = 0;
+    let outcome = relax_loop(patch, goal, seg, settings, kicks, rng, &mut iterations);
+    Relaxed {
+        outcome,
+        iterations,
+    }
+}
+
+/// Per patch edge and iteration: the edge vector, its length, 1/length and
+/// V_in segment.
+#[derive(Clone, Copy, Default)]
+struct EdgeState {
+    d: DVec3,
+    l: f64,
+    inv_l: f64,
+    s: usize,
+}
+
+fn relax_loop(
+    patch: &mut Patch,
+    goal: Goal,
+    seg: &Segmentation,
+    settings: &RelaxSettings,
+    kicks: &KickTable,
+    rng: &mut impl RngExt,
+    iterations: &mut u32,
 ) -> RelaxOutcome {
     let (lo, hi) = settings.normal;
     let n = patch.positions.len();
+    let moveable = patch.moveable;
     let mut force = vec![DVec3::ZERO; n];
-    // Per edge and iteration: vector, length and V_in segment, computed once.
-    let mut geometry: Vec<(DVec3, f64, usize)> = vec![(DVec3::ZERO, 0.0, 0); patch.edges.len()];
+    let mut geometry = vec![EdgeState::default(); patch.edges.len()];
     let start = patch.positions.clone();
     let last_segment = seg.segment_count() - 1;
-    for _ in 0..settings.max_iterations {
+    let target = patch.target.unwrap_or(usize::MAX);
+    // The target's kick direction while it has not reached its goal, and
+    // whether its own range counts as "normal" for the outcome.
+    let target_kick = |l: f64| match goal {
+        Goal::Extend(past) if l <= past => Some(1.0),
+        Goal::Compress(below) if l >= below => Some(-1.0),
+        Goal::Extend(_) | Goal::Compress(_) => None,
+        Goal::Normalize => {
+            if l < lo {
+                Some(1.0)
+            } else if l > hi {
+                Some(-1.0)
+            } else {
+                None
+            }
+        }
+    };
+    for iteration in 0..settings.max_iterations {
+        *iterations = iteration + 1;
         let mut near_wall = false;
-        for (g, &[a, b]) in geometry.iter_mut().zip(&patch.edges) {
+        let mut others_abnormal = 0usize;
+        for (k, (g, &[a, b])) in geometry.iter_mut().zip(&patch.edges).enumerate() {
             let d = patch.positions[b] - patch.positions[a];
             let l = d.length();
             let s = seg.segment_of(l);
             near_wall |= s < 2 || s + 2 > last_segment;
-            *g = (d, l, s);
+            others_abnormal += usize::from(k != target && !(lo..=hi).contains(&l));
+            *g = EdgeState {
+                d,
+                l,
+                inv_l: 1.0 / l,
+                s,
+            };
         }
         if near_wall {
             // An edge drifted next to a wall of V_in: start over (reference
@@ -172,63 +269,55 @@ pub fn relax(
             continue;
         }
         // Outcome checks.
-        let others_normal = geometry
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| Some(*k) != patch.target)
-            .all(|(_, g)| (lo..=hi).contains(&g.1));
-        if let Some(t) = patch.target {
-            let l = geometry[t].1;
-            match goal {
-                Goal::Extend(past) if others_normal && l > past => return RelaxOutcome::Success,
-                Goal::Compress(below) if others_normal && l < below => {
-                    return RelaxOutcome::Success;
-                }
-                Goal::Extend(_) | Goal::Compress(_) if others_normal && l > lo && l < hi => {
+        if others_abnormal == 0 {
+            match (patch.target.map(|t| geometry[t].l), goal) {
+                (None, _) => return RelaxOutcome::Success,
+                (Some(l), Goal::Extend(past)) if l > past => return RelaxOutcome::Success,
+                (Some(l), Goal::Compress(below)) if l < below => return RelaxOutcome::Success,
+                (Some(l), Goal::Extend(_) | Goal::Compress(_)) if l > lo && l < hi => {
                     return RelaxOutcome::Cancel;
                 }
-                Goal::Normalize if others_normal && (lo..=hi).contains(&l) => {
+                (Some(l), Goal::Normalize) if (lo..=hi).contains(&l) => {
                     return RelaxOutcome::Success;
                 }
                 _ => {}
             }
-        } else if others_normal {
-            return RelaxOutcome::Success;
         }
-        // Forces: V_in chords plus kicks.
+        // Forces: V_in chords plus kicks (only moveable vertices move).
         force.iter_mut().for_each(|f| *f = DVec3::ZERO);
-        for (k, (&[a, b], &(d, l, s))) in patch.edges.iter().zip(&geometry).enumerate() {
-            let mut magnitude = -seg.slopes[s]; // > 0 pushes the ends apart
-            let is_target = Some(k) == patch.target;
-            let kick = match (is_target, goal) {
-                (true, Goal::Extend(past)) if l <= past => Some(1.0),
-                (true, Goal::Compress(below)) if l >= below => Some(-1.0),
-                (true, Goal::Extend(_) | Goal::Compress(_)) => None,
-                _ if l < lo => Some(1.0),
-                _ if l > hi => Some(-1.0),
-                _ => None,
+        for (k, (&[a, b], g)) in patch.edges.iter().zip(&geometry).enumerate() {
+            let mut magnitude = -seg.slopes[g.s]; // > 0 pushes the ends apart
+            let kick = if k == target {
+                target_kick(g.l)
+            } else if g.l < lo {
+                Some(1.0)
+            } else if g.l > hi {
+                Some(-1.0)
+            } else {
+                None
             };
             if let Some(sign) = kick {
-                magnitude += sign * settings.kick_scale * stable_alpha1_beta1(rng);
+                magnitude += sign * settings.kick_scale * kicks.draw(rng);
             }
-            let f = d * (magnitude / l);
+            let f = g.d * (magnitude * g.inv_l);
             force[b] += f;
             force[a] -= f;
         }
-        for f in &mut force[patch.moveable..] {
+        for f in &mut force[moveable..] {
             *f = DVec3::ZERO;
         }
         let mu = settings.mobility;
         let mut dt = f64::INFINITY;
-        for (&[a, b], &(d, l, s)) in patch.edges.iter().zip(&geometry) {
-            let rate = 2.0 * mu * d.dot(force[b] - force[a]);
-            dt = dt.min(edge_time_step_in(seg, s, l, rate));
+        for (&[a, b], g) in patch.edges.iter().zip(&geometry) {
+            let rate = 2.0 * mu * g.d.dot(force[b] - force[a]);
+            dt = dt.min(edge_time_step_in(seg, g.s, g.l, rate));
         }
         if !dt.is_finite() {
             continue; // no force this iteration: draw new kicks
         }
-        for (p, f) in patch.positions[..patch.moveable].iter_mut().zip(&force) {
-            *p += mu * dt * *f;
+        let step = mu * dt;
+        for (p, f) in patch.positions[..moveable].iter_mut().zip(&force) {
+            *p += step * *f;
         }
     }
     RelaxOutcome::Failure

@@ -297,6 +297,34 @@ fn density(m: &Membrane, v: Entity) -> f64 {
     m.world.get::<&LipidDensity>(v).map(|p| p.0).unwrap_or(1.0)
 }
 
+/// Whether edge slot `edge` can be split (`split`) or merged at all: at
+/// least one of its re-triangulations is valid with valences in range,
+/// wherever the vertices are (the reference's `split.can`, checked before
+/// any relaxation). Geometric validity is checked again by the edit itself.
+pub fn check_feasible(
+    m: &Membrane,
+    edge: u32,
+    split: bool,
+    valence: ValenceRange,
+) -> Result<(), RemeshError> {
+    let r = edge_region(m, edge)?;
+    // Positions do not matter to the topological check; the new vertex of a
+    // split is not spawned, so a placeholder entity stands for it.
+    let candidates = if split {
+        split_candidates(&r, Entity::DANGLING, DVec3::ZERO, 0.0)
+    } else {
+        merge_candidates(m, &r, DVec3::ZERO)
+    };
+    let mut last_error = EditError::BrokenFan(Entity::DANGLING);
+    for c in &candidates {
+        match m.check_patch_topology(&c.edit, valence) {
+            Ok(_) => return Ok(()),
+            Err(e) => last_error = e,
+        }
+    }
+    Err(RemeshError::NoValidOption(last_error))
+}
+
 /// What a split or merge did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RemeshOutcome {
@@ -392,8 +420,26 @@ pub struct RemeshStats {
     pub unresolved_ticks: u64,
     /// Abnormal edges left at the end of those ticks (summed).
     pub unresolved_edges: u64,
+    /// Relaxation iterations spent, by phase.
+    pub relax_iterations: RelaxIterations,
     /// Successful events.
     pub events: Vec<RemeshEvent>,
+}
+
+/// Relaxation iterations of a run by phase (where remeshing time goes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RelaxIterations {
+    /// Pre-relaxations that reached their goal (including those whose
+    /// edit then proved impossible).
+    pub pre_success: u64,
+    /// Pre-relaxations that ended in a cancel.
+    pub pre_cancel: u64,
+    /// Pre-relaxations that hit the iteration cap (1-ring and 2-ring).
+    pub pre_failure: u64,
+    /// Post-relaxations of new edges.
+    pub post: u64,
+    /// Push-backs of unsplittable/unmergeable edges.
+    pub push_back: u64,
 }
 
 /// One successful split or merge.

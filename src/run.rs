@@ -99,6 +99,8 @@ pub struct RemeshSummary {
     pub unresolved_ticks: u64,
     /// Successful events.
     pub events: u64,
+    /// Relaxation iterations by phase.
+    pub relax_iterations: crate::remesh::RelaxIterations,
     /// σ(|r|) of the event positions (l̄).
     pub event_position_spread: f64,
 }
@@ -289,6 +291,7 @@ fn summarize(
             overflow_ticks: s.remesh_stats.overflow_ticks,
             unresolved_ticks: s.remesh_stats.unresolved_ticks,
             events: s.remesh_stats.successes(),
+            relax_iterations: s.remesh_stats.relax_iterations,
             event_position_spread: s.remesh_stats.position_spread(),
         },
         frames: out.frames.clone(),

@@ -559,7 +559,7 @@ impl Scene {
         if self.remesh.mode != crate::params::RemeshMode::Off {
             sim.add_system(
                 crate::schedule::Stage::Remesh,
-                Box::new(crate::systems::remesh::Remesh),
+                Box::new(crate::systems::remesh::Remesh::default()),
             )
             .map_err(|e| invalid(e.to_string()))?;
         }

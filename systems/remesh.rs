@@ -17,8 +17,8 @@
 
 use crate::components::Position;
 use crate::params::RemeshParams;
-use crate::relax::{Goal, Patch, RelaxOutcome, RelaxSettings, relax, rings};
-use crate::remesh::{OutcomeCounts, edge_region, merge_edge, split_edge};
+use crate::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
+use crate::remesh::{OutcomeCounts, check_feasible, merge_edge, split_edge};
 use crate::schedule::{Access, Data, System};
 use crate::simulation::{SimError, SimState};
 use crate::systems::langevin_integration::stream_seed;
@@ -29,8 +29,15 @@ use std::collections::HashSet;
 /// Stream id of the remeshing randomness (edge order, kicks).
 const REMESH_STREAM: u64 = 0x7265_6d65_7368_0001;
 
-/// The remesh system.
-pub struct Remesh;
+/// Stream id of the pre-sampled Lévy kick table.
+const KICK_TABLE_STREAM: u64 = 0x7265_6d65_7368_0002;
+
+/// The remesh system. Holds the run's table of pre-sampled Lévy kicks
+/// (drawn from the scene seed on the first remesh).
+#[derive(Default)]
+pub struct Remesh {
+    kicks: Option<KickTable>,
+}
 
 impl System for Remesh {
     fn name(&self) -> &str {
@@ -69,6 +76,12 @@ impl System for Remesh {
             REMESH_STREAM,
             state.clock.iteration,
         ));
+        let seed = state.seed;
+        let kicks = self.kicks.get_or_insert_with(|| {
+            KickTable::new(&mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(
+                stream_seed(seed, KICK_TABLE_STREAM, 0),
+            ))
+        });
         let mut attempted: HashSet<(Entity, Entity)> = HashSet::new();
         let mut events = 0;
         loop {
@@ -88,7 +101,7 @@ impl System for Remesh {
                 t.vertex_entities[b as usize],
             ));
             events += 1;
-            process(state, edge, long, &seg, &settings, &mut rng)?;
+            process(state, edge, long, &seg, &settings, kicks, &mut rng)?;
         }
         let abnormal: Vec<u32> = abnormal_edges(state, &p, &HashSet::new())
             .into_iter()
@@ -181,6 +194,7 @@ fn process(
     long: bool,
     seg: &crate::energy::vin::Segmentation,
     settings: &RelaxSettings,
+    kicks: &KickTable,
     rng: &mut impl RngExt,
 ) -> Result<(), SimError> {
     let p = state.remesh;
@@ -193,9 +207,9 @@ fn process(
     } else {
         &mut state.remesh_stats.merge
     };
-    if edge_region(&state.membrane, edge).is_err() {
+    if check_feasible(&state.membrane, edge, long, valence).is_err() {
         counts.impossible += 1;
-        push_back(state, a, b, seg, settings, rng);
+        push_back(state, a, b, seg, settings, kicks, rng);
         return Ok(());
     }
     // Pre-relaxation with the 1-ring moveable; under tension the fixed 2-ring
@@ -214,13 +228,22 @@ fn process(
             &moveable,
             Some([a, b]),
         );
-        let outcome = relax(&mut patch, goal, seg, settings, rng);
-        (outcome, patch, slots)
+        let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
+        (relaxed, patch, slots)
     };
-    let (mut outcome, mut patch, mut slots) = attempt(1, rng);
-    if outcome == RelaxOutcome::Failure {
-        (outcome, patch, slots) = attempt(2, rng);
+    let (mut relaxed, mut patch, mut slots) = attempt(1, rng);
+    let mut iterations = u64::from(relaxed.iterations);
+    if relaxed.outcome == RelaxOutcome::Failure {
+        (relaxed, patch, slots) = attempt(2, rng);
+        iterations += u64::from(relaxed.iterations);
     }
+    let outcome = relaxed.outcome;
+    let spent = &mut state.remesh_stats.relax_iterations;
+    *match outcome {
+        RelaxOutcome::Success => &mut spent.pre_success,
+        RelaxOutcome::Cancel => &mut spent.pre_cancel,
+        RelaxOutcome::Failure => &mut spent.pre_failure,
+    } += iterations;
     let counts: &mut OutcomeCounts = if long {
         &mut state.remesh_stats.split
     } else {
@@ -235,7 +258,7 @@ fn process(
             }
             // The patch was relaxed on a copy: the world is as before. Push
             // the edge back into range by moving only its two ends.
-            push_back(state, a, b, seg, settings, rng);
+            push_back(state, a, b, seg, settings, kicks, rng);
             return Ok(());
         }
         RelaxOutcome::Success => {}
@@ -279,7 +302,9 @@ fn process(
                 &moveable,
                 None,
             );
-            if relax(&mut post, Goal::Normalize, seg, settings, rng) != RelaxOutcome::Failure {
+            let relaxed = relax(&mut post, Goal::Normalize, seg, settings, kicks, rng);
+            state.remesh_stats.relax_iterations.post += u64::from(relaxed.iterations);
+            if relaxed.outcome != RelaxOutcome::Failure {
                 write_back(state, &post, &post_slots);
             }
         }
@@ -297,29 +322,39 @@ fn process(
                 t.vertex_slot(ea).expect("live"),
                 t.vertex_slot(eb).expect("live"),
             );
-            push_back(state, a, b, seg, settings, rng);
+            push_back(state, a, b, seg, settings, kicks, rng);
         }
     }
     Ok(())
 }
 
-/// Moves only the edge's two ends (their neighbours fixed) until every
-/// incident edge is in the normal range; keeps the result unless it fails.
+/// Pushes the edge back into range: moves only its two ends (their
+/// neighbours fixed) until every incident edge is in the normal range; if
+/// that fails (a crowded neighbourhood), retries with the ends' 1-ring
+/// moveable too (the reference's wider-ring fallback). Keeps the result
+/// unless both fail.
 fn push_back(
     state: &mut SimState,
     a: u32,
     b: u32,
     seg: &crate::energy::vin::Segmentation,
     settings: &RelaxSettings,
+    kicks: &KickTable,
     rng: &mut impl RngExt,
 ) {
-    let (mut patch, slots) = Patch::around(
-        state.membrane.cached_topology(),
-        &state.positions,
-        &[a, b],
-        Some([a, b]),
-    );
-    if relax(&mut patch, Goal::Normalize, seg, settings, rng) != RelaxOutcome::Failure {
-        write_back(state, &patch, &slots);
+    for depth in 0..2 {
+        let moveable = rings(state.membrane.cached_topology(), &[a, b], depth);
+        let (mut patch, slots) = Patch::around(
+            state.membrane.cached_topology(),
+            &state.positions,
+            &moveable,
+            Some([a, b]),
+        );
+        let relaxed = relax(&mut patch, Goal::Normalize, seg, settings, kicks, rng);
+        state.remesh_stats.relax_iterations.push_back += u64::from(relaxed.iterations);
+        if relaxed.outcome != RelaxOutcome::Failure {
+            write_back(state, &patch, &slots);
+            return;
+        }
     }
 }

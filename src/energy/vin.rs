@@ -287,14 +287,14 @@ impl Segmentation {
         // baseline x86-64 target); the guard below settles which side of a
         // breakpoint l lies on, so floor vs ceil − 1 does not matter.
         let j = (x as usize).min(self.bin_segment.len() - 1);
-        let mut s = self.bin_segment[j] as usize;
-        // Segment s is (b_s, b_{s+1}]; packed[s][0] = b_s.
-        if s + 1 < self.packed.len() && l > self.packed[s + 1][0] {
-            s += 1;
-        } else if s > 0 && l <= self.packed[s][0] {
-            s -= 1;
-        }
-        s
+        let s = self.bin_segment[j] as usize;
+        // Segment s is (b_s, b_{s+1}]; at most one of the two corrections
+        // applies. Branch-free: which side of a breakpoint an edge lies on is
+        // unpredictable.
+        let b = &self.breakpoints;
+        let up = (s + 1 < self.slopes.len()) & (l > b[s + 1]);
+        let down = (s > 0) & (l <= b[s]);
+        s + usize::from(up) - usize::from(down)
     }
 
     /// Midpoint of segment `s` (l̄).
