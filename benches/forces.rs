@@ -64,6 +64,7 @@ fn initial_state(m: &mut Membrane) -> InitialState {
     let mesh = m.to_mesh().unwrap();
     InitialState {
         vertices: mesh.vertex_count(),
+        lipid_total: mesh.vertex_count() as f64,
         area: remembrane::geometry::total_area(&mesh.positions, &mesh.faces),
         volume: remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO),
     }

@@ -43,9 +43,11 @@ pub mod scene;
 pub mod schedule;
 pub mod shape;
 pub mod simulation;
+pub mod state;
 #[path = "../systems/mod.rs"]
 pub mod systems;
 pub mod timestep;
+pub mod tube_radius;
 pub mod validate;
 
 #[doc = include_str!("../README.md")]

@@ -122,6 +122,10 @@ struct RunArgs {
     /// Check every mesh invariant after each remesh edit (debug mode; slow).
     #[arg(long)]
     check_invariants: bool,
+    /// Start from the saved state of an earlier run (its state.json)
+    /// instead of the scene's membrane.
+    #[arg(long, value_name = "STATE.json")]
+    from: Option<PathBuf>,
 }
 
 fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
@@ -168,6 +172,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         seed: args.seed,
         iterations: args.iterations,
         frames: args.frames,
+        from: args.from,
         progress,
         check_invariants: args.check_invariants,
     };
@@ -251,6 +256,7 @@ fn compare_command(
             seed,
             iterations,
             frames: None,
+            from: None,
             progress: if quiet {
                 Progress::Quiet
             } else {

@@ -60,6 +60,8 @@ pub struct RunOutput {
     pub frames: Vec<FrameRecord>,
     series_header: Option<String>,
     series: String,
+    probes: Vec<crate::tube_radius::TubeProbe>,
+    first_radius: Vec<Option<f64>>,
 }
 
 impl RunOutput {
@@ -85,7 +87,16 @@ impl RunOutput {
             frames: Vec::new(),
             series_header: None,
             series: String::new(),
+            probes: Vec::new(),
+            first_radius: Vec::new(),
         })
+    }
+
+    /// Tubes whose radius every frame measures; `_norm` columns divide by
+    /// the first frame's radius.
+    pub fn set_tube_probes(&mut self, probes: Vec<crate::tube_radius::TubeProbe>) {
+        self.first_radius = vec![None; probes.len()];
+        self.probes = probes;
     }
 
     /// The final run directory.
@@ -120,7 +131,20 @@ impl RunOutput {
             file,
         });
         self.write("run.pvd", pvd(&self.frames).as_bytes())?;
-        let (header, row) = series_row(state);
+        let (mut header, mut row) = series_row(state);
+        let t = state.membrane.cached_topology();
+        for (probe, first) in self.probes.iter().zip(&mut self.first_radius) {
+            let r = probe.measure(&state.positions, &t.edges).map(|(r, _)| r);
+            if first.is_none() {
+                *first = r;
+            }
+            let norm = match (r, *first) {
+                (Some(r), Some(r0)) => r / r0,
+                _ => f64::NAN,
+            };
+            header += &format!(",radius_{0},radius_{0}_norm", probe.name);
+            row += &format!(",{:e},{norm:e}", r.unwrap_or(f64::NAN));
+        }
         if self.series_header.is_none() {
             self.series = header.clone() + "\n";
             self.series_header = Some(header);
@@ -180,12 +204,14 @@ impl RunOutput {
         self.write("events.vtp", &out)
     }
 
-    /// Writes `final.ply` and `summary.json`, then moves the run into place.
+    /// Writes `final.ply`, `final.png`, `state.json` (if given) and
+    /// `summary.json`, then moves the run into place.
     pub fn finish(
         self,
         summary_json: &str,
         final_mesh: &SurfaceMesh,
         lipid: &[f64],
+        state_json: Option<&str>,
     ) -> Result<PathBuf, OutputError> {
         let mut ply = Vec::new();
         let scalars: Vec<VertexScalar<'_>> = if lipid.is_empty() {
@@ -206,6 +232,9 @@ impl RunOutput {
         self.write("final.ply", &ply)?;
         let png = crate::render::render_png(&final_mesh.positions, &final_mesh.faces, 400);
         self.write("final.png", &png)?;
+        if let Some(state) = state_json {
+            self.write("state.json", state.as_bytes())?;
+        }
         self.write("summary.json", summary_json.as_bytes())?;
         std::fs::rename(&self.staging, &self.dir).map_err(|e| write_err(&self.dir, e))?;
         Ok(self.dir)

@@ -170,6 +170,15 @@ pub struct DynamicsParams {
     /// Number of frames written over a run, evenly spaced, plus the initial
     /// state (default 20; 0 = initial and final only).
     pub frames: u32,
+    /// Stop once this much time has been simulated, even before
+    /// `iterations` (s; default none).
+    #[serde(deserialize_with = "crate::validate::optional_positive")]
+    pub duration: Option<f64>,
+    /// Write a frame whenever the simulated time passes a multiple of this
+    /// interval, instead of `frames` evenly spaced iterations (s; default
+    /// none).
+    #[serde(deserialize_with = "crate::validate::optional_positive")]
+    pub frame_time: Option<f64>,
 }
 
 impl Default for DynamicsParams {
@@ -181,6 +190,8 @@ impl Default for DynamicsParams {
             max_displacement: 10.0,
             iterations: 1000,
             frames: 20,
+            duration: None,
+            frame_time: None,
         }
     }
 }

@@ -33,6 +33,9 @@ pub struct RunOptions {
     pub iterations: Option<u64>,
     /// Override the number of frames.
     pub frames: Option<u32>,
+    /// Start from this saved state (`state.json` of an earlier run) instead
+    /// of the scene's membrane.
+    pub from: Option<PathBuf>,
     /// Progress reporting.
     pub progress: Progress,
     /// Check every mesh invariant after each topology edit (slow; always on
@@ -163,6 +166,11 @@ pub fn run_scene(
     if let Some(f) = options.frames {
         scene.dynamics.frames = f;
     }
+    if let Some(from) = &options.from {
+        // Absolute, so it does not depend on the scene file's folder.
+        let path = std::path::absolute(from).unwrap_or_else(|_| from.clone());
+        scene.membrane = crate::scene::MembraneSource::State { path };
+    }
     let name = if scene.name.is_empty() {
         scene_path
             .file_stem()
@@ -176,6 +184,7 @@ pub fn run_scene(
     customize(&mut sim)?;
     sim.start()?;
     let mut out = RunOutput::create(&options.out, options.overwrite)?;
+    out.set_tube_probes(scene.tube_radius.clone());
 
     let iterations = scene.dynamics.iterations;
     let interval = if scene.dynamics.frames == 0 {
@@ -186,16 +195,31 @@ pub fn run_scene(
     sim.evaluate_forces()?;
     out.write_frame(&name, &sim.state)?;
 
+    let duration = scene.dynamics.duration.unwrap_or(f64::INFINITY);
+    let frame_time = scene.dynamics.frame_time;
+    let mut next_frame_time = frame_time.unwrap_or(f64::INFINITY);
     let bar = progress_bar(options.progress, iterations);
     let mut stop: Option<SimError> = None;
     let mut next_line = iterations / 10;
-    while sim.state.clock.iteration < iterations {
+    while sim.state.clock.iteration < iterations && sim.state.clock.time < duration {
         if let Err(e) = sim.tick() {
             stop = Some(e);
             break;
         }
         let it = sim.state.clock.iteration;
-        if it % interval == 0 || it == iterations {
+        let time = sim.state.clock.time;
+        let last = it == iterations || time >= duration;
+        let due = match frame_time {
+            Some(step) if time >= next_frame_time => {
+                while next_frame_time <= time {
+                    next_frame_time += step;
+                }
+                true
+            }
+            Some(_) => false,
+            None => it % interval == 0,
+        };
+        if due || last {
             sim.evaluate_forces()?;
             out.write_frame(&name, &sim.state)?;
         }
@@ -238,7 +262,19 @@ pub fn run_scene(
     if scene.remesh.mode != crate::params::RemeshMode::Off {
         out.write_events(&sim.state.remesh_stats.events)?;
     }
-    let dir = out.finish(&json, &mesh, &lipid)?;
+    // Only a completed run leaves a state to continue from.
+    let state = stop.is_none().then(|| {
+        crate::state::SavedState::new(
+            &name,
+            scene.seed,
+            sim.state.clock.iteration,
+            sim.state.clock.time,
+            &mesh,
+            &lipid,
+        )
+        .to_json()
+    });
+    let dir = out.finish(&json, &mesh, &lipid, state.as_deref())?;
     match stop {
         None => Ok(summary),
         Some(source) => Err(RunError::Stopped { source, dir }),

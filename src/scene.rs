@@ -60,6 +60,10 @@ pub struct Scene {
     /// Scheduled changes of control points (by declaration index).
     #[serde(default)]
     pub control_point_schedule: Vec<crate::systems::control_point_schedule::ScheduledChange>,
+    /// Tubes (tethers, filopodia) whose radius is measured at every frame
+    /// (`radius_<name>` and `radius_<name>_norm` in series.csv).
+    #[serde(default)]
+    pub tube_radius: Vec<crate::tube_radius::TubeProbe>,
     /// Dynamics: mobility, temperature, time-step limits, run length, frames.
     #[serde(default)]
     pub dynamics: DynamicsParams,
@@ -120,6 +124,13 @@ pub enum MembraneSource {
             deserialize_with = "crate::validate::positive"
         )]
         scale: f64,
+    },
+    /// The `state.json` of a completed run (relative to the scene file's
+    /// folder): its mesh and, if the scene declares lipid density, its
+    /// densities. `remembrane run --from STATE` sets this.
+    State {
+        /// Path of the state file.
+        path: PathBuf,
     },
 }
 
@@ -336,6 +347,17 @@ impl Scene {
                 ),
             ));
         }
+        for (i, probe) in self.tube_radius.iter().enumerate() {
+            if let Err((f, reason)) = probe.check() {
+                return Err(invalid(&format!("tube_radius[{i}].{f}"), reason));
+            }
+            if self.tube_radius[..i].iter().any(|p| p.name == probe.name) {
+                return Err(invalid(
+                    &format!("tube_radius[{i}].name"),
+                    format!("`{}` is used twice", probe.name),
+                ));
+            }
+        }
         for (i, c) in self.control_point_schedule.iter().enumerate() {
             use crate::systems::control_point_schedule::{Change, When};
             let field = |f: &str| format!("control_point_schedule[{i}].{f}");
@@ -357,6 +379,16 @@ impl Scene {
             }
             if let When::Every { interval: 0, .. } = c.when {
                 return Err(invalid(&field("when"), "interval must be > 0".into()));
+            }
+            if let When::EveryTime { interval, start } = c.when
+                && !(interval.is_finite() && interval > 0.0 && start.is_finite() && start >= 0.0)
+            {
+                return Err(invalid(
+                    &field("when"),
+                    format!(
+                        "interval must be finite and > 0 and start finite and ≥ 0 (got {interval}, {start})"
+                    ),
+                ));
             }
             let bad = match c.change {
                 Change::MoveBy(v) | Change::MoveTo(v) => {
@@ -446,6 +478,16 @@ impl Scene {
 
     /// The initial mesh (jittered with the scene seed if requested).
     pub fn initial_mesh(&self, scene_path: &Path) -> Result<SurfaceMesh, SceneError> {
+        Ok(self.initial_state(scene_path)?.0)
+    }
+
+    /// The initial mesh and, when starting from a saved state that has
+    /// them, the lipid densities.
+    pub fn initial_state(
+        &self,
+        scene_path: &Path,
+    ) -> Result<(SurfaceMesh, Option<Vec<f64>>), SceneError> {
+        let mut lipid = None;
         let mut mesh = match &self.membrane {
             MembraneSource::Icosphere {
                 level,
@@ -468,6 +510,18 @@ impl Scene {
                 m.scale(*scale);
                 m
             }
+            MembraneSource::State { path } => {
+                let base = scene_path.parent().unwrap_or(Path::new("."));
+                let state = crate::state::SavedState::read(&base.join(path)).map_err(|e| {
+                    SceneError::Invalid {
+                        path: scene_path.to_owned(),
+                        field: "membrane".into(),
+                        reason: format!("state file {e}"),
+                    }
+                })?;
+                lipid = state.lipid_density.clone();
+                state.mesh()
+            }
         };
         // Generated meshes are valid by construction; this also applies the
         // scene's valence limits to files and docked pairs.
@@ -484,14 +538,19 @@ impl Scene {
             }
         })?;
         mesh.positions.shrink_to_fit();
-        Ok(mesh)
+        Ok((mesh, lipid))
     }
 
     /// Builds the world and the force systems this scene declares.
     pub fn build(&self, scene_path: &Path) -> Result<Simulation, SceneError> {
-        let mesh = self.initial_mesh(scene_path)?;
+        let (mesh, saved_lipid) = self.initial_state(scene_path)?;
+        let lipid_total = match (&saved_lipid, self.lipid_density) {
+            (Some(rho), true) => rho.iter().sum(),
+            _ => mesh.vertex_count() as f64,
+        };
         let initial = InitialState {
             vertices: mesh.vertex_count(),
+            lipid_total,
             area: total_area(&mesh.positions, &mesh.faces),
             volume: enclosed_volume(&mesh.positions, &mesh.faces, mesh.positions[0]),
         };
@@ -502,6 +561,10 @@ impl Scene {
         };
         let mut membrane =
             Membrane::from_mesh(&mesh, self.lipid_density).map_err(|e| invalid(e.to_string()))?;
+        if let (Some(rho), true) = (&saved_lipid, self.lipid_density) {
+            membrane.topology().map_err(|e| invalid(e.to_string()))?;
+            membrane.scatter_lipid(rho);
+        }
         let mut forces = ForceSet::new(self.penalty_smoothing);
         let mut spring_stiffness = SpringParams::default().stiffness;
         let mut segmentation = None;
@@ -525,7 +588,10 @@ impl Scene {
                     Box::new(AreaForces::new(p.k, p.target.resolve(initial.area)))
                 }
                 EnergyTerm::LocalTension(p) => {
-                    let a0 = p.target_area.resolve(initial.area) / initial.vertices as f64;
+                    // a0 = A_t / Σρ: A_t / N_initial for a fresh mesh (ρ = 1),
+                    // and the same lipid unit after remeshing or when starting
+                    // from a saved state (Σρ is conserved).
+                    let a0 = p.target_area.resolve(initial.area) / initial.lipid_total;
                     Box::new(LocalTensionForces::new(p.k, a0))
                 }
                 EnergyTerm::Springs(p) => {
@@ -544,9 +610,9 @@ impl Scene {
         }
         let mut sim = Simulation::new(membrane, forces, initial);
         if !self.control_point_schedule.is_empty() {
-            let system = crate::systems::control_point_schedule::ControlPointSchedule {
-                changes: self.control_point_schedule.clone(),
-            };
+            let system = crate::systems::control_point_schedule::ControlPointSchedule::new(
+                self.control_point_schedule.clone(),
+            );
             sim.add_system(crate::schedule::Stage::Prepare, Box::new(system))
                 .map_err(|e| invalid(e.to_string()))?
                 .before("gather_state");

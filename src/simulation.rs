@@ -16,6 +16,9 @@ use std::sync::Arc;
 pub struct InitialState {
     /// Vertex count N_initial.
     pub vertices: usize,
+    /// Total lipid Σρ at the start (N_initial for a fresh mesh with ρ = 1;
+    /// the saved total when starting from a state).
+    pub lipid_total: f64,
     /// Total area (l̄²).
     pub area: f64,
     /// Enclosed volume (l̄³).

@@ -30,16 +30,28 @@ pub enum When {
         #[serde(default)]
         start: u64,
     },
+    /// Repeatedly in simulated time: before the first iteration that starts
+    /// at or after `start`, `start + interval`, … (one application per
+    /// crossing, however many intervals a step spans).
+    EveryTime {
+        /// Simulated time between applications (s, > 0).
+        interval: f64,
+        /// First application (s; default 0).
+        #[serde(default)]
+        start: f64,
+    },
 }
 
 impl When {
-    /// Whether the change applies after `iteration` completed iterations.
+    /// Whether an iteration-based change applies after `iteration`
+    /// completed iterations (always `false` for [`When::EveryTime`]).
     pub fn applies(&self, iteration: u64) -> bool {
         match *self {
             When::At { iteration: n } => iteration == n,
             When::Every { interval, start } => {
                 iteration >= start && (iteration - start).is_multiple_of(interval)
             }
+            When::EveryTime { .. } => false,
         }
     }
 }
@@ -96,7 +108,23 @@ impl Change {
 /// The control-point schedule system.
 pub struct ControlPointSchedule {
     /// The changes, applied in order when due.
-    pub changes: Vec<ScheduledChange>,
+    changes: Vec<ScheduledChange>,
+    /// Next due time of each change (time-based changes only).
+    next_time: Vec<f64>,
+}
+
+impl ControlPointSchedule {
+    /// A schedule of `changes`.
+    pub fn new(changes: Vec<ScheduledChange>) -> Self {
+        let next_time = changes
+            .iter()
+            .map(|c| match c.when {
+                When::EveryTime { start, .. } => start,
+                _ => f64::INFINITY,
+            })
+            .collect();
+        Self { changes, next_time }
+    }
 }
 
 impl System for ControlPointSchedule {
@@ -109,8 +137,20 @@ impl System for ControlPointSchedule {
     }
 
     fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        let iteration = state.clock.iteration;
-        for change in self.changes.iter().filter(|c| c.when.applies(iteration)) {
+        let (iteration, time) = (state.clock.iteration, state.clock.time);
+        for (change, next) in self.changes.iter().zip(&mut self.next_time) {
+            let due = match change.when {
+                When::EveryTime { interval, .. } if time >= *next => {
+                    while *next <= time {
+                        *next += interval;
+                    }
+                    true
+                }
+                _ => change.when.applies(iteration),
+            };
+            if !due {
+                continue;
+            }
             for (index, point) in state
                 .membrane
                 .world

@@ -326,6 +326,7 @@ fn options(out: &Path) -> RunOptions {
         seed: None,
         iterations: None,
         frames: None,
+        from: None,
         progress: Progress::Quiet,
         check_invariants: true,
     }
