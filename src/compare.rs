@@ -2,8 +2,8 @@
 //! events and the spread σ(|r|) of their positions, as a table, a CSV and
 //! a PNG bar chart.
 
+use crate::plot::{COLORS, Canvas, INK};
 use crate::run::RunSummary;
-use font8x8::UnicodeFonts;
 
 /// One row of the comparison.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -80,48 +80,14 @@ pub fn csv(rows: &[ComparisonRow; 2]) -> String {
 
 const W: usize = 640;
 const H: usize = 360;
-const BACKGROUND: [u8; 3] = [255, 255, 255];
-const INK: [u8; 3] = [30, 30, 30];
-const COLORS: [[u8; 3]; 2] = [[60, 110, 180], [220, 120, 40]];
 
 /// A chart panel: title, the two values, and how to print a value.
 type Panel = (&'static str, [f64; 2], fn(f64) -> String);
 
-struct Canvas(Vec<u8>);
-
-impl Canvas {
-    fn rect(&mut self, x0: usize, y0: usize, x1: usize, y1: usize, c: [u8; 3]) {
-        for y in y0.min(H)..y1.min(H) {
-            for x in x0.min(W)..x1.min(W) {
-                self.0[(y * W + x) * 3..(y * W + x) * 3 + 3].copy_from_slice(&c);
-            }
-        }
-    }
-
-    /// Text with the 8×8 bitmap font scaled by 2, centred at `cx`.
-    fn text(&mut self, cx: usize, y: usize, s: &str, c: [u8; 3]) {
-        let scale = 2;
-        let width = s.chars().count() * 8 * scale;
-        let x0 = cx.saturating_sub(width / 2);
-        for (k, ch) in s.chars().enumerate() {
-            let glyph = font8x8::BASIC_FONTS.get(ch).unwrap_or([0; 8]);
-            for (row, bits) in glyph.iter().enumerate() {
-                for col in 0..8 {
-                    if bits & (1 << col) != 0 {
-                        let x = x0 + (k * 8 + col) * scale;
-                        let yy = y + row * scale;
-                        self.rect(x, yy, x + scale, yy + scale, c);
-                    }
-                }
-            }
-        }
-    }
-}
-
 /// A PNG with two panels: remesh events and σ(|r|), one bar per run,
 /// labelled with its value; scene names in the legend.
 pub fn chart_png(rows: &[ComparisonRow; 2]) -> Vec<u8> {
-    let mut c = Canvas(BACKGROUND.repeat(W * H));
+    let mut c = Canvas::new(W, H);
     let panels: [Panel; 2] = [
         (
             "remesh events",
@@ -137,7 +103,7 @@ pub fn chart_png(rows: &[ComparisonRow; 2]) -> Vec<u8> {
     let (top, bottom) = (60, 280);
     for (p, (title, values, label)) in panels.iter().enumerate() {
         let x_mid = W / 4 + p * W / 2;
-        c.text(x_mid, 20, title, INK);
+        c.text(x_mid, 20, title, INK, 2);
         c.rect(x_mid - 110, bottom, x_mid + 110, bottom + 2, INK);
         let max = values
             .iter()
@@ -148,22 +114,13 @@ pub fn chart_png(rows: &[ComparisonRow; 2]) -> Vec<u8> {
             let height = ((v / max) * (bottom - top) as f64) as usize;
             let x0 = x_mid - 90 + k * 100;
             c.rect(x0, bottom - height, x0 + 80, bottom, COLORS[k]);
-            c.text(x0 + 40, bottom - height - 20, &label(v), INK);
+            c.text(x0 + 40, bottom - height - 20, &label(v), INK, 2);
         }
     }
     for (k, r) in rows.iter().enumerate() {
         let y = 300 + k * 24;
         c.rect(40, y, 56, y + 16, COLORS[k]);
-        c.text(70 + r.scene.chars().count() * 8, y, &r.scene, INK);
+        c.text(70 + r.scene.chars().count() * 8, y, &r.scene, INK, 2);
     }
-    let mut out = Vec::new();
-    {
-        let mut encoder = png::Encoder::new(&mut out, W as u32, H as u32);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        if let Ok(mut writer) = encoder.write_header() {
-            let _ = writer.write_image_data(&c.0);
-        }
-    }
-    out
+    c.png()
 }

@@ -1,6 +1,7 @@
 //! remembrane: closed triangulated membranes moved by overdamped Langevin
 //! dynamics under their free energy, with free-energy-controlled remeshing.
 
+pub mod collect;
 pub mod compare;
 pub mod components;
 pub mod edit;
@@ -33,6 +34,7 @@ pub mod fd;
 pub mod force;
 pub mod params;
 
+pub mod plot;
 pub mod quality;
 pub mod relax;
 pub mod remesh;
@@ -44,6 +46,7 @@ pub mod schedule;
 pub mod shape;
 pub mod simulation;
 pub mod state;
+pub mod sweep;
 #[path = "../systems/mod.rs"]
 pub mod systems;
 pub mod timestep;

@@ -48,6 +48,53 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Run a parameter sweep (base scene × conditions × grid × repeats),
+    /// resumable, in parallel, or one shard of it; or print a Slurm
+    /// job-array script that runs it.
+    Sweep {
+        /// Sweep file (RON), e.g. sweeps/tether.ron.
+        sweep: PathBuf,
+        /// Output directory (default out/<sweep name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Runs at once (default: number of cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run only the runs with index ≡ I (mod N), e.g. 3/8.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
+        /// Override every run's iterations (quick trials).
+        #[arg(long)]
+        iterations: Option<u64>,
+        /// Print an sbatch job-array script for this sweep instead of running.
+        #[arg(long)]
+        emit_slurm: bool,
+        /// Array tasks of the emitted script (default: one per run).
+        #[arg(long)]
+        tasks: Option<usize>,
+        /// No per-run progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Aggregate a sweep's runs: 4th-order fit of one series.csv column
+    /// against another per run, mean ± sd per condition and grid point
+    /// (paper Fig 5E/F) as CSV tables and PNG charts in DIR.
+    Collect {
+        /// Sweep output directory (with sweep.json).
+        dir: PathBuf,
+        /// Column on the x axis.
+        #[arg(long, default_value = "radius_left_norm")]
+        x: String,
+        /// Column on the y axis.
+        #[arg(long, default_value = "radius_right_norm")]
+        y: String,
+        /// Rows of each series.csv used (from the first).
+        #[arg(long, default_value_t = 31)]
+        frames: usize,
+        /// Succeed even if some runs have no results yet.
+        #[arg(long)]
+        partial: bool,
+    },
     /// Validate a scene and print what it declares.
     Check {
         /// Scene file (RON).
@@ -84,6 +131,25 @@ fn main() -> ExitCode {
             seed,
             quiet,
         } => compare_command(&first, &second, iterations, out, overwrite, seed, quiet),
+        Command::Sweep {
+            sweep,
+            out,
+            jobs,
+            shard,
+            iterations,
+            emit_slurm,
+            tasks,
+            quiet,
+        } => sweep_command(
+            &sweep, out, jobs, shard, iterations, emit_slurm, tasks, quiet,
+        ),
+        Command::Collect {
+            dir,
+            x,
+            y,
+            frames,
+            partial,
+        } => collect_command(&dir, x, y, frames, partial),
         other => match run(other) {
             Ok(()) => ExitCode::SUCCESS,
             Err(message) => {
@@ -304,7 +370,10 @@ fn free_directory(base: PathBuf) -> PathBuf {
 
 fn run(command: Command) -> Result<(), String> {
     match command {
-        Command::Run { .. } | Command::Compare { .. } => unreachable!("handled in main"),
+        Command::Run { .. }
+        | Command::Compare { .. }
+        | Command::Sweep { .. }
+        | Command::Collect { .. } => unreachable!("handled in main"),
         Command::Check { scene } => check(&scene),
         Command::Energy {
             scene,
@@ -393,4 +462,125 @@ fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> 
         print!("{}", report.to_text());
     }
     Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sweep_command(
+    sweep_path: &Path,
+    out: Option<PathBuf>,
+    jobs: Option<usize>,
+    shard: Option<String>,
+    iterations: Option<u64>,
+    emit_slurm: bool,
+    tasks: Option<usize>,
+    quiet: bool,
+) -> ExitCode {
+    use remembrane::sweep::{Sweep, SweepOptions, parse_shard, run_sweep, slurm_script};
+    let fail = |message: String| {
+        eprintln!("error: {message}");
+        ExitCode::from(2)
+    };
+    let (sweep, _) = match Sweep::load(sweep_path) {
+        Ok(s) => s,
+        Err(e) => return fail(e.to_string()),
+    };
+    let out = out.unwrap_or_else(|| PathBuf::from("out").join(&sweep.name));
+    if emit_slurm {
+        let runs = sweep.expand().len();
+        let tasks = tasks.unwrap_or(runs).clamp(1, runs.max(1));
+        // Slurm opens the tasks' log files in the output directory before
+        // the script runs: it must exist at submission.
+        if let Err(e) = std::fs::create_dir_all(&out) {
+            return fail(format!("{}: cannot create: {e}", out.display()));
+        }
+        let binary = std::env::current_exe().unwrap_or_else(|_| PathBuf::from("remembrane"));
+        let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
+        print!(
+            "{}",
+            slurm_script(&sweep.name, &binary, &abs(sweep_path), &abs(&out), tasks)
+        );
+        return ExitCode::SUCCESS;
+    }
+    let shard = match shard.as_deref().map(parse_shard).transpose() {
+        Ok(s) => s,
+        Err(e) => return fail(e),
+    };
+    let options = SweepOptions {
+        out: out.clone(),
+        jobs: jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+        shard,
+        iterations,
+        quiet,
+    };
+    match run_sweep(sweep_path, &options) {
+        Ok(report) => {
+            eprintln!(
+                "sweep {}: {} runs in all, {} in this shard: {} done now, {} already done, {} failed; results in {}",
+                sweep.name,
+                report.total,
+                report.in_shard,
+                report.completed,
+                report.skipped,
+                report.failed.len(),
+                out.display()
+            );
+            for (dir, e) in &report.failed {
+                eprintln!("  failed: {}: {e}", dir.display());
+            }
+            if report.failed.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => fail(e.to_string()),
+    }
+}
+
+fn collect_command(dir: &Path, x: String, y: String, frames: usize, partial: bool) -> ExitCode {
+    use remembrane::collect::{CollectOptions, collect};
+    let options = CollectOptions {
+        x,
+        y,
+        frames,
+        ..Default::default()
+    };
+    match collect(dir, &options) {
+        Ok(report) => {
+            println!(
+                "{} of {} runs collected{}",
+                report.runs.len(),
+                report.expected,
+                if report.missing.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} missing", report.missing.len())
+                }
+            );
+            println!("condition,point,runs,mean,sd");
+            for g in &report.groups {
+                let point: Vec<String> = g.point.iter().map(|(a, v)| format!("{a}={v}")).collect();
+                println!(
+                    "{},{},{},{:.4},{:.4}",
+                    g.condition,
+                    point.join(" "),
+                    g.n,
+                    g.mean,
+                    g.sd
+                );
+            }
+            for m in &report.missing {
+                eprintln!("  missing: {}", m.display());
+            }
+            if report.missing.is_empty() || partial {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
 }

@@ -1,0 +1,618 @@
+//! Parameter sweeps: a base scene × conditions × a parameter grid × repeats,
+//! expanded into independent runs with distinct derived seeds (SPEC §6, the
+//! tether k_d scan of paper Fig 5F).
+//!
+//! A sweep file (RON) names the base scene (relative to the sweep file),
+//! the conditions (each a name, an optional saved state to start from and
+//! settings), the grid axes (each a name and a list of settings) and the
+//! number of repeats. `remembrane sweep` runs the expansion into
+//! `OUT/runs/<condition>/<axis>=<value>…/rep<NN>`, skipping runs whose
+//! directory already exists (a run directory appears only when the run has
+//! finished), so an interrupted sweep resumes. `--shard I/N` runs only the
+//! runs whose index is I mod N, so a batch system (e.g. a Slurm job array)
+//! can drive it; `--emit-slurm` prints such a job-array script.
+
+use crate::params::{BlockedRegion, DiffusionRate};
+use crate::scene::{EnergyTerm, Scene, SceneError};
+use crate::systems::langevin_integration::stream_seed;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Stream id of the derived run seeds.
+const SWEEP_SEED_STREAM: u64 = 0x7377_6565_7000_0001;
+
+fn one() -> u32 {
+    1
+}
+
+/// A sweep file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sweep {
+    /// Name (used in job names).
+    pub name: String,
+    /// Base scene, relative to the sweep file's folder.
+    pub scene: PathBuf,
+    /// Repeats of every condition × grid point (default 1).
+    #[serde(default = "one")]
+    pub repeats: u32,
+    /// Base seed from which every run's seed is derived (default 0).
+    #[serde(default)]
+    pub seed: u64,
+    /// Conditions (default: one condition, `base`, with no settings).
+    #[serde(default)]
+    pub conditions: Vec<Condition>,
+    /// Grid axes; runs cover their Cartesian product (default: none).
+    #[serde(default)]
+    pub grid: Vec<Axis>,
+}
+
+/// One condition of a sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Condition {
+    /// Name (a directory name).
+    pub name: String,
+    /// Saved state to start from (relative to the sweep file's folder).
+    #[serde(default)]
+    pub from: Option<PathBuf>,
+    /// Settings applied to the base scene.
+    #[serde(default)]
+    pub set: Vec<Setting>,
+}
+
+/// One grid axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// Name (used in directory names and the collected tables).
+    pub name: String,
+    /// The values the axis takes.
+    pub values: Vec<Setting>,
+}
+
+/// A change to a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Setting {
+    /// Finite diffusion rate k_d (the scene must declare diffusion).
+    DiffusionRate(f64),
+    /// Instant equilibration (k_d = ∞).
+    DiffusionInstant,
+    /// Diffusion barrier regions (empty: none).
+    Barrier(Vec<BlockedRegion>),
+    /// A_t of the local tension term (l̄²).
+    LocalTensionTarget(f64),
+    /// k_V of the volume term (Ē/l̄⁶).
+    VolumeStrength(f64),
+    /// Bending rigidity κ (Ē).
+    Kappa(f64),
+    /// Spring constant of every control point (Ē/l̄²).
+    SpringStiffness(f64),
+    /// Iterations of the run.
+    Iterations(u64),
+    /// Simulated duration of the run (s).
+    Duration(f64),
+}
+
+impl Setting {
+    /// Applies the setting; the error says why it does not fit the scene.
+    pub fn apply(&self, scene: &mut Scene) -> Result<(), String> {
+        let no_term = |t: &str| format!("the scene declares no {t} term");
+        match self {
+            Setting::DiffusionRate(k) => {
+                let d = scene
+                    .diffusion
+                    .as_mut()
+                    .ok_or("the scene declares no diffusion")?;
+                if !(k.is_finite() && *k > 0.0 && *k <= 1.0) {
+                    return Err(format!("k_d must be in (0, 1] (got {k})"));
+                }
+                d.rate = DiffusionRate::Finite(*k);
+            }
+            Setting::DiffusionInstant => {
+                let d = scene
+                    .diffusion
+                    .as_mut()
+                    .ok_or("the scene declares no diffusion")?;
+                d.rate = DiffusionRate::Instant;
+            }
+            Setting::Barrier(regions) => {
+                let d = scene
+                    .diffusion
+                    .as_mut()
+                    .ok_or("the scene declares no diffusion")?;
+                d.barrier = regions.clone();
+            }
+            Setting::LocalTensionTarget(a) => {
+                let term = scene.energy.iter_mut().find_map(|t| match t {
+                    EnergyTerm::LocalTension(p) => Some(p),
+                    _ => None,
+                });
+                term.ok_or_else(|| no_term("LocalTension"))?.target_area =
+                    crate::params::Target::Absolute(*a);
+            }
+            Setting::VolumeStrength(k) => {
+                let term = scene.energy.iter_mut().find_map(|t| match t {
+                    EnergyTerm::Volume(p) => Some(p),
+                    _ => None,
+                });
+                term.ok_or_else(|| no_term("Volume"))?.k = *k;
+            }
+            Setting::Kappa(k) => {
+                let term = scene.energy.iter_mut().find_map(|t| match t {
+                    EnergyTerm::Bending(p) => Some(p),
+                    _ => None,
+                });
+                term.ok_or_else(|| no_term("Bending"))?.kappa = *k;
+            }
+            Setting::SpringStiffness(k) => {
+                for cp in &mut scene.control_points {
+                    cp.stiffness = Some(*k);
+                }
+            }
+            Setting::Iterations(n) => scene.dynamics.iterations = *n,
+            Setting::Duration(t) => scene.dynamics.duration = Some(*t),
+        }
+        Ok(())
+    }
+
+    /// The setting's value as a short label (directory names, tables).
+    pub fn label(&self) -> String {
+        match self {
+            Setting::DiffusionRate(v)
+            | Setting::LocalTensionTarget(v)
+            | Setting::VolumeStrength(v)
+            | Setting::Kappa(v)
+            | Setting::SpringStiffness(v)
+            | Setting::Duration(v) => format!("{v}"),
+            Setting::DiffusionInstant => "inf".into(),
+            Setting::Barrier(r) if r.is_empty() => "none".into(),
+            Setting::Barrier(r) => format!("{}regions", r.len()),
+            Setting::Iterations(n) => n.to_string(),
+        }
+    }
+}
+
+/// One expanded run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunSpec {
+    /// Index in the expansion (shards take index mod N).
+    pub index: usize,
+    /// Condition name.
+    pub condition: String,
+    /// (axis name, value label) per grid axis.
+    pub point: Vec<(String, String)>,
+    /// Numeric value of each grid axis, where it has one.
+    pub point_values: Vec<Option<f64>>,
+    /// Repeat number (0-based).
+    pub repeat: u32,
+    /// Derived seed.
+    pub seed: u64,
+    /// Run directory relative to the sweep's output directory.
+    pub dir: PathBuf,
+}
+
+/// Why a sweep cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// The sweep file is unreadable or malformed.
+    #[error("{}: {reason}", path.display())]
+    File {
+        /// Sweep file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The base scene is invalid.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+}
+
+fn numeric(s: &Setting) -> Option<f64> {
+    match s {
+        Setting::DiffusionRate(v)
+        | Setting::LocalTensionTarget(v)
+        | Setting::VolumeStrength(v)
+        | Setting::Kappa(v)
+        | Setting::SpringStiffness(v)
+        | Setting::Duration(v) => Some(*v),
+        Setting::DiffusionInstant => Some(f64::INFINITY),
+        Setting::Iterations(n) => Some(*n as f64),
+        Setting::Barrier(_) => None,
+    }
+}
+
+impl Sweep {
+    /// Reads and checks a sweep file: it parses, the base scene loads, every
+    /// condition's and grid value's settings apply to it, every `from`
+    /// state exists, and names are unique.
+    pub fn load(path: &Path) -> Result<(Self, Scene), SweepError> {
+        let err = |reason: String| SweepError::File {
+            path: path.to_owned(),
+            reason,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        let options = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+            .with_default_extension(ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES);
+        let sweep: Sweep = options.from_str(&text).map_err(|e| {
+            err(format!(
+                "{}:{}: {}",
+                e.span.start.line, e.span.start.col, e.code
+            ))
+        })?;
+        let scene_path = sweep.scene_path(path);
+        let scene = Scene::load(&scene_path)?;
+        if sweep.repeats == 0 {
+            return Err(err("field `repeats`: must be at least 1".into()));
+        }
+        for (i, c) in sweep.conditions().iter().enumerate() {
+            if sweep.conditions[..i.min(sweep.conditions.len())]
+                .iter()
+                .any(|o| o.name == c.name)
+            {
+                return Err(err(format!(
+                    "field `conditions[{i}].name`: `{}` is used twice",
+                    c.name
+                )));
+            }
+            if !valid_name(&c.name) {
+                return Err(err(format!(
+                    "field `conditions[{i}].name`: `{}` must be a plain directory name",
+                    c.name
+                )));
+            }
+            let mut s = scene.clone();
+            for (k, setting) in c.set.iter().enumerate() {
+                setting
+                    .apply(&mut s)
+                    .map_err(|r| err(format!("field `conditions[{i}].set[{k}]`: {r}")))?;
+            }
+            if let Some(from) = &c.from {
+                let p = sweep.relative(path, from);
+                if !p.is_file() {
+                    return Err(err(format!(
+                        "field `conditions[{i}].from`: no state file at {} (run the earlier phase first)",
+                        p.display()
+                    )));
+                }
+            }
+        }
+        for (a, axis) in sweep.grid.iter().enumerate() {
+            if axis.values.is_empty() {
+                return Err(err(format!("field `grid[{a}].values`: empty")));
+            }
+            if !valid_name(&axis.name) {
+                return Err(err(format!(
+                    "field `grid[{a}].name`: `{}` must be a plain name",
+                    axis.name
+                )));
+            }
+            for (k, v) in axis.values.iter().enumerate() {
+                v.apply(&mut scene.clone())
+                    .map_err(|r| err(format!("field `grid[{a}].values[{k}]`: {r}")))?;
+            }
+        }
+        Ok((sweep, scene))
+    }
+
+    fn relative(&self, sweep_path: &Path, p: &Path) -> PathBuf {
+        sweep_path.parent().unwrap_or(Path::new(".")).join(p)
+    }
+
+    /// The base scene's path.
+    pub fn scene_path(&self, sweep_path: &Path) -> PathBuf {
+        self.relative(sweep_path, &self.scene)
+    }
+
+    /// The conditions (one `base` condition if none are declared).
+    pub fn conditions(&self) -> Vec<Condition> {
+        if self.conditions.is_empty() {
+            vec![Condition {
+                name: "base".into(),
+                from: None,
+                set: Vec::new(),
+            }]
+        } else {
+            self.conditions.clone()
+        }
+    }
+
+    /// Every run, in a fixed order (condition, grid point, repeat).
+    pub fn expand(&self) -> Vec<RunSpec> {
+        let mut points: Vec<Vec<usize>> = vec![Vec::new()];
+        for axis in &self.grid {
+            points = points
+                .into_iter()
+                .flat_map(|p| {
+                    (0..axis.values.len()).map(move |k| {
+                        let mut q = p.clone();
+                        q.push(k);
+                        q
+                    })
+                })
+                .collect();
+        }
+        let mut runs = Vec::new();
+        for c in self.conditions() {
+            for p in &points {
+                let point: Vec<(String, String)> = p
+                    .iter()
+                    .zip(&self.grid)
+                    .map(|(&k, a)| (a.name.clone(), a.values[k].label()))
+                    .collect();
+                let point_values: Vec<Option<f64>> = p
+                    .iter()
+                    .zip(&self.grid)
+                    .map(|(&k, a)| numeric(&a.values[k]))
+                    .collect();
+                for repeat in 0..self.repeats {
+                    let index = runs.len();
+                    let mut dir = PathBuf::from("runs").join(&c.name);
+                    let label: Vec<String> =
+                        point.iter().map(|(a, v)| format!("{a}={v}")).collect();
+                    if !label.is_empty() {
+                        dir.push(label.join("_"));
+                    }
+                    dir.push(format!("rep{repeat:02}"));
+                    runs.push(RunSpec {
+                        index,
+                        condition: c.name.clone(),
+                        point: point.clone(),
+                        point_values: point_values.clone(),
+                        repeat,
+                        seed: stream_seed(self.seed, SWEEP_SEED_STREAM, index as u64),
+                        dir,
+                    });
+                }
+            }
+        }
+        runs
+    }
+
+    /// The scene and start state of `run`.
+    pub fn scene_for(
+        &self,
+        sweep_path: &Path,
+        base: &Scene,
+        run: &RunSpec,
+    ) -> Result<(Scene, Option<PathBuf>), String> {
+        let mut scene = base.clone();
+        let conditions = self.conditions();
+        let c = conditions
+            .iter()
+            .find(|c| c.name == run.condition)
+            .ok_or_else(|| format!("unknown condition `{}`", run.condition))?;
+        for s in &c.set {
+            s.apply(&mut scene)?;
+        }
+        for (axis, (_, label)) in self.grid.iter().zip(&run.point) {
+            let value = axis
+                .values
+                .iter()
+                .find(|v| &v.label() == label)
+                .ok_or_else(|| format!("axis `{}` has no value {label}", axis.name))?;
+            value.apply(&mut scene)?;
+        }
+        scene.seed = run.seed;
+        Ok((scene, c.from.as_ref().map(|f| self.relative(sweep_path, f))))
+    }
+}
+
+fn valid_name(s: &str) -> bool {
+    !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
+        && s != "."
+        && s != ".."
+}
+
+/// Parses `I/N` (0 ≤ I < N).
+pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("--shard must be I/N, e.g. 0/4 (got `{s}`)"))?;
+    let i: usize = i
+        .trim()
+        .parse()
+        .map_err(|_| format!("--shard: `{i}` is not a number"))?;
+    let n: usize = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("--shard: `{n}` is not a number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("--shard I/N needs 0 ≤ I < N (got {i}/{n})"));
+    }
+    Ok((i, n))
+}
+
+/// An sbatch job-array script: task I of `tasks` runs shard I/`tasks` of
+/// the sweep with the same binary.
+pub fn slurm_script(
+    name: &str,
+    binary: &Path,
+    sweep_path: &Path,
+    out: &Path,
+    tasks: usize,
+) -> String {
+    format!(
+        "#!/bin/bash\n\
+         # Job array for the remembrane sweep `{name}`: task I runs shard I/{tasks}.\n\
+         # Submit with: sbatch THIS_FILE; collect with: {bin} collect {out}\n\
+         #SBATCH --job-name=remembrane-{name}\n\
+         #SBATCH --array=0-{last}\n\
+         #SBATCH --ntasks=1\n\
+         #SBATCH --cpus-per-task=1\n\
+         #SBATCH --output={out}/slurm-%A_%a.out\n\
+         set -euo pipefail\n\
+         mkdir -p {out}\n\
+         exec {bin} sweep {sweep} --out {out} --shard \"${{SLURM_ARRAY_TASK_ID}}/{tasks}\" --jobs 1 --quiet\n",
+        last = tasks.saturating_sub(1),
+        bin = shell_quote(binary),
+        sweep = shell_quote(sweep_path),
+        out = shell_quote(out),
+    )
+}
+
+fn shell_quote(p: &Path) -> String {
+    let s = p.display().to_string();
+    if s.chars()
+        .all(|c| c.is_ascii_alphanumeric() || "/._-+=:".contains(c))
+    {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// What `run_sweep` did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SweepReport {
+    /// Runs in the whole expansion.
+    pub total: usize,
+    /// Runs in this shard.
+    pub in_shard: usize,
+    /// Runs skipped because they had finished before.
+    pub skipped: usize,
+    /// Runs completed now.
+    pub completed: usize,
+    /// Runs that failed now: (run directory, error).
+    pub failed: Vec<(PathBuf, String)>,
+}
+
+/// The expansion written to `OUT/sweep.json` (what `collect` reads).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepIndex {
+    /// The sweep's name.
+    pub name: String,
+    /// The sweep file.
+    pub sweep_file: PathBuf,
+    /// Grid axis names.
+    pub axes: Vec<String>,
+    /// Every run.
+    pub runs: Vec<RunSpec>,
+}
+
+/// Options of [`run_sweep`].
+#[derive(Clone, Debug)]
+pub struct SweepOptions {
+    /// Output directory.
+    pub out: PathBuf,
+    /// Runs at once on this machine (each single-threaded).
+    pub jobs: usize,
+    /// (I, N): run only the runs with index ≡ I (mod N).
+    pub shard: Option<(usize, usize)>,
+    /// Override every run's iterations (quick sweeps, tests).
+    pub iterations: Option<u64>,
+    /// No per-run progress lines.
+    pub quiet: bool,
+}
+
+/// Runs the sweep's share of runs (see the module docs).
+pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepReport, SweepError> {
+    let (sweep, base) = Sweep::load(sweep_path)?;
+    let runs = sweep.expand();
+    let out = &options.out;
+    let io = |e: std::io::Error| SweepError::File {
+        path: out.clone(),
+        reason: format!("cannot write the sweep output: {e}"),
+    };
+    std::fs::create_dir_all(out).map_err(io)?;
+    let index = SweepIndex {
+        name: sweep.name.clone(),
+        sweep_file: std::path::absolute(sweep_path).unwrap_or_else(|_| sweep_path.to_owned()),
+        axes: sweep.grid.iter().map(|a| a.name.clone()).collect(),
+        runs: runs.clone(),
+    };
+    // Every shard writes the same index; the write is atomic.
+    let json = serde_json::to_string_pretty(&index).expect("the index serialises");
+    crate::atomic_write(&out.join("sweep.json"), json.as_bytes()).map_err(io)?;
+    let mine: Vec<&RunSpec> = runs
+        .iter()
+        .filter(|r| options.shard.is_none_or(|(i, n)| r.index % n == i))
+        .collect();
+    let mut report = SweepReport {
+        total: runs.len(),
+        in_shard: mine.len(),
+        ..Default::default()
+    };
+    let todo: Vec<&RunSpec> = mine
+        .into_iter()
+        .filter(|r| {
+            let done = out.join(&r.dir).join("summary.json").is_file();
+            report.skipped += usize::from(done);
+            !done
+        })
+        .collect();
+    let scene_path = sweep.scene_path(sweep_path);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(Vec::new());
+    let started = std::time::Instant::now();
+    let worker = || {
+        // One thread per run: runs are independent, results do not depend
+        // on the thread count.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
+        loop {
+            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let Some(run) = todo.get(k) else { break };
+            let dir = out.join(&run.dir);
+            let result = sweep
+                .scene_for(sweep_path, &base, run)
+                .and_then(|(scene, from)| {
+                    let opts = crate::run::RunOptions {
+                        out: dir.clone(),
+                        overwrite: true,
+                        seed: None,
+                        iterations: options.iterations,
+                        frames: None,
+                        from,
+                        progress: crate::run::Progress::Quiet,
+                        check_invariants: false,
+                    };
+                    let go = || {
+                        crate::run::run_scene(&scene, &scene_path, &opts, |_| Ok(()))
+                            .map(|s| s.wall_time_s)
+                            .map_err(|e| e.to_string())
+                    };
+                    match &pool {
+                        Ok(p) => p.install(go),
+                        Err(_) => go(),
+                    }
+                });
+            if !options.quiet {
+                match &result {
+                    Ok(wall) => eprintln!(
+                        "[{}/{}] {}: done in {wall:.1} s ({:.0} s elapsed)",
+                        k + 1,
+                        todo.len(),
+                        run.dir.display(),
+                        started.elapsed().as_secs_f64()
+                    ),
+                    Err(e) => eprintln!(
+                        "[{}/{}] {}: FAILED: {e}",
+                        k + 1,
+                        todo.len(),
+                        run.dir.display()
+                    ),
+                }
+            }
+            results
+                .lock()
+                .expect("no worker panicked")
+                .push((run.dir.clone(), result));
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 0..options.jobs.max(1).min(todo.len().max(1)) {
+            s.spawn(worker);
+        }
+    });
+    for (dir, result) in results.into_inner().expect("no worker panicked") {
+        match result {
+            Ok(_) => report.completed += 1,
+            Err(e) => report.failed.push((dir, e)),
+        }
+    }
+    report.failed.sort();
+    Ok(report)
+}

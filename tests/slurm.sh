@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# A real Slurm test (issue 5): installs Debian's slurm-wlm and munge if
+# missing, starts a single-node cluster on localhost (slurmctld + slurmd, as
+# root), submits the job array that `remembrane sweep --emit-slurm` prints
+# for a tiny sweep (2 conditions × 2 κ × 1 repeat of the bundled sphere
+# scene, 60 iterations each, 2 array tasks), waits for it, and checks that
+# `remembrane collect` sees every run. Stops the cluster on exit.
+#
+# Usage: tests/slurm.sh [REMEMBRANE_BINARY]  (default: target/debug/remembrane,
+# the binary `cargo test` builds; .ci/run calls this after `cargo test`).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+bin=$(realpath "${1:-target/debug/remembrane}")
+[ -x "$bin" ] || { echo "slurm test: no binary at $bin (run cargo test or cargo build first)" >&2; exit 1; }
+work=$(mktemp -d /tmp/remembrane-slurm.XXXXXX)
+state="$work/cluster"
+
+start_cluster() {
+  mkdir -p "$state"/{spool/ctld,spool/d,log,run} /etc/slurm /run/munge /var/lib/munge /var/log/munge
+  if ! command -v slurmctld >/dev/null; then
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq && apt-get install -y -qq slurm-wlm munge >/dev/null
+  fi
+  local host cpus mem
+  host=$(hostname -s)
+  cpus=$(nproc)
+  mem=$(( $(awk '/MemTotal/ {print $2}' /proc/meminfo) / 1024 - 1024 ))
+  [ -s /etc/munge/munge.key ] || { mkdir -p /etc/munge; dd if=/dev/urandom bs=1 count=1024 of=/etc/munge/munge.key 2>/dev/null; }
+  chown -R munge:munge /etc/munge /run/munge /var/lib/munge /var/log/munge 2>/dev/null || true
+  chmod 400 /etc/munge/munge.key
+  pgrep -x munged >/dev/null || su -s /bin/sh munge -c /usr/sbin/munged 2>/dev/null || /usr/sbin/munged --force
+  cat > /etc/slurm/slurm.conf <<CONF
+ClusterName=local
+SlurmctldHost=$host
+SlurmUser=root
+SlurmdUser=root
+AuthType=auth/munge
+StateSaveLocation=$state/spool/ctld
+SlurmdSpoolDir=$state/spool/d
+SlurmctldPidFile=$state/run/slurmctld.pid
+SlurmdPidFile=$state/run/slurmd.pid
+SlurmctldLogFile=$state/log/slurmctld.log
+SlurmdLogFile=$state/log/slurmd.log
+ProctrackType=proctrack/linuxproc
+TaskPlugin=task/none
+SchedulerType=sched/backfill
+SelectType=select/cons_tres
+SelectTypeParameters=CR_Core
+ReturnToService=2
+MpiDefault=none
+JobAcctGatherType=jobacct_gather/none
+NodeName=$host CPUs=$cpus RealMemory=$mem State=UNKNOWN
+PartitionName=local Nodes=$host Default=YES MaxTime=INFINITE State=UP
+CONF
+  cat > /etc/slurm/cgroup.conf <<CONF
+CgroupPlugin=autodetect
+IgnoreSystemd=yes
+CONF
+  slurmctld
+  slurmd
+  for _ in $(seq 1 30); do
+    if sinfo -h -o %T 2>/dev/null | grep -qE "idle|mixed|alloc"; then return 0; fi
+    sleep 1
+  done
+  echo "slurm test: the cluster did not come up" >&2
+  tail -5 "$state"/log/*.log >&2 || true
+  return 1
+}
+
+stop_cluster() {
+  for f in "$state/run/slurmd.pid" "$state/run/slurmctld.pid"; do
+    [ -s "$f" ] && kill "$(cat "$f")" 2>/dev/null || true
+  done
+}
+trap stop_cluster EXIT
+
+start_cluster
+echo "slurm test: cluster up: $(sinfo -h | head -1)"
+
+cat > "$work/mini.ron" <<SWEEP
+Sweep(
+    name: "slurm_mini",
+    scene: "$root/scenes/sphere.ron",
+    repeats: 1,
+    seed: 11,
+    conditions: [
+        (name: "short", set: [Iterations(60)]),
+        (name: "long", set: [Iterations(80)]),
+    ],
+    grid: [(name: "kappa", values: [Kappa(1.0), Kappa(2.0)])],
+)
+SWEEP
+out="$work/out"
+"$bin" sweep "$work/mini.ron" --out "$out" --emit-slurm --tasks 2 > "$work/array.sbatch"
+grep -q -- '--array=0-1' "$work/array.sbatch"
+job=$(sbatch --parsable "$work/array.sbatch")
+echo "slurm test: submitted array job $job"
+for _ in $(seq 1 300); do
+  [ -z "$(squeue -h -j "$job" 2>/dev/null)" ] && break
+  sleep 1
+done
+if [ -n "$(squeue -h -j "$job" 2>/dev/null)" ]; then
+  echo "slurm test: job $job still queued after 300 s" >&2; squeue >&2; exit 1
+fi
+for f in "$out"/slurm-*.out; do [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done
+report=$("$bin" collect "$out" --x time --y energy_total)
+echo "$report"
+echo "$report" | grep -q "^4 of 4 runs collected$" || { echo "slurm test: collect did not see every run" >&2; exit 1; }
+[ -f "$out/collect.csv" ] && [ -f "$out/fig5f.png" ]
+echo "slurm test: passed"
+rm -rf "$work"
