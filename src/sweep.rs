@@ -224,9 +224,29 @@ fn numeric(s: &Setting) -> Option<f64> {
 
 impl Sweep {
     /// Reads and checks a sweep file: it parses, the base scene loads, every
-    /// condition's and grid value's settings apply to it, every `from`
-    /// state exists, and names are unique.
+    /// condition's and grid value's settings apply to it, names are unique,
+    /// and every `from` state exists.
     pub fn load(path: &Path) -> Result<(Self, Scene), SweepError> {
+        let (sweep, scene) = Self::parse(path)?;
+        for (i, c) in sweep.conditions.iter().enumerate() {
+            if let Some(from) = &c.from {
+                let p = sweep.relative(path, from);
+                if !p.is_file() {
+                    return Err(SweepError::File {
+                        path: path.to_owned(),
+                        reason: format!(
+                            "field `conditions[{i}].from`: no state file at {} (run the earlier phase first)",
+                            p.display()
+                        ),
+                    });
+                }
+            }
+        }
+        Ok((sweep, scene))
+    }
+
+    /// [`Sweep::load`] without checking that the `from` states exist yet.
+    pub fn parse(path: &Path) -> Result<(Self, Scene), SweepError> {
         let err = |reason: String| SweepError::File {
             path: path.to_owned(),
             reason,
@@ -267,15 +287,6 @@ impl Sweep {
                 setting
                     .apply(&mut s)
                     .map_err(|r| err(format!("field `conditions[{i}].set[{k}]`: {r}")))?;
-            }
-            if let Some(from) = &c.from {
-                let p = sweep.relative(path, from);
-                if !p.is_file() {
-                    return Err(err(format!(
-                        "field `conditions[{i}].from`: no state file at {} (run the earlier phase first)",
-                        p.display()
-                    )));
-                }
             }
         }
         for (a, axis) in sweep.grid.iter().enumerate() {

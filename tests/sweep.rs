@@ -166,3 +166,19 @@ fn polynomial_fit_recovers_a_quartic() {
     }
     assert!(polyfit(&points[..4], 4).is_none());
 }
+
+#[test]
+fn the_bundled_tether_sweep_expands_to_the_papers_scan() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tether_sweep.ron");
+    let (sweep, _) = Sweep::parse(&path).unwrap();
+    let runs = sweep.expand();
+    // 3 conditions × 6 k_d × 8 repeats.
+    assert_eq!(runs.len(), 144);
+    assert_eq!(
+        runs[0].point,
+        vec![("k_d".to_string(), "0.025".to_string())]
+    );
+    assert_eq!(runs[0].point_values, vec![Some(0.025)]);
+    let conditions: HashSet<&str> = runs.iter().map(|r| r.condition.as_str()).collect();
+    assert_eq!(conditions, HashSet::from(["naive", "barrier", "reservoir"]));
+}
