@@ -169,7 +169,13 @@ pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
     let (pw, ph) = (w as f64 - left - right, h as f64 - top - bottom);
     let px = |x: f64| left + (x - x0) / (x1 - x0) * pw;
     let py = |y: f64| top + (1.0 - (y - y0) / (y1 - y0)) * ph;
-    c.text(w / 2, 15, title, INK, 2);
+    // Scale-2 text when the title fits, else scale 1.
+    let title_scale = if title.chars().count() * 16 + 20 <= w {
+        2
+    } else {
+        1
+    };
+    c.text(w / 2, 15, title, INK, title_scale);
     c.text((left + pw / 2.0) as usize, h - 22, x_label, INK, 2);
     c.text(left as usize, (top - 22.0) as usize, y_label, INK, 1);
     c.line((left, top), (left, top + ph), INK);

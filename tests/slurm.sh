@@ -73,7 +73,19 @@ stop_cluster() {
     [ -s "$f" ] && kill "$(cat "$f")" 2>/dev/null || true
   done
 }
-trap stop_cluster EXIT
+cleanup() {
+  stop_cluster
+  sleep 1
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+# Live daemons only (stopped ones may linger as zombies where PID 1 does
+# not reap).
+if ps -C slurmctld,slurmd -o stat= 2>/dev/null | grep -qv '^Z'; then
+  echo "slurm test: slurmctld/slurmd already run on this machine; stop them first (this test starts its own)" >&2
+  exit 1
+fi
 
 start_cluster
 echo "slurm test: cluster up: $(sinfo -h | head -1)"
@@ -109,4 +121,3 @@ echo "$report"
 echo "$report" | grep -q "^4 of 4 runs collected$" || { echo "slurm test: collect did not see every run" >&2; exit 1; }
 [ -f "$out/collect.csv" ] && [ -f "$out/fig5f.png" ]
 echo "slurm test: passed"
-rm -rf "$work"
