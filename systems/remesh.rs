@@ -213,8 +213,12 @@ fn process(
         return Ok(());
     }
     // Pre-relaxation with the 1-ring moveable; under tension the fixed 2-ring
-    // may leave no room, so a failure is retried once with the 2-ring
-    // moveable (the reference code's fallback after repeated failures).
+    // may leave no room, so a failure is retried with the 2-ring moveable
+    // (the reference code's fallback after repeated failures), and then
+    // with only the edge's two ends moving: in a cluster of abnormal edges
+    // the larger patches contain the neighbours' abnormal edges, which must
+    // all be normal at once, and never succeed (measured: a stiffened RBC
+    // stuck for good with 8 long edges until this last fallback).
     let goal = if long {
         Goal::Extend(p.split_done)
     } else {
@@ -233,8 +237,11 @@ fn process(
     };
     let (mut relaxed, mut patch, mut slots) = attempt(1, rng);
     let mut iterations = u64::from(relaxed.iterations);
-    if relaxed.outcome == RelaxOutcome::Failure {
-        (relaxed, patch, slots) = attempt(2, rng);
+    for depth in [2, 0] {
+        if relaxed.outcome != RelaxOutcome::Failure {
+            break;
+        }
+        (relaxed, patch, slots) = attempt(depth, rng);
         iterations += u64::from(relaxed.iterations);
     }
     let outcome = relaxed.outcome;
