@@ -98,6 +98,33 @@ pub enum SimError {
         /// The offending value.
         value: String,
     },
+    /// A face turned over within one step: the explicit step was too large
+    /// for the forces and the mesh would fold (finite but garbage).
+    #[error(
+        "mesh folded at iteration {iteration}: face {face} (vertices {vertices:?}) turned over within one step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, or add a Vin term, whose segments limit the step)"
+    )]
+    MeshFolded {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// Face slot.
+        face: usize,
+        /// Its vertex slots.
+        vertices: [u32; 3],
+        /// The step (s).
+        dt: f64,
+    },
+    /// A step turned the membrane inside out (enclosed volume ≤ 0).
+    #[error(
+        "membrane turned inside out at iteration {iteration}: enclosed volume {volume:e} after a step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement)"
+    )]
+    InsideOut {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// Enclosed volume after the step (l̄³).
+        volume: f64,
+        /// The step (s).
+        dt: f64,
+    },
     /// An output could not be written.
     #[error("{0}")]
     Output(String),

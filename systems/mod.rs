@@ -59,7 +59,7 @@ pub fn register_builtin(builder: &mut ScheduleBuilder, terms: &[String]) {
     );
     builder.add(
         Stage::Integrate,
-        Box::new(langevin_integration::LangevinIntegration),
+        Box::new(langevin_integration::LangevinIntegration::default()),
     );
     builder.add(Stage::BarrierCheck, Box::new(barrier_check::BarrierCheck));
 }

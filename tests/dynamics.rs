@@ -334,14 +334,14 @@ fn options(out: &Path) -> RunOptions {
 
 #[test]
 fn a_blow_up_is_reported_and_the_last_good_frame_kept() {
-    // A stiff volume penalty without V_in or displacement cap, stepped far
-    // above its stability limit: each overshoot grows until it overflows.
+    // An absurd mobility without V_in or displacement cap: the first step
+    // throws vertices to ~1e298, the next forces overflow.
     let text = r#"Scene(
         name: "unstable",
         membrane: Icosphere(level: 2, jitter: 0.05),
         energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
         penalty_smoothing: 0,
-        dynamics: (mobility: 1000.0, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
+        dynamics: (mobility: 1e300, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
     )"#;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("unstable.ron");
@@ -452,4 +452,62 @@ fn systems_cannot_be_added_after_the_first_tick() {
         matches!(err, SimError::AlreadyStarted(ref n) if n == "late"),
         "{err}"
     );
+}
+
+#[test]
+fn a_step_that_folds_the_mesh_stops_the_run_with_finite_frames_only() {
+    // A stiff volume penalty without V_in or displacement cap, stepped far
+    // above its stability limit: before anything overflows, a vertex
+    // crosses the opposite edge of a face (finite garbage), which stops the
+    // run.
+    let text = r#"Scene(
+        name: "unstable",
+        membrane: Icosphere(level: 2, jitter: 0.05),
+        energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
+        penalty_smoothing: 0,
+        dynamics: (mobility: 1000.0, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
+    )"#;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("unstable.ron");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.path().join("run");
+    let scene = Scene::load(&path).unwrap();
+    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        (msg.contains("mesh folded at iteration") || msg.contains("turned inside out"))
+            && msg.contains("lower dynamics.dt_max"),
+        "{msg}"
+    );
+    assert_eq!(err.exit_code(), 1);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "blew_up");
+    // The final mesh is the last good one: no face turned over relative to
+    // the initial mesh's orientation check.
+    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    assert!(remembrane::mesh::check_mesh(&mesh.positions, &mesh.faces, None).is_ok());
+}
+
+#[test]
+fn turned_faces_are_found() {
+    use remembrane::systems::langevin_integration::check_step;
+    let before = [DVec3::ZERO, DVec3::X, DVec3::Y];
+    let faces = [[0u32, 1, 2]];
+    // Moving vertex 2 across the edge 0-1 turns the face over.
+    let after = [DVec3::ZERO, DVec3::X, DVec3::new(0.3, -0.2, 0.0)];
+    assert_eq!(check_step(&faces, &before, &after).0, Some(0));
+    let moved = [DVec3::ZERO, DVec3::X, DVec3::new(0.3, 0.4, 0.1)];
+    assert_eq!(check_step(&faces, &before, &moved).0, None);
+    // The volume is the enclosed volume of a closed mesh (unit icosphere
+    // scaled to mean edge 1: 1212.66, SPEC reference values).
+    let mesh = remembrane::mesh::icosphere(3, 1.0);
+    let (turned, volume) = check_step(&mesh.faces, &mesh.positions, &mesh.positions);
+    assert_eq!(turned, None);
+    assert!((volume - 1212.66).abs() < 0.01, "{volume}");
+    // A point reflection keeps every normal but turns the membrane inside out.
+    let reflected: Vec<DVec3> = mesh.positions.iter().map(|p| -*p).collect();
+    let (turned, volume) = check_step(&mesh.faces, &mesh.positions, &reflected);
+    assert_eq!(turned, None);
+    assert!(volume < 0.0);
 }
