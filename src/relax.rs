@@ -184,24 +184,6 @@ pub struct Relaxed {
     pub iterations: u32,
 }
 
-/// Relaxes `patch` toward `goal` with kicks drawn from `kicks`. Positions
-/// are updated in place.
-pub fn relax(
-    patch: &mut Patch,
-    goal: Goal,
-    seg: &Segmentation,
-    settings: &RelaxSettings,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
-) -> Relaxed {
-    let mut iterations = 0;
-    let outcome = relax_loop(patch, goal, seg, settings, kicks, rng, &mut iterations);
-    Relaxed {
-        outcome,
-        iterations,
-    }
-}
-
 /// Per patch edge and iteration: the edge vector, its length, 1/length and
 /// V_in segment.
 #[derive(Clone, Copy, Default)]
@@ -212,15 +194,16 @@ struct EdgeState {
     s: usize,
 }
 
-fn relax_loop(
+/// Relaxes `patch` toward `goal` with kicks drawn from `kicks`. Positions
+/// are updated in place.
+pub fn relax(
     patch: &mut Patch,
     goal: Goal,
     seg: &Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,
-    iterations: &mut u32,
-) -> RelaxOutcome {
+) -> Relaxed {
     let (lo, hi) = settings.normal;
     let n = patch.positions.len();
     let moveable = patch.moveable;
@@ -246,7 +229,10 @@ fn relax_loop(
         }
     };
     for iteration in 0..settings.max_iterations {
-        *iterations = iteration + 1;
+        let ended = |outcome| Relaxed {
+            outcome,
+            iterations: iteration + 1,
+        };
         let mut near_wall = false;
         let mut others_abnormal = 0usize;
         for (k, (g, &[a, b])) in geometry.iter_mut().zip(&patch.edges).enumerate() {
@@ -271,14 +257,16 @@ fn relax_loop(
         // Outcome checks.
         if others_abnormal == 0 {
             match (patch.target.map(|t| geometry[t].l), goal) {
-                (None, _) => return RelaxOutcome::Success,
-                (Some(l), Goal::Extend(past)) if l > past => return RelaxOutcome::Success,
-                (Some(l), Goal::Compress(below)) if l < below => return RelaxOutcome::Success,
+                (None, _) => return ended(RelaxOutcome::Success),
+                (Some(l), Goal::Extend(past)) if l > past => return ended(RelaxOutcome::Success),
+                (Some(l), Goal::Compress(below)) if l < below => {
+                    return ended(RelaxOutcome::Success);
+                }
                 (Some(l), Goal::Extend(_) | Goal::Compress(_)) if l > lo && l < hi => {
-                    return RelaxOutcome::Cancel;
+                    return ended(RelaxOutcome::Cancel);
                 }
                 (Some(l), Goal::Normalize) if (lo..=hi).contains(&l) => {
-                    return RelaxOutcome::Success;
+                    return ended(RelaxOutcome::Success);
                 }
                 _ => {}
             }
@@ -320,5 +308,8 @@ fn relax_loop(
             *p += step * *f;
         }
     }
-    RelaxOutcome::Failure
+    Relaxed {
+        outcome: RelaxOutcome::Failure,
+        iterations: settings.max_iterations,
+    }
 }

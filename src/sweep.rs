@@ -158,17 +158,27 @@ impl Setting {
 
     /// The setting's value as a short label (directory names, tables).
     pub fn label(&self) -> String {
+        match (self, self.value()) {
+            (_, Some(v)) => format!("{v}"),
+            (Setting::Barrier(r), None) if r.is_empty() => "none".into(),
+            (Setting::Barrier(r), None) => format!("{}regions", r.len()),
+            (_, None) => unreachable!("only barriers have no numeric value"),
+        }
+    }
+
+    /// The setting's numeric value, if it has one (k_d = ∞ for instant
+    /// diffusion).
+    pub fn value(&self) -> Option<f64> {
         match self {
             Setting::DiffusionRate(v)
             | Setting::LocalTensionTarget(v)
             | Setting::VolumeStrength(v)
             | Setting::Kappa(v)
             | Setting::SpringStiffness(v)
-            | Setting::Duration(v) => format!("{v}"),
-            Setting::DiffusionInstant => "inf".into(),
-            Setting::Barrier(r) if r.is_empty() => "none".into(),
-            Setting::Barrier(r) => format!("{}regions", r.len()),
-            Setting::Iterations(n) => n.to_string(),
+            | Setting::Duration(v) => Some(*v),
+            Setting::DiffusionInstant => Some(f64::INFINITY),
+            Setting::Iterations(n) => Some(*n as f64),
+            Setting::Barrier(_) => None,
         }
     }
 }
@@ -206,20 +216,6 @@ pub enum SweepError {
     /// The base scene is invalid.
     #[error(transparent)]
     Scene(#[from] SceneError),
-}
-
-fn numeric(s: &Setting) -> Option<f64> {
-    match s {
-        Setting::DiffusionRate(v)
-        | Setting::LocalTensionTarget(v)
-        | Setting::VolumeStrength(v)
-        | Setting::Kappa(v)
-        | Setting::SpringStiffness(v)
-        | Setting::Duration(v) => Some(*v),
-        Setting::DiffusionInstant => Some(f64::INFINITY),
-        Setting::Iterations(n) => Some(*n as f64),
-        Setting::Barrier(_) => None,
-    }
 }
 
 impl Sweep {
@@ -266,11 +262,8 @@ impl Sweep {
         if sweep.repeats == 0 {
             return Err(err("field `repeats`: must be at least 1".into()));
         }
-        for (i, c) in sweep.conditions().iter().enumerate() {
-            if sweep.conditions[..i.min(sweep.conditions.len())]
-                .iter()
-                .any(|o| o.name == c.name)
-            {
+        for (i, c) in sweep.conditions.iter().enumerate() {
+            if sweep.conditions[..i].iter().any(|o| o.name == c.name) {
                 return Err(err(format!(
                     "field `conditions[{i}].name`: `{}` is used twice",
                     c.name
@@ -355,7 +348,7 @@ impl Sweep {
                 let point_values: Vec<Option<f64>> = p
                     .iter()
                     .zip(&self.grid)
-                    .map(|(&k, a)| numeric(&a.values[k]))
+                    .map(|(&k, a)| a.values[k].value())
                     .collect();
                 for repeat in 0..self.repeats {
                     let index = runs.len();

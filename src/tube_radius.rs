@@ -69,6 +69,7 @@ impl TubeProbe {
     pub fn measure(&self, positions: &[DVec3], edges: &[[u32; 2]]) -> Option<(f64, usize)> {
         let first = DVec3::new(self.first.0, self.first.1, self.first.2);
         let step = DVec3::new(self.step.0, self.step.1, self.step.2);
+        let normal = step.normalize();
         let mut sum = 0.0;
         let mut fitted = 0;
         for k in 0..self.planes {
@@ -77,7 +78,7 @@ impl TubeProbe {
                 positions,
                 edges,
                 origin,
-                step.normalize(),
+                normal,
                 self.window,
                 self.min_points,
             ) {

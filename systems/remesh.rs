@@ -224,27 +224,8 @@ fn process(
     } else {
         Goal::Compress(p.merge_done)
     };
-    let attempt = |depth: usize, rng: &mut _| {
-        let moveable = rings(state.membrane.cached_topology(), &[a, b], depth);
-        let (mut patch, slots) = Patch::around(
-            state.membrane.cached_topology(),
-            &state.positions,
-            &moveable,
-            Some([a, b]),
-        );
-        let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
-        (relaxed, patch, slots)
-    };
-    let (mut relaxed, mut patch, mut slots) = attempt(1, rng);
-    let mut iterations = u64::from(relaxed.iterations);
-    for depth in [2, 0] {
-        if relaxed.outcome != RelaxOutcome::Failure {
-            break;
-        }
-        (relaxed, patch, slots) = attempt(depth, rng);
-        iterations += u64::from(relaxed.iterations);
-    }
-    let outcome = relaxed.outcome;
+    let (outcome, patch, slots, iterations) =
+        relax_around_edge(state, [a, b], &[1, 2, 0], goal, seg, settings, kicks, rng);
     let spent = &mut state.remesh_stats.relax_iterations;
     *match outcome {
         RelaxOutcome::Success => &mut spent.pre_success,
@@ -335,6 +316,37 @@ fn process(
     Ok(())
 }
 
+/// Relaxes the patch around edge (a, b) toward `goal` with the rings of
+/// `depths` moveable in turn (0: the two ends only) until an attempt does
+/// not fail. Returns the last attempt's outcome, patch and slots, and the
+/// iterations of all attempts.
+#[allow(clippy::too_many_arguments)]
+fn relax_around_edge(
+    state: &SimState,
+    [a, b]: [u32; 2],
+    depths: &[usize],
+    goal: Goal,
+    seg: &crate::energy::vin::Segmentation,
+    settings: &RelaxSettings,
+    kicks: &KickTable,
+    rng: &mut impl RngExt,
+) -> (RelaxOutcome, Patch, Vec<u32>, u64) {
+    let t = state.membrane.cached_topology();
+    let mut iterations = 0;
+    let mut last = (RelaxOutcome::Failure, Patch::default(), Vec::new());
+    for &depth in depths {
+        let moveable = rings(t, &[a, b], depth);
+        let (mut patch, slots) = Patch::around(t, &state.positions, &moveable, Some([a, b]));
+        let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
+        iterations += u64::from(relaxed.iterations);
+        last = (relaxed.outcome, patch, slots);
+        if relaxed.outcome != RelaxOutcome::Failure {
+            break;
+        }
+    }
+    (last.0, last.1, last.2, iterations)
+}
+
 /// Pushes the edge back into range: moves only its two ends (their
 /// neighbours fixed) until every incident edge is in the normal range; if
 /// that fails (a crowded neighbourhood), retries with the ends' 1-ring
@@ -349,19 +361,18 @@ fn push_back(
     kicks: &KickTable,
     rng: &mut impl RngExt,
 ) {
-    for depth in 0..2 {
-        let moveable = rings(state.membrane.cached_topology(), &[a, b], depth);
-        let (mut patch, slots) = Patch::around(
-            state.membrane.cached_topology(),
-            &state.positions,
-            &moveable,
-            Some([a, b]),
-        );
-        let relaxed = relax(&mut patch, Goal::Normalize, seg, settings, kicks, rng);
-        state.remesh_stats.relax_iterations.push_back += u64::from(relaxed.iterations);
-        if relaxed.outcome != RelaxOutcome::Failure {
-            write_back(state, &patch, &slots);
-            return;
-        }
+    let (outcome, patch, slots, iterations) = relax_around_edge(
+        state,
+        [a, b],
+        &[0, 1],
+        Goal::Normalize,
+        seg,
+        settings,
+        kicks,
+        rng,
+    );
+    state.remesh_stats.relax_iterations.push_back += iterations;
+    if outcome != RelaxOutcome::Failure {
+        write_back(state, &patch, &slots);
     }
 }

@@ -336,19 +336,9 @@ fn options(out: &Path) -> RunOptions {
 fn a_blow_up_is_reported_and_the_last_good_frame_kept() {
     // An absurd mobility without V_in or displacement cap: the first step
     // throws vertices to ~1e298, the next forces overflow.
-    let text = r#"Scene(
-        name: "unstable",
-        membrane: Icosphere(level: 2, jitter: 0.05),
-        energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
-        penalty_smoothing: 0,
-        dynamics: (mobility: 1e300, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
-    )"#;
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("unstable.ron");
-    std::fs::write(&path, text).unwrap();
     let out = dir.path().join("run");
-    let scene = Scene::load(&path).unwrap();
-    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let err = run_unstable(dir.path(), &out, 1e300);
     let msg = err.to_string();
     println!("{msg}");
     assert!(
@@ -460,19 +450,9 @@ fn a_step_that_folds_the_mesh_stops_the_run_with_finite_frames_only() {
     // above its stability limit: before anything overflows, a vertex
     // crosses the opposite edge of a face (finite garbage), which stops the
     // run.
-    let text = r#"Scene(
-        name: "unstable",
-        membrane: Icosphere(level: 2, jitter: 0.05),
-        energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
-        penalty_smoothing: 0,
-        dynamics: (mobility: 1000.0, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
-    )"#;
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("unstable.ron");
-    std::fs::write(&path, text).unwrap();
     let out = dir.path().join("run");
-    let scene = Scene::load(&path).unwrap();
-    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let err = run_unstable(dir.path(), &out, 1000.0);
     let msg = err.to_string();
     assert!(
         (msg.contains("mesh folded at iteration") || msg.contains("turned inside out"))
@@ -510,4 +490,22 @@ fn turned_faces_are_found() {
     let (turned, volume) = check_step(&mesh.faces, &mesh.positions, &reflected);
     assert_eq!(turned, None);
     assert!(volume < 0.0);
+}
+
+/// Runs a stiff volume penalty without V_in or displacement cap, at
+/// `mobility`, from `dir` into `out`; the run is expected to stop.
+fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::run::RunError {
+    let text = format!(
+        r#"Scene(
+        name: "unstable",
+        membrane: Icosphere(level: 2, jitter: 0.05),
+        energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
+        penalty_smoothing: 0,
+        dynamics: (mobility: {mobility:e}, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
+    )"#
+    );
+    let path = dir.join("unstable.ron");
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    run_scene(&scene, &path, &options(out), |_| Ok(())).unwrap_err()
 }

@@ -93,18 +93,15 @@ fn shards_run_their_share_resume_and_collect_sees_every_run() {
         iterations: None,
         quiet: true,
     };
+    let energy_over_time = CollectOptions {
+        x: "time".into(),
+        y: "energy_total".into(),
+        ..Default::default()
+    };
     let first = run_sweep(&path, &options(Some((0, 2)))).unwrap();
     assert_eq!((first.total, first.in_shard, first.completed), (8, 4, 4));
     // Collect before the other shard: 4 runs missing, reported.
-    let partial = collect(
-        &out,
-        &CollectOptions {
-            x: "time".into(),
-            y: "energy_total".into(),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let partial = collect(&out, &energy_over_time).unwrap();
     assert_eq!((partial.expected, partial.missing.len()), (8, 4));
     let second = run_sweep(&path, &options(Some((1, 2)))).unwrap();
     assert_eq!((second.completed, second.skipped), (4, 0));
@@ -112,15 +109,7 @@ fn shards_run_their_share_resume_and_collect_sees_every_run() {
     let again = run_sweep(&path, &options(None)).unwrap();
     assert_eq!((again.completed, again.skipped), (0, 8));
 
-    let report = collect(
-        &out,
-        &CollectOptions {
-            x: "time".into(),
-            y: "energy_total".into(),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let report = collect(&out, &energy_over_time).unwrap();
     assert!(report.missing.is_empty());
     assert_eq!(report.runs.len(), 8);
     assert_eq!(report.groups.len(), 4);
