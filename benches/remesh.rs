@@ -13,6 +13,7 @@ use remembrane::mesh::{ValenceRange, icosphere};
 use remembrane::relax::{Goal, KickTable, Patch, RelaxSettings, relax, rings};
 use remembrane::remesh::{merge_edge, split_edge};
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 const RANGE: ValenceRange = ValenceRange { min: 5, max: 8 };
 
@@ -42,8 +43,9 @@ fn topology_ops(c: &mut Criterion) {
     }
 }
 
-fn pre_relaxation(c: &mut Criterion) {
-    let seg = Segmentation::new(VinParams::default());
+/// The 1-ring patch of an icosphere edge stretched by 40 % (1.4 l̄, past
+/// l_+), and the as-run relaxation settings.
+fn stretched_edge_patch() -> (Patch, RelaxSettings) {
     let mesh = icosphere(3, 1.0);
     let m = membrane(3);
     let t = m.cached_topology();
@@ -59,6 +61,12 @@ fn pre_relaxation(c: &mut Criterion) {
         mobility: 1000.0,
         max_iterations: 50_000,
     };
+    (patch, settings)
+}
+
+fn pre_relaxation(c: &mut Criterion) {
+    let seg = Segmentation::new(VinParams::default());
+    let (patch, settings) = stretched_edge_patch();
     let kicks = KickTable::new(&mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(7));
     let mut seed = 0;
     c.bench_function("split_pre_relaxation/642", |bench| {
@@ -85,5 +93,32 @@ fn pre_relaxation(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, topology_ops, pre_relaxation);
+/// Cost of one relaxation iteration, independent of how many iterations a
+/// relaxation needs: the reported time is per 1000 iterations, summed over
+/// split pre-relaxations of the stretched edge with varying seeds.
+fn relaxation_iteration(c: &mut Criterion) {
+    let seg = Segmentation::new(VinParams::default());
+    let (patch, settings) = stretched_edge_patch();
+    let kicks = KickTable::new(&mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(7));
+    let mut seed = 0;
+    let name = format!("relaxation_per_1000_iterations/{}_edges", patch.edges.len());
+    c.bench_function(&name, |bench| {
+        bench.iter_custom(|calls| {
+            let mut iterations = 0u64;
+            let mut elapsed = Duration::ZERO;
+            for _ in 0..calls {
+                seed += 1;
+                let mut p = patch.clone();
+                let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+                let start = Instant::now();
+                let relaxed = relax(&mut p, Goal::Extend(1.8), &seg, &settings, &kicks, &mut rng);
+                elapsed += start.elapsed();
+                iterations += u64::from(black_box(relaxed).iterations);
+            }
+            elapsed.mul_f64(1000.0 * calls as f64 / iterations as f64)
+        })
+    });
+}
+
+criterion_group!(benches, topology_ops, pre_relaxation, relaxation_iteration);
 criterion_main!(benches);

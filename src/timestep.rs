@@ -44,12 +44,7 @@ pub fn edge_time_step_in(segmentation: &Segmentation, s: usize, l: f64, b: f64) 
     if b == 0.0 || b.is_nan() {
         return f64::INFINITY;
     }
-    let target = if b > 0.0 {
-        segmentation.midpoint_above(s)
-    } else {
-        segmentation.midpoint_below(s)
-    };
-    let dt = (target * target - l * l) / b;
+    let dt = (segmentation.step_target_sq(s, b > 0.0) - l * l) / b;
     // Round-off at a breakpoint can make the numerator vanish: never stall.
     if dt > 0.0 { dt } else { f64::INFINITY }
 }

@@ -226,3 +226,35 @@ fn vin_segmentation_gives_438_segments_satisfying_both_criteria() {
         assert!((left - seg.exact(l)).abs() < 1e-12);
     }
 }
+
+/// The segment lookup (a coarse bin table plus a one-breakpoint correction)
+/// agrees with a search of the breakpoints everywhere: at every breakpoint,
+/// one ulp either side of it, and on a dense grid, for the as-run and the
+/// paper-threshold segmentations; lengths outside the sampled range map to
+/// the end segments.
+#[test]
+fn vin_segment_lookup_matches_a_breakpoint_search() {
+    let p = VinParams::default();
+    for seg in [
+        Segmentation::new(p),
+        Segmentation::new(VinParams {
+            segment_std_max: 0.001 * p.v0,
+            ..p
+        }),
+    ] {
+        let b = &seg.breakpoints;
+        let last = seg.segment_count() - 1;
+        // Segment s is (b_s, b_{s+1}]; below b_1 → 0, above b_last → last.
+        let search = |l: f64| b[1..=last].partition_point(|&x| x < l);
+        let mut probes: Vec<f64> = Vec::new();
+        for &x in b.iter() {
+            probes.extend([x.next_down(), x, x.next_up()]);
+        }
+        probes.extend((0..200_000).map(|k| -0.1 + 2.4 * k as f64 / 200_000.0));
+        for l in probes {
+            assert_eq!(seg.segment_of(l), search(l), "l = {l:e}");
+        }
+        assert_eq!(seg.segment_of(f64::NAN), 0);
+        assert_eq!(seg.segment_of(1e9), last);
+    }
+}
