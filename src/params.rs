@@ -130,12 +130,34 @@ pub struct SpringParams {
     /// default 4 as run; 5 in the tether scenes).
     #[serde(deserialize_with = "crate::validate::non_negative")]
     pub stiffness: f64,
+    /// How a control point's pull is shared over the attached patch.
+    pub coupling: SpringCoupling,
 }
 
 impl Default for SpringParams {
     fn default() -> Self {
-        Self { stiffness: 4.0 }
+        Self {
+            stiffness: 4.0,
+            coupling: SpringCoupling::OneRing,
+        }
     }
+}
+
+/// How a control point c pulls the patch P = {i} ∪ 1-ring(i) of its nearest
+/// vertex i (n = |P| vertices, centroid x̄).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SpringCoupling {
+    /// As run (SPEC §2): every patch vertex j is pulled toward c itself,
+    /// F_j = k (c − x_j), E = ½k Σ_j |c − x_j|². By the parallel-axis
+    /// theorem E = ½k n |c − x̄|² + ½k Σ_j |x_j − x̄|²: besides the net pull
+    /// it squeezes the patch toward its centroid, ½k·(1 l̄)² = 2 Ē per ring
+    /// vertex at k = 4 Ē/l̄², 20× the V_in barrier (0.1 Ē), and keeps
+    /// merging the ring edges around every holder.
+    #[default]
+    OneRing,
+    /// The same net force on the patch without the squeeze: the centroid is
+    /// tied to c, E = ½k n |c − x̄|², F_j = k (c − x̄) for every j in P.
+    Centroid,
 }
 
 fn default_k_volume() -> f64 {

@@ -596,7 +596,7 @@ impl Scene {
                 }
                 EnergyTerm::Springs(p) => {
                     spring_stiffness = p.stiffness;
-                    Box::new(SpringForces::default())
+                    Box::new(SpringForces::new(p.coupling))
                 }
             };
             forces.push(system).map_err(invalid)?;

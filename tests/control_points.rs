@@ -104,3 +104,55 @@ fn a_schedule_naming_a_missing_point_is_rejected() {
         .to_string();
     assert!(err.contains("control_point_schedule[0].when"), "{err}");
 }
+
+/// The centroid coupling is the as-run coupling without its squeeze: on a
+/// perturbed mesh both exert the same net force on the attached patch, and
+/// their energies differ by exactly ½k Σ_j |x_j − x̄|² (parallel-axis
+/// theorem), the term that compresses the ring around each control point.
+#[test]
+fn centroid_coupling_keeps_the_net_pull_and_drops_the_squeeze() {
+    use remembrane::energy::springs::{control_point_springs, nearest_vertex};
+    use remembrane::params::SpringCoupling;
+    let mut mesh = remembrane::mesh::icosphere(3, 1.0);
+    mesh.jitter(0.1, 5);
+    let mut membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let t = membrane.topology().unwrap().clone();
+    let point = ControlPoint {
+        position: DVec3::new(8.0, 2.0, -1.0),
+        stiffness: 4.0,
+    };
+    let run = |coupling| {
+        let mut force = vec![DVec3::ZERO; mesh.positions.len()];
+        let energy = control_point_springs(
+            &mesh.positions,
+            &t.ring_offsets,
+            &t.ring,
+            &[point],
+            coupling,
+            Some(&mut force),
+        );
+        (energy, force)
+    };
+    let (e_ring, f_ring) = run(SpringCoupling::OneRing);
+    let (e_centroid, f_centroid) = run(SpringCoupling::Centroid);
+    let i = nearest_vertex(&mesh.positions, point.position);
+    let patch: Vec<usize> = std::iter::once(i)
+        .chain(t.neighbours(i).iter().map(|&j| j as usize))
+        .collect();
+    let centroid = patch.iter().map(|&j| mesh.positions[j]).sum::<DVec3>() / patch.len() as f64;
+    let squeeze: f64 = patch
+        .iter()
+        .map(|&j| 0.5 * point.stiffness * mesh.positions[j].distance_squared(centroid))
+        .sum();
+    assert!(squeeze > 0.1, "the test patch has a squeeze term");
+    assert!(
+        (e_ring - e_centroid - squeeze).abs() < 1e-10 * e_ring,
+        "{e_ring} − {e_centroid} ≠ {squeeze}"
+    );
+    let net = |f: &[DVec3]| f.iter().sum::<DVec3>();
+    assert!(net(&f_ring).distance(net(&f_centroid)) < 1e-10 * net(&f_ring).length());
+    // The squeeze is gone: every patch vertex feels the same pull.
+    for &j in &patch {
+        assert!(f_centroid[j].distance(f_centroid[i]) < 1e-12);
+    }
+}

@@ -10,7 +10,7 @@ use remembrane::fd::{FdOptions, Stencil, check_force_term};
 use remembrane::force::ForceTerm;
 use remembrane::membrane::Membrane;
 use remembrane::mesh::{SurfaceMesh, icosphere};
-use remembrane::params::BendingParams;
+use remembrane::params::{BendingParams, SpringCoupling};
 use remembrane::systems::*;
 use std::sync::Arc;
 
@@ -183,7 +183,15 @@ fn local_tension_force_matches_finite_differences() {
 fn spring_force_matches_finite_differences() {
     for (level, seed) in [(2, 81), (3, 82)] {
         let mesh = perturbed(level, seed);
-        let mut term = SpringForces::default();
-        check("springs", &mesh, &mut term, false, opts(1e-9));
+        for coupling in [SpringCoupling::OneRing, SpringCoupling::Centroid] {
+            let mut term = SpringForces::new(coupling);
+            check(
+                &format!("springs ({coupling:?})"),
+                &mesh,
+                &mut term,
+                false,
+                opts(1e-9),
+            );
+        }
     }
 }
