@@ -218,14 +218,22 @@ fn process(
     // with only the edge's two ends moving: in a cluster of abnormal edges
     // the larger patches contain the neighbours' abnormal edges, which must
     // all be normal at once, and never succeed (measured: a stiffened RBC
-    // stuck for good with 8 long edges until this last fallback).
+    // stuck for good with 8 long edges until this fallback). Last, the
+    // 1-ring with the paper's normal range (see `ladder`).
     let goal = if long {
         Goal::Extend(p.split_done)
     } else {
         Goal::Compress(p.merge_done)
     };
-    let (outcome, patch, slots, iterations) =
-        relax_around_edge(state, [a, b], &[1, 2, 0], goal, seg, settings, kicks, rng);
+    let (outcome, patch, slots, iterations) = relax_around_edge(
+        state,
+        [a, b],
+        &ladder(&[1, 2, 0], settings, &p),
+        goal,
+        seg,
+        kicks,
+        rng,
+    );
     let spent = &mut state.remesh_stats.relax_iterations;
     *match outcome {
         RelaxOutcome::Success => &mut spent.pre_success,
@@ -316,26 +324,51 @@ fn process(
     Ok(())
 }
 
-/// Relaxes the patch around edge (a, b) toward `goal` with the rings of
-/// `depths` moveable in turn (0: the two ends only) until an attempt does
-/// not fail. Returns the last attempt's outcome, patch and slots, and the
+/// The relaxation attempts of a ladder: the rings of `depths` moveable in
+/// turn (0: the two ends only) with the as-run normal range, then, if the
+/// normal range is narrower than the triggers, the 1-ring once more with the
+/// paper's normal range [l_−, l_+]. Under tension every edge of a region
+/// can sit just above the as-run 1.2 (measured: the soft RBC near iteration
+/// 10^4, its patch edges at 1.20-1.25), where no patch relaxes into
+/// [0.8, 1.2]; the paper's range still leaves no abnormal edge behind.
+fn ladder(
+    depths: &[usize],
+    settings: &RelaxSettings,
+    p: &RemeshParams,
+) -> Vec<(usize, RelaxSettings)> {
+    let mut attempts: Vec<(usize, RelaxSettings)> =
+        depths.iter().map(|&depth| (depth, *settings)).collect();
+    let triggers = (p.shorter_than, p.longer_than);
+    if triggers.0 < settings.normal.0 || triggers.1 > settings.normal.1 {
+        attempts.push((
+            1,
+            RelaxSettings {
+                normal: triggers,
+                ..*settings
+            },
+        ));
+    }
+    attempts
+}
+
+/// Relaxes the patch around edge (a, b) toward `goal` with each attempt of
+/// `attempts` (moveable ring depth, settings) in turn until one does not
+/// fail. Returns the last attempt's outcome, patch and slots, and the
 /// iterations of all attempts.
-#[allow(clippy::too_many_arguments)]
 fn relax_around_edge(
     state: &SimState,
     [a, b]: [u32; 2],
-    depths: &[usize],
+    attempts: &[(usize, RelaxSettings)],
     goal: Goal,
     seg: &crate::energy::vin::Segmentation,
-    settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,
 ) -> (RelaxOutcome, Patch, Vec<u32>, u64) {
     let t = state.membrane.cached_topology();
     let mut iterations = 0;
     let mut last = (RelaxOutcome::Failure, Patch::default(), Vec::new());
-    for &depth in depths {
-        let moveable = rings(t, &[a, b], depth);
+    for (depth, settings) in attempts {
+        let moveable = rings(t, &[a, b], *depth);
         let (mut patch, slots) = Patch::around(t, &state.positions, &moveable, Some([a, b]));
         let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
         iterations += u64::from(relaxed.iterations);
@@ -350,8 +383,8 @@ fn relax_around_edge(
 /// Pushes the edge back into range: moves only its two ends (their
 /// neighbours fixed) until every incident edge is in the normal range; if
 /// that fails (a crowded neighbourhood), retries with the ends' 1-ring
-/// moveable too (the reference's wider-ring fallback). Keeps the result
-/// unless both fail.
+/// moveable too (the reference's wider-ring fallback), and then with the
+/// paper's normal range (see `ladder`). Keeps the result unless all fail.
 fn push_back(
     state: &mut SimState,
     a: u32,
@@ -361,13 +394,13 @@ fn push_back(
     kicks: &KickTable,
     rng: &mut impl RngExt,
 ) {
+    let p = state.remesh;
     let (outcome, patch, slots, iterations) = relax_around_edge(
         state,
         [a, b],
-        &[0, 1],
+        &ladder(&[0, 1], settings, &p),
         Goal::Normalize,
         seg,
-        settings,
         kicks,
         rng,
     );
