@@ -298,10 +298,7 @@ pub fn relax(
         let mut dt = f64::INFINITY;
         for (&[a, b], g) in patch.edges.iter().zip(&geometry) {
             let rate = 2.0 * mu * g.d.dot(force[b] - force[a]);
-            let edge_dt = edge_time_step_in(seg, g.s, g.l, rate);
-            if edge_dt < dt {
-                dt = edge_dt;
-            }
+            dt = dt.min(edge_time_step_in(seg, g.s, g.l, rate));
         }
         if !dt.is_finite() {
             continue; // no force this iteration: draw new kicks

@@ -29,10 +29,21 @@ impl SpringForces {
         }
     }
 
-    fn gather(&mut self, ctx: &ForceContext<'_>) {
+    /// Gathers the control points, returns the spring energy and, with
+    /// `force`, adds the spring forces.
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         self.points.clear();
         self.points
             .extend(ctx.world.query::<&ControlPoint>().iter().copied());
+        let t = ctx.topology;
+        control_point_springs(
+            ctx.positions,
+            &t.ring_offsets,
+            &t.ring,
+            &self.points,
+            self.coupling,
+            force,
+        )
     }
 }
 
@@ -42,28 +53,10 @@ impl ForceTerm for SpringForces {
     }
 
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.gather(ctx);
-        let t = ctx.topology;
-        control_point_springs(
-            ctx.positions,
-            &t.ring_offsets,
-            &t.ring,
-            &self.points,
-            self.coupling,
-            None,
-        )
+        self.evaluate(ctx, None)
     }
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.gather(ctx);
-        let t = ctx.topology;
-        control_point_springs(
-            ctx.positions,
-            &t.ring_offsets,
-            &t.ring,
-            &self.points,
-            self.coupling,
-            Some(force),
-        )
+        self.evaluate(ctx, Some(force))
     }
 }
