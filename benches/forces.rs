@@ -10,11 +10,12 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use glam::DVec3;
 use remembrane::components::ControlPoint;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
-use remembrane::force::{ForceContext, ForceSet, ForceTerm};
+use remembrane::force::{ForceContext, ForceTerm};
 use remembrane::membrane::Membrane;
 use remembrane::mesh::icosphere;
 use remembrane::params::BendingParams;
-use remembrane::simulation::{InitialState, Simulation};
+use remembrane::simulation::{InitialState, SimBuilder};
+use remembrane::systems::plugins;
 use remembrane::systems::*;
 use std::hint::black_box;
 use std::sync::Arc;
@@ -132,15 +133,23 @@ fn rbc_all_forces(c: &mut Criterion) {
     for level in LEVELS {
         let mut m = membrane(level);
         let initial = initial_state(&mut m);
-        let mut forces = ForceSet::new(4);
+        let mut builder = SimBuilder::new(m, initial);
+        builder
+            .add_plugin(plugins::core(plugins::CoreSettings {
+                dynamics: Default::default(),
+                seed: 1,
+                penalty_smoothing: 4,
+                remesh: Default::default(),
+            }))
+            .unwrap();
         for t in terms(&initial).into_iter().take(4) {
-            forces.push(t).unwrap();
+            builder.add_force_term(t).unwrap();
         }
-        let mut sim = Simulation::new(m, forces, initial);
+        let mut sim = builder.build();
         let n = initial.vertices;
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
-            b.iter(|| black_box(sim.evaluate_forces().unwrap().total_energy()))
+            b.iter(|| black_box(sim.evaluate_forces().unwrap().evaluation.total_energy()))
         });
     }
     g.finish();

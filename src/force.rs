@@ -3,10 +3,13 @@
 //! A [`ForceTerm`] reads dense positions (and lipid density, topology, and
 //! its own components in the world) from a [`ForceContext`] and *adds* −∇E
 //! into the force buffer it is given. [`ForceSet`] evaluates every term into
-//! its own buffer (so forces can be reported and checked per term), applies
-//! the optional 1-ring smoothing to penalty terms, and sums the total.
+//! its own buffer (so forces can be reported and checked per term): each
+//! registered term is a [`ForceTermSystem`] writing its slot of
+//! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
+//! smoothing to penalty terms and sums the total.
 
 use crate::geometry::{Corners, face_geometry};
+use crate::resources::{Res, ResMut};
 use crate::topology::Topology;
 use glam::DVec3;
 use hecs::World;
@@ -109,82 +112,80 @@ impl ForceEvaluation {
     }
 }
 
-/// The force stage: an ordered list of terms plus penalty smoothing.
-pub struct ForceSet {
-    terms: Vec<Box<dyn ForceTerm>>,
+/// Per-face geometry at the current positions, shared by the force terms
+/// that ask for it (written in the Gather stage; empty when none does).
+#[derive(Clone, Debug, Default)]
+pub struct FaceGeometry(pub Vec<Corners>);
+
+/// A registered term's name and how the force stage treats it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TermInfo {
+    /// Unique name.
+    pub name: String,
+    /// Exact or smoothed penalty force.
+    pub kind: ForceKind,
+    /// Whether it reads [`FaceGeometry`].
+    pub uses_face_geometry: bool,
+}
+
+/// A force term's name is already taken.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("a force term named `{0}` is already registered")]
+pub struct DuplicateTerm(pub String);
+
+/// The force buffers: one per registered term, their sum and the penalty
+/// smoothing setting. Registering a term ([`crate::simulation::SimBuilder::add_force_term`])
+/// adds its buffer here and its system to the Forces stage together.
+#[derive(Debug, Default)]
+pub struct ForceBuffers {
+    terms: Vec<TermInfo>,
     /// Passes of closed 1-ring averaging applied to [`ForceKind::Penalty`]
     /// terms (as run: 4; 0 = exact gradient).
     pub penalty_smoothing: u32,
+    /// The current evaluation.
+    pub evaluation: ForceEvaluation,
     scratch: Vec<DVec3>,
-    geometry: Vec<Corners>,
 }
 
-impl ForceSet {
-    /// An empty force set.
+/// Name of the system that sums the term buffers (every term runs before it).
+pub const FORCE_TOTAL: &str = "force_total";
+
+impl ForceBuffers {
+    /// No terms yet.
     pub fn new(penalty_smoothing: u32) -> Self {
         Self {
-            terms: Vec::new(),
             penalty_smoothing,
-            scratch: Vec::new(),
-            geometry: Vec::new(),
+            ..Default::default()
         }
     }
 
-    /// Adds a term; names must be unique.
-    pub fn push(&mut self, term: Box<dyn ForceTerm>) -> Result<(), String> {
-        if self.terms.iter().any(|t| t.name() == term.name()) {
-            return Err(format!(
-                "a force term named `{}` is already registered",
-                term.name()
-            ));
+    /// Adds a buffer for `term`; returns its index.
+    pub fn register(&mut self, term: TermInfo) -> Result<usize, DuplicateTerm> {
+        if self.terms.iter().any(|t| t.name == term.name) {
+            return Err(DuplicateTerm(term.name));
         }
         self.terms.push(term);
-        Ok(())
+        Ok(self.terms.len() - 1)
+    }
+
+    /// The registered terms, in evaluation order.
+    pub fn terms(&self) -> &[TermInfo] {
+        &self.terms
     }
 
     /// Term names in evaluation order.
     pub fn names(&self) -> Vec<String> {
-        self.terms.iter().map(|t| t.name().to_string()).collect()
+        self.terms.iter().map(|t| t.name.clone()).collect()
     }
 
-    /// Mutable access to the terms (e.g. for finite-difference checks).
-    pub fn terms_mut(&mut self) -> &mut [Box<dyn ForceTerm>] {
-        &mut self.terms
+    /// Whether any term reads [`FaceGeometry`].
+    pub fn needs_face_geometry(&self) -> bool {
+        self.terms.iter().any(|t| t.uses_face_geometry)
     }
 
-    /// Evaluates every term into `out`, reusing its buffers:
-    /// [`ForceSet::begin`], [`ForceSet::evaluate_term`] for each term, then
-    /// [`ForceSet::finish`] (the schedule runs the same three steps as
-    /// separately timed systems).
-    pub fn evaluate(
-        &mut self,
-        world: &World,
-        topology: &Topology,
-        positions: &[DVec3],
-        lipid: &[f64],
-        out: &mut ForceEvaluation,
-    ) {
-        self.begin(topology, positions, out);
-        for i in 0..self.terms.len() {
-            self.evaluate_term(i, world, topology, positions, lipid, out);
-        }
-        self.finish(topology, out);
-    }
-
-    /// Number of terms.
-    pub fn len(&self) -> usize {
-        self.terms.len()
-    }
-
-    /// Whether there are no terms.
-    pub fn is_empty(&self) -> bool {
-        self.terms.is_empty()
-    }
-
-    /// Sizes `out` for `positions` and computes the shared per-face
-    /// geometry if any term uses it.
-    pub fn begin(&mut self, topology: &Topology, positions: &[DVec3], out: &mut ForceEvaluation) {
-        let n = positions.len();
+    /// Sizes and zeroes every term buffer for `n` vertices.
+    pub fn begin(&mut self, n: usize) {
+        let out = &mut self.evaluation;
         out.energies.clear();
         out.energies.resize(self.terms.len(), 0.0);
         out.term_forces.resize_with(self.terms.len(), Vec::new);
@@ -192,47 +193,35 @@ impl ForceSet {
             buf.clear();
             buf.resize(n, DVec3::ZERO);
         }
-        if self.terms.iter().any(|t| t.uses_face_geometry()) {
-            face_geometry(positions, &topology.faces, &mut self.geometry);
-        } else {
-            self.geometry.clear();
-        }
     }
 
-    /// Evaluates term `index` into `out.term_forces[index]` and
-    /// `out.energies[index]` (after [`ForceSet::begin`]).
-    pub fn evaluate_term(
-        &mut self,
-        index: usize,
-        world: &World,
-        topology: &Topology,
-        positions: &[DVec3],
-        lipid: &[f64],
-        out: &mut ForceEvaluation,
-    ) {
-        let ctx = ForceContext {
-            world,
-            topology,
-            positions,
-            lipid,
-            face_geometry: &self.geometry,
-        };
-        out.energies[index] = self.terms[index].accumulate(&ctx, &mut out.term_forces[index]);
+    /// The first non-finite force or energy: (term, vertex or `None` for
+    /// the energy).
+    pub fn first_non_finite(&self) -> Option<(&str, Option<usize>)> {
+        let ev = &self.evaluation;
+        self.terms
+            .iter()
+            .zip(ev.term_forces.iter().zip(&ev.energies))
+            .find_map(|(t, (buf, energy))| {
+                let bad = buf.iter().position(|f| !f.is_finite());
+                (bad.is_some() || !energy.is_finite()).then_some((t.name.as_str(), bad))
+            })
     }
 
-    /// Sums the term forces into `out.total`; penalty terms are summed first
+    /// Sums the term forces into the total; penalty terms are summed first
     /// and smoothed once (smoothing is linear, so this equals smoothing each).
-    pub fn finish(&mut self, topology: &Topology, out: &mut ForceEvaluation) {
+    pub fn finish(&mut self, topology: &Topology) {
+        let out = &mut self.evaluation;
         let n = out.term_forces.first().map_or(0, Vec::len);
         out.total.clear();
         out.total.resize(n, DVec3::ZERO);
         out.smoothed_penalty.clear();
-        let has_penalty = self.terms.iter().any(|t| t.kind() == ForceKind::Penalty);
+        let has_penalty = self.terms.iter().any(|t| t.kind == ForceKind::Penalty);
         if has_penalty {
             out.smoothed_penalty.resize(n, DVec3::ZERO);
         }
         for (term, buf) in self.terms.iter().zip(&out.term_forces) {
-            let sum = if term.kind() == ForceKind::Penalty {
+            let sum = if term.kind == ForceKind::Penalty {
                 &mut out.smoothed_penalty
             } else {
                 &mut out.total
@@ -254,24 +243,75 @@ impl ForceSet {
             }
         }
     }
+}
 
-    /// Energy of each term without forces.
-    pub fn energies(
+/// The system running one force term into its own buffer, so each term is
+/// ordered and timed on its own.
+///
+/// Stage: Forces (before `force_total`). Reads: the membrane (topology, the
+/// term's own components), dense positions and lipid density, face
+/// geometry. Writes: the term's buffer and energy in [`ForceBuffers`].
+pub struct ForceTermSystem<T> {
+    index: usize,
+    name: String,
+    term: T,
+}
+
+impl<T: ForceTerm> ForceTermSystem<T> {
+    /// The system of `term`, whose buffer is `index` in [`ForceBuffers`].
+    pub fn new(index: usize, term: T) -> Self {
+        Self {
+            index,
+            name: term.name().to_string(),
+            term,
+        }
+    }
+}
+
+impl<T: ForceTerm + 'static> crate::schedule::System for ForceTermSystem<T> {
+    type Data<'a> = (
+        Res<'a, crate::membrane::Membrane>,
+        Res<'a, crate::simulation::DensePositions>,
+        Res<'a, crate::simulation::DenseLipid>,
+        Res<'a, FaceGeometry>,
+        ResMut<'a, ForceBuffers>,
+    );
+
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn run(
         &mut self,
-        world: &World,
-        topology: &Topology,
-        positions: &[DVec3],
-        lipid: &[f64],
-    ) -> Vec<f64> {
-        let with_geometry = self.terms.iter().any(|t| t.uses_face_geometry());
-        let ctx = ForceContext::new(
-            world,
-            topology,
-            positions,
-            lipid,
-            &mut self.geometry,
-            with_geometry,
-        );
-        self.terms.iter_mut().map(|t| t.energy(&ctx)).collect()
+        (membrane, positions, lipid, geometry, mut buffers): Self::Data<'_>,
+    ) -> Result<(), crate::simulation::SimError> {
+        let ctx = ForceContext {
+            world: &membrane.world,
+            topology: membrane.cached_topology(),
+            positions: &positions.0,
+            lipid: &lipid.0,
+            face_geometry: &geometry.0,
+        };
+        let ev = &mut buffers.evaluation;
+        ev.energies[self.index] = self.term.accumulate(&ctx, &mut ev.term_forces[self.index]);
+        Ok(())
+    }
+}
+
+impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
+    fn name(&self) -> &str {
+        (**self).name()
+    }
+    fn kind(&self) -> ForceKind {
+        (**self).kind()
+    }
+    fn uses_face_geometry(&self) -> bool {
+        (**self).uses_face_geometry()
+    }
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        (**self).energy(ctx)
+    }
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        (**self).accumulate(ctx, force)
     }
 }

@@ -40,6 +40,8 @@ pub mod relax;
 pub mod remesh;
 pub mod render;
 pub mod report;
+pub mod resources;
+pub mod rng;
 pub mod run;
 pub mod scene;
 pub mod schedule;

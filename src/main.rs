@@ -401,7 +401,8 @@ fn scene_name(scene: &Scene, path: &Path) -> String {
 
 fn check(path: &Path) -> Result<(), String> {
     let (scene, mut sim) = load(path)?;
-    let t = sim.state.membrane.topology().map_err(|e| e.to_string())?;
+    let initial = *sim.resource::<remembrane::simulation::InitialState>();
+    let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
     println!("{}: ok", path.display());
     println!("  name         {}", scene_name(&scene, path));
     println!("  seed         {}", scene.seed);
@@ -426,7 +427,7 @@ fn check(path: &Path) -> Result<(), String> {
     );
     println!(
         "  initial      area {:.4} l̄², volume {:.4} l̄³",
-        sim.state.initial.area, sim.state.initial.volume
+        initial.area, initial.volume
     );
     println!("  energy terms {}", scene.energy.len());
     for term in &scene.energy {
@@ -440,7 +441,7 @@ fn check(path: &Path) -> Result<(), String> {
 fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {
     let (scene, mut sim) = load(path)?;
     sim.evaluate_forces().map_err(|e| e.to_string())?;
-    let report = EnergyReport::new(&scene_name(&scene, path), &sim.state);
+    let report = EnergyReport::new(&scene_name(&scene, path), &sim);
     if let Some(bad) = report.energies.iter().find(|e| !e.energy.is_finite()) {
         return Err(format!(
             "{}: energy term `{}` is not finite ({})",
@@ -450,7 +451,7 @@ fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> 
         ));
     }
     if let Some(out) = forces {
-        remembrane::atomic_write(out, forces_csv(&sim.state).as_bytes())
+        remembrane::atomic_write(out, forces_csv(&sim).as_bytes())
             .map_err(|e| format!("{}: cannot write forces: {e}", out.display()))?;
     }
     if json {

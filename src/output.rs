@@ -8,10 +8,14 @@
 //! file is written atomically (temporary file + rename).
 
 use crate::atomic_write;
+use crate::force::ForceBuffers;
 use crate::geometry::curvature_vectors;
 use crate::mesh::SurfaceMesh;
 use crate::mesh::io::{VertexScalar, write_ply_to};
-use crate::simulation::SimState;
+use crate::remesh::RemeshStats;
+use crate::simulation::{DenseLipid, DensePositions, Simulation};
+use crate::systems::barrier_check::AbnormalEdges;
+use crate::timestep::TimeStepChoice;
 use std::path::{Path, PathBuf};
 use vtkio::model::{
     Attribute, Attributes, ByteOrder, DataSet, IOBuffer, Piece, PolyDataPiece, Version,
@@ -113,28 +117,31 @@ impl RunOutput {
     /// `.pvd` collection and appends a row to `series.csv`. Point data:
     /// `force` (total, Ē/l̄), `mean_curvature` |K| (1/l̄) and `density` when
     /// the scene has lipid density.
-    pub fn write_frame(&mut self, name: &str, state: &SimState) -> Result<(), OutputError> {
-        let t = state.membrane.cached_topology();
-        let file = format!("frames/frame_{:06}.vtp", state.clock.iteration);
+    pub fn write_frame(&mut self, name: &str, sim: &Simulation) -> Result<(), OutputError> {
+        let membrane = sim.membrane();
+        let t = membrane.cached_topology();
+        let clock = sim.clock();
+        let positions = sim.resource::<DensePositions>();
+        let lipid = sim.resource::<DenseLipid>();
+        let file = format!("frames/frame_{:06}.vtp", clock.iteration);
         let bytes = frame_vtp(
             name,
-            &state.positions,
+            &positions.0,
             &t.faces,
-            &state.evaluation.total,
-            &state.lipid,
+            &sim.resource::<ForceBuffers>().evaluation.total,
+            &lipid.0,
         )
         .map_err(|e| write_err(&self.staging.join(&file), e))?;
         self.write(&file, &bytes)?;
         self.frames.push(FrameRecord {
-            iteration: state.clock.iteration,
-            time: state.clock.time,
+            iteration: clock.iteration,
+            time: clock.time,
             file,
         });
         self.write("run.pvd", pvd(&self.frames).as_bytes())?;
-        let (mut header, mut row) = series_row(state);
-        let t = state.membrane.cached_topology();
+        let (mut header, mut row) = series_row(sim);
         for (probe, first) in self.probes.iter().zip(&mut self.first_radius) {
-            let r = probe.measure(&state.positions, &t.edges).map(|(r, _)| r);
+            let r = probe.measure(&positions.0, &t.edges).map(|(r, _)| r);
             if first.is_none() {
                 *first = r;
             }
@@ -312,9 +319,11 @@ fn pvd(frames: &[FrameRecord]) -> String {
 }
 
 /// The `series.csv` header and the row for the current state.
-pub fn series_row(state: &SimState) -> (String, String) {
-    let t = state.membrane.cached_topology();
-    let p = &state.positions;
+pub fn series_row(sim: &Simulation) -> (String, String) {
+    let membrane = sim.membrane();
+    let t = membrane.cached_topology();
+    let positions = sim.resource::<DensePositions>();
+    let p = &positions.0;
     let area = crate::geometry::total_area(p, &t.faces);
     let volume = crate::geometry::enclosed_volume(p, &t.faces, p[0]);
     let (mut lmin, mut lmax) = (f64::INFINITY, 0.0f64);
@@ -323,33 +332,36 @@ pub fn series_row(state: &SimState) -> (String, String) {
         lmin = lmin.min(l);
         lmax = lmax.max(l);
     }
-    let names = state.forces.names();
+    let buffers = sim.resource::<ForceBuffers>();
     let mut header = String::from("iteration,time,dt,vertices");
-    let c = &state.clock;
+    let c = sim.clock();
     let mut row = format!(
         "{},{:e},{:e},{}",
         c.iteration,
         c.time,
-        state.time_step.dt,
+        sim.resource::<TimeStepChoice>().dt,
         t.vertex_count()
     );
-    for (name, e) in names.iter().zip(&state.evaluation.energies) {
-        header += &format!(",energy_{name}");
+    for (term, e) in buffers.terms().iter().zip(&buffers.evaluation.energies) {
+        header += &format!(",energy_{}", term.name);
         row += &format!(",{e:e}");
     }
+    let stats = sim.resources().get::<RemeshStats>().ok();
+    let none = RemeshStats::default();
+    let stats = stats.as_deref().unwrap_or(&none);
     header += ",energy_total,area,volume,reduced_volume,edge_min,edge_max,abnormal_edges,splits,merges,remesh_spread";
     row += &format!(
         ",{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e}",
-        state.evaluation.total_energy(),
+        buffers.evaluation.total_energy(),
         area,
         volume,
         crate::geometry::reduced_volume(volume, area),
         lmin,
         lmax,
-        state.abnormal_edges.len(),
-        state.remesh_stats.split.success,
-        state.remesh_stats.merge.success,
-        state.remesh_stats.position_spread()
+        sim.resource::<AbnormalEdges>().0.len(),
+        stats.split.success,
+        stats.merge.success,
+        stats.position_spread()
     );
     (header, row)
 }

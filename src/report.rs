@@ -1,9 +1,10 @@
 //! The energy report of `remembrane energy`: energies by term, area, volume,
 //! reduced volume and mesh quality, as text or JSON; per-vertex forces as CSV.
 
+use crate::force::ForceBuffers;
 use crate::geometry::{enclosed_volume, reduced_volume, total_area};
 use crate::quality::MeshQuality;
-use crate::simulation::SimState;
+use crate::simulation::{DensePositions, Simulation};
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -16,13 +17,12 @@ pub struct TermEnergy {
     pub energy: f64,
 }
 
-/// The energy of each force term of `state`'s last evaluation, in order.
-pub fn term_energies(state: &SimState) -> Vec<TermEnergy> {
-    state
-        .forces
+/// The energy of each force term of the last evaluation, in order.
+pub fn term_energies(buffers: &ForceBuffers) -> Vec<TermEnergy> {
+    buffers
         .names()
         .into_iter()
-        .zip(&state.evaluation.energies)
+        .zip(&buffers.evaluation.energies)
         .map(|(term, &energy)| TermEnergy { term, energy })
         .collect()
 }
@@ -55,12 +55,14 @@ pub struct EnergyReport {
 impl EnergyReport {
     /// Summarises the last force evaluation of `sim` (call
     /// [`crate::simulation::Simulation::evaluate_forces`] first).
-    pub fn new(scene: &str, sim: &SimState) -> Self {
-        let t = sim.membrane.cached_topology();
-        let p = &sim.positions;
+    pub fn new(scene: &str, sim: &Simulation) -> Self {
+        let membrane = sim.membrane();
+        let t = membrane.cached_topology();
+        let positions = sim.resource::<DensePositions>();
+        let p = &positions.0;
         let area = total_area(p, &t.faces);
         let volume = enclosed_volume(p, &t.faces, p[0]);
-        let energies = term_energies(sim);
+        let energies = term_energies(&sim.resource::<ForceBuffers>());
         Self {
             scene: scene.to_string(),
             vertices: t.vertex_count(),
@@ -113,9 +115,10 @@ impl EnergyReport {
 /// each term (its exact −∇E), `smoothed_penalty_fx,…` when the scene has
 /// penalty terms (their sum after 1-ring smoothing), and `total_fx,…`, the
 /// force the dynamics uses (Ē/l̄).
-pub fn forces_csv(sim: &SimState) -> String {
-    let ev = &sim.evaluation;
-    let mut names = sim.forces.names();
+pub fn forces_csv(sim: &Simulation) -> String {
+    let buffers = sim.resource::<ForceBuffers>();
+    let ev = &buffers.evaluation;
+    let mut names = buffers.names();
     if !ev.smoothed_penalty.is_empty() {
         names.push("smoothed_penalty".into());
     }
@@ -124,7 +127,7 @@ pub fn forces_csv(sim: &SimState) -> String {
         let _ = write!(s, ",{n}_fx,{n}_fy,{n}_fz");
     }
     s.push('\n');
-    for (i, p) in sim.positions.iter().enumerate() {
+    for (i, p) in sim.resource::<DensePositions>().0.iter().enumerate() {
         let _ = write!(s, "{i},{:e},{:e},{:e}", p.x, p.y, p.z);
         let smoothed = ev.smoothed_penalty.get(i).copied();
         for f in ev

@@ -2,10 +2,12 @@
 //! `remembrane run`.
 
 use crate::output::{OutputError, RunOutput};
+use crate::remesh::RemeshStats;
 use crate::report::EnergyReport;
 use crate::scene::{Scene, SceneError};
 use crate::schedule::SystemTiming;
-use crate::simulation::{SimError, Simulation};
+use crate::simulation::{CheckInvariants, Clock, DenseLipid, DensePositions, SimError, Simulation};
+use crate::systems::barrier_check::AbnormalEdges;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -180,7 +182,7 @@ pub fn run_scene(
         scene.name.clone()
     };
     let mut sim = scene.build(scene_path)?;
-    sim.state.check_invariants |= options.check_invariants;
+    sim.resource_mut::<CheckInvariants>().0 |= options.check_invariants;
     customize(&mut sim)?;
     sim.start()?;
     let mut out = RunOutput::create(&options.out, options.overwrite)?;
@@ -193,7 +195,7 @@ pub fn run_scene(
         iterations.div_ceil(scene.dynamics.frames as u64).max(1)
     };
     sim.evaluate_forces()?;
-    out.write_frame(&name, &sim.state)?;
+    out.write_frame(&name, &sim)?;
 
     let duration = scene.dynamics.duration.unwrap_or(f64::INFINITY);
     let frame_time = scene.dynamics.frame_time;
@@ -201,13 +203,15 @@ pub fn run_scene(
     let bar = progress_bar(options.progress, iterations);
     let mut stop: Option<SimError> = None;
     let mut next_line = iterations / 10;
-    while sim.state.clock.iteration < iterations && sim.state.clock.time < duration {
+    while sim.clock().iteration < iterations && sim.clock().time < duration {
         if let Err(e) = sim.tick() {
             stop = Some(e);
             break;
         }
-        let it = sim.state.clock.iteration;
-        let time = sim.state.clock.time;
+        let Clock {
+            iteration: it,
+            time,
+        } = sim.clock();
         let last = it == iterations || time >= duration;
         let due = match frame_time {
             Some(step) if time >= next_frame_time => {
@@ -220,8 +224,11 @@ pub fn run_scene(
             None => it % interval == 0,
         };
         if due || last {
-            sim.evaluate_forces()?;
-            out.write_frame(&name, &sim.state)?;
+            if let Err(e) = sim.evaluate_forces() {
+                stop = Some(e);
+                break;
+            }
+            out.write_frame(&name, &sim)?;
         }
         if let Some(b) = &bar {
             b.set_position(it);
@@ -242,9 +249,7 @@ pub fn run_scene(
     } else {
         // Positions in the world are the last good ones (integration checks
         // before writing back); re-gather without the failing forces.
-        let s = &mut sim.state;
-        s.membrane.topology()?;
-        s.membrane.gather_positions(&mut s.positions);
+        regather(&mut sim)?;
     }
     let summary = summarize(
         &name,
@@ -257,18 +262,19 @@ pub fn run_scene(
     );
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
-    let mesh = sim.state.membrane.to_mesh()?;
-    let lipid = sim.state.lipid.clone();
-    if scene.remesh.mode != crate::params::RemeshMode::Off {
-        out.write_events(&sim.state.remesh_stats.events)?;
+    let mesh = sim.membrane_mut().to_mesh()?;
+    let lipid = sim.resource::<DenseLipid>().0.clone();
+    if let Ok(stats) = sim.resources().get::<RemeshStats>() {
+        out.write_events(&stats.events)?;
     }
     // Only a completed run leaves a state to continue from.
+    let clock = sim.clock();
     let state = stop.is_none().then(|| {
         crate::state::SavedState::new(
             &name,
             scene.seed,
-            sim.state.clock.iteration,
-            sim.state.clock.time,
+            clock.iteration,
+            clock.time,
             &mesh,
             &lipid,
         )
@@ -294,6 +300,17 @@ fn progress_bar(progress: Progress, iterations: u64) -> Option<indicatif::Progre
     Some(bar)
 }
 
+/// Re-gathers the dense mirror from the world (the last good state after a
+/// failed step) without evaluating forces.
+fn regather(sim: &mut Simulation) -> Result<(), RunError> {
+    let mut positions = std::mem::take(&mut sim.resource_mut::<DensePositions>().0);
+    let membrane = sim.membrane_mut();
+    membrane.topology()?;
+    membrane.gather_positions(&mut positions);
+    sim.resource_mut::<DensePositions>().0 = positions;
+    Ok(())
+}
+
 fn summarize(
     name: &str,
     scene: &Scene,
@@ -303,8 +320,12 @@ fn summarize(
     stop: Option<&SimError>,
     started: Instant,
 ) -> RunSummary {
-    let s = &sim.state;
-    let t = s.membrane.cached_topology();
+    let membrane = sim.membrane();
+    let t = membrane.cached_topology();
+    let clock = sim.clock();
+    let stats = sim.resources().get::<RemeshStats>().ok();
+    let none = RemeshStats::default();
+    let stats = stats.as_deref().unwrap_or(&none);
     RunSummary {
         scene_file: scene_path.display().to_string(),
         seed: scene.seed,
@@ -315,20 +336,20 @@ fn summarize(
         },
         error: stop.map(|e| e.to_string()),
         last_good_frame: out.frames.last().map(|f| f.file.clone()),
-        iterations: s.clock.iteration,
-        simulated_time: s.clock.time,
+        iterations: clock.iteration,
+        simulated_time: clock.time,
         wall_time_s: started.elapsed().as_secs_f64(),
-        last: EnergyReport::new(name, s),
-        shape: crate::shape::shape_metrics(&s.positions, &t.faces),
-        abnormal_edges: s.abnormal_edges.len(),
+        last: EnergyReport::new(name, sim),
+        shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
+        abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
         remesh: RemeshSummary {
-            split: s.remesh_stats.split,
-            merge: s.remesh_stats.merge,
-            overflow_ticks: s.remesh_stats.overflow_ticks,
-            unresolved_ticks: s.remesh_stats.unresolved_ticks,
-            events: s.remesh_stats.successes(),
-            relax_iterations: s.remesh_stats.relax_iterations,
-            event_position_spread: s.remesh_stats.position_spread(),
+            split: stats.split,
+            merge: stats.merge,
+            overflow_ticks: stats.overflow_ticks,
+            unresolved_ticks: stats.unresolved_ticks,
+            events: stats.successes(),
+            relax_iterations: stats.relax_iterations,
+            event_position_spread: stats.position_spread(),
         },
         frames: out.frames.clone(),
         timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),

@@ -6,8 +6,7 @@
 //! (e.g. local tension without lipid density) name the file and field.
 
 use crate::components::ControlPoint;
-use crate::energy::vin::{Segmentation, VinParams};
-use crate::force::ForceSet;
+use crate::energy::vin::VinParams;
 use crate::geometry::{enclosed_volume, total_area};
 use crate::membrane::Membrane;
 use crate::mesh::io::{MeshIoError, read_mesh};
@@ -18,14 +17,10 @@ use crate::params::{
     AreaParams, BendingParams, DynamicsParams, LocalTensionParams, RemeshParams, SpringParams,
     VolumeParams,
 };
-use crate::simulation::{InitialState, Simulation};
-use crate::systems::{
-    AreaForces, BendingForces, LocalTensionForces, SpringForces, VinForces, VolumeForces,
-};
+use crate::simulation::{BuildError, InitialState, SimBuilder, Simulation};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// A scene as written in a RON file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -565,75 +560,63 @@ impl Scene {
             membrane.topology().map_err(|e| invalid(e.to_string()))?;
             membrane.scatter_lipid(rho);
         }
-        let mut forces = ForceSet::new(self.penalty_smoothing);
+        use crate::systems::plugins;
+        let mut builder = SimBuilder::new(membrane, initial);
+        let build_err = |e: BuildError| invalid(e.to_string());
+        builder
+            .add_plugin(plugins::core(plugins::CoreSettings {
+                dynamics: self.dynamics,
+                seed: self.seed,
+                penalty_smoothing: self.penalty_smoothing,
+                remesh: self.remesh,
+            }))
+            .map_err(build_err)?;
+        let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
         let mut spring_stiffness = SpringParams::default().stiffness;
-        let mut segmentation = None;
         for term in &self.energy {
-            let system: Box<dyn crate::force::ForceTerm> = match *term {
-                EnergyTerm::Vin(p) => {
-                    let seg = Arc::new(Segmentation::new(p));
-                    segmentation = Some(seg.clone());
-                    if self.remesh.mode == crate::params::RemeshMode::Geometric {
-                        // The geometric baseline: V_in sets Δt and drives the
-                        // local relaxation but exerts no global force.
-                        continue;
-                    }
-                    Box::new(VinForces::new(seg, p.form))
-                }
-                EnergyTerm::Bending(p) => Box::new(BendingForces::new(p)),
-                EnergyTerm::Volume(p) => {
-                    Box::new(VolumeForces::new(p.k, p.target.resolve(initial.volume)))
-                }
-                EnergyTerm::Area(p) => {
-                    Box::new(AreaForces::new(p.k, p.target.resolve(initial.area)))
-                }
-                EnergyTerm::LocalTension(p) => {
-                    // a0 = A_t / Σρ: A_t / N_initial for a fresh mesh (ρ = 1),
-                    // and the same lipid unit after remeshing or when starting
-                    // from a saved state (Σρ is conserved).
-                    let a0 = p.target_area.resolve(initial.area) / initial.lipid_total;
-                    Box::new(LocalTensionForces::new(p.k, a0))
-                }
+            let added = match *term {
+                // The geometric baseline: V_in sets Δt and drives the local
+                // relaxation but exerts no global force.
+                EnergyTerm::Vin(p) => builder.add_plugin(plugins::vin(p, !geometric)),
+                EnergyTerm::Bending(p) => builder.add_plugin(plugins::bending(p)),
+                EnergyTerm::Volume(p) => builder.add_plugin(plugins::volume(p)),
+                EnergyTerm::Area(p) => builder.add_plugin(plugins::area(p)),
+                EnergyTerm::LocalTension(p) => builder.add_plugin(plugins::local_tension(p)),
                 EnergyTerm::Springs(p) => {
                     spring_stiffness = p.stiffness;
-                    Box::new(SpringForces::new(p.coupling))
+                    builder.add_plugin(plugins::springs(p.coupling))
                 }
             };
-            forces.push(system).map_err(invalid)?;
+            added.map_err(build_err)?;
         }
-        for cp in &self.control_points {
-            let (x, y, z) = cp.position;
-            membrane.add_control_point(ControlPoint {
-                position: DVec3::new(x, y, z),
-                stiffness: cp.stiffness.unwrap_or(spring_stiffness),
-            });
-        }
-        let mut sim = Simulation::new(membrane, forces, initial);
-        if !self.control_point_schedule.is_empty() {
-            let system = crate::systems::control_point_schedule::ControlPointSchedule::new(
+        let points = self
+            .control_points
+            .iter()
+            .map(|cp| {
+                let (x, y, z) = cp.position;
+                ControlPoint {
+                    position: DVec3::new(x, y, z),
+                    stiffness: cp.stiffness.unwrap_or(spring_stiffness),
+                }
+            })
+            .collect();
+        builder
+            .add_plugin(plugins::control_points(
+                points,
                 self.control_point_schedule.clone(),
-            );
-            sim.add_system(crate::schedule::Stage::Prepare, Box::new(system))
-                .map_err(|e| invalid(e.to_string()))?
-                .before("gather_state");
-        }
-        sim.state.dynamics = self.dynamics;
-        sim.state.remesh = self.remesh;
-        sim.state.segmentation = segmentation;
-        sim.state.seed = self.seed;
-        sim.state.valence = self.valence;
+            ))
+            .map_err(build_err)?;
         if self.remesh.mode != crate::params::RemeshMode::Off {
-            sim.add_system(
-                crate::schedule::Stage::Remesh,
-                Box::new(crate::systems::remesh::Remesh::default()),
-            )
-            .map_err(|e| invalid(e.to_string()))?;
+            builder
+                .add_plugin(plugins::remesh(self.valence))
+                .map_err(build_err)?;
         }
         if let Some(d) = &self.diffusion {
-            let system = crate::systems::lipid_diffusion::LipidDiffusion::new(d.clone());
-            sim.add_system(crate::schedule::Stage::Diffuse, Box::new(system))
-                .map_err(|e| invalid(e.to_string()))?;
+            builder
+                .add_plugin(plugins::diffusion(d.clone()))
+                .map_err(build_err)?;
         }
+        let sim = builder.build();
         Ok(sim)
     }
 }

@@ -4,18 +4,29 @@
 //! A tick runs the stages in [`Stage::ALL`] order; within a stage, systems
 //! run in registration order adjusted by their `before`/`after`
 //! constraints. Built-in systems register through the same path as a
-//! user's (see [`crate::simulation::Simulation::add_system`]).
+//! user's ([`crate::simulation::SimBuilder::add_system`]).
+//!
+//! A [`System`] names its data in its type ([`System::Data`], a tuple of
+//! [`Res`](crate::resources::Res) / [`ResMut`](crate::resources::ResMut)),
+//! so its declared access is derived, never written by hand, and it can
+//! touch nothing else. When the schedule is built every declared resource
+//! must exist (or be optional), no system may borrow one resource twice
+//! with a write, and Forces-stage systems may write only the force buffers.
 
-use crate::simulation::{SimError, SimState};
+use crate::force::ForceBuffers;
+use crate::resources::{Access, CheckedResources, ResourceId, Resources, SystemData};
+use crate::simulation::SimError;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 /// The ordered stages of a tick.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Stage {
-    /// Refresh caches, gather the dense state, apply scheduled changes.
+    /// Apply scheduled changes (control points) before anything is gathered.
     Prepare,
-    /// Accumulate forces (systems here may write only force accumulators).
+    /// Refresh caches, gather the dense state and the per-face geometry.
+    Gather,
+    /// Accumulate forces (systems here may write only the force buffers).
     Forces,
     /// Choose the time step.
     TimeStep,
@@ -27,14 +38,15 @@ pub enum Stage {
     Remesh,
     /// Lipid diffusion.
     Diffuse,
-    /// Record observables and write outputs.
+    /// Record observables.
     Observe,
 }
 
 impl Stage {
     /// All stages in tick order.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 9] = [
         Stage::Prepare,
+        Stage::Gather,
         Stage::Forces,
         Stage::TimeStep,
         Stage::Integrate,
@@ -44,10 +56,12 @@ impl Stage {
         Stage::Observe,
     ];
 
-    /// The stage's name as used in plugin registries and reports.
+    /// The stage's name as written in scenes (`systems: [Custom(stage: ..)]`)
+    /// and reports.
     pub fn name(self) -> &'static str {
         match self {
             Stage::Prepare => "Prepare",
+            Stage::Gather => "Gather",
             Stage::Forces => "Forces",
             Stage::TimeStep => "TimeStep",
             Stage::Integrate => "Integrate",
@@ -58,7 +72,7 @@ impl Stage {
         }
     }
 
-    /// Parses a stage name (for registries that name stages in text).
+    /// Parses a stage name.
     pub fn from_name(name: &str) -> Result<Stage, ScheduleError> {
         Stage::ALL
             .into_iter()
@@ -67,60 +81,94 @@ impl Stage {
     }
 }
 
-/// A data set a system reads or writes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Data {
-    /// Vertex positions (dense mirror and world).
-    Positions,
-    /// Per-term force buffers and the total force.
-    ForceAccumulators,
-    /// Per-face geometry shared by face-based force terms.
-    FaceGeometry,
-    /// The time step of the current tick.
-    TimeStep,
-    /// Simulated time and iteration count.
-    Clock,
-    /// Mesh connectivity (entities and the topology cache).
-    Topology,
-    /// Lipid density.
-    LipidDensity,
-    /// Control points.
-    ControlPoints,
-    /// Barrier-crossing (abnormal) edge lists.
-    BarrierCrossings,
-    /// Files written by the run.
-    Output,
-    /// A user-defined data set.
-    Custom(&'static str),
+/// A system: one step of a tick, over the data its type declares.
+///
+/// ```
+/// use remembrane::resources::{Res, ResMut};
+/// use remembrane::schedule::System;
+/// use remembrane::simulation::{Clock, SimError};
+///
+/// /// Counts ticks that reached a simulated time of one millisecond.
+/// struct LateTicks(u64);
+/// struct LateTickCount(u64);
+///
+/// impl System for LateTicks {
+///     type Data<'a> = (Res<'a, Clock>, ResMut<'a, LateTickCount>);
+///     fn name(&self) -> &str {
+///         "late_ticks"
+///     }
+///     fn run(&mut self, (clock, mut count): Self::Data<'_>) -> Result<(), SimError> {
+///         if clock.time > 1e-3 {
+///             count.0 += 1;
+///         }
+///         Ok(())
+///     }
+/// }
+/// ```
+pub trait System: Send + 'static {
+    /// The resources the system reads ([`Res`](crate::resources::Res)) and
+    /// writes ([`ResMut`](crate::resources::ResMut)).
+    type Data<'a>: SystemData<'a>;
+    /// Unique name (used in ordering constraints, timings and errors).
+    fn name(&self) -> &str;
+    /// Runs the system.
+    fn run(&mut self, data: Self::Data<'_>) -> Result<(), SimError>;
 }
 
-/// What a system reads and writes.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Access {
-    /// Data sets read.
-    pub reads: Vec<Data>,
-    /// Data sets written.
-    pub writes: Vec<Data>,
+/// A system whose access is known only at run time (a scripted term, a
+/// system configured from text). Every borrow through its
+/// [`CheckedResources`] is checked against [`DynamicSystem::access`]: an
+/// undeclared one fails the tick with [`SimError::Resource`].
+pub trait DynamicSystem: Send + 'static {
+    /// Unique name.
+    fn name(&self) -> &str;
+    /// What the system reads and writes.
+    fn access(&self) -> Access;
+    /// Runs the system.
+    fn run(&mut self, resources: &CheckedResources<'_>) -> Result<(), SimError>;
 }
 
-impl Access {
-    /// Reads `reads`, writes `writes`.
-    pub fn new(reads: &[Data], writes: &[Data]) -> Self {
-        Self {
-            reads: reads.to_vec(),
-            writes: writes.to_vec(),
-        }
+/// A system as the schedule stores it.
+pub(crate) trait ErasedSystem: Send {
+    fn name(&self) -> &str;
+    fn access(&self) -> Access;
+    fn run(&mut self, resources: &Resources, access: &Access) -> Result<(), SimError>;
+}
+
+pub(crate) struct Typed<S>(pub S);
+
+impl<S: System> ErasedSystem for Typed<S> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn access(&self) -> Access {
+        let mut access = Access::default();
+        <S::Data<'_> as SystemData<'_>>::declare(&mut access);
+        access
+    }
+    fn run(&mut self, resources: &Resources, _: &Access) -> Result<(), SimError> {
+        let data = <S::Data<'_> as SystemData<'_>>::fetch(resources).map_err(|source| {
+            SimError::Resource {
+                system: self.0.name().to_string(),
+                source,
+            }
+        })?;
+        self.0.run(data)
     }
 }
 
-/// A system: one step of a tick.
-pub trait System: Send {
-    /// Unique name (used in ordering constraints, timings and errors).
-    fn name(&self) -> &str;
-    /// What the system reads and writes (checked when the schedule is built).
-    fn access(&self) -> Access;
-    /// Runs the system on the simulation state.
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError>;
+pub(crate) struct Dynamic<S>(pub S);
+
+impl<S: DynamicSystem> ErasedSystem for Dynamic<S> {
+    fn name(&self) -> &str {
+        self.0.name()
+    }
+    fn access(&self) -> Access {
+        self.0.access()
+    }
+    fn run(&mut self, resources: &Resources, access: &Access) -> Result<(), SimError> {
+        self.0.run(&CheckedResources::new(resources, access))
+    }
 }
 
 /// A schedule that cannot run.
@@ -154,21 +202,42 @@ pub enum ScheduleError {
         /// Systems on the cycle (comma separated).
         systems: String,
     },
-    /// A system in the Forces stage declares a write other than force accumulators.
+    /// A system in the Forces stage declares a write other than the force buffers.
     #[error(
-        "force system `{system}` writes {data:?}; systems in the Forces stage may write only force accumulators"
+        "force system `{system}` writes `{resource}`; systems in the Forces stage may write only the force buffers"
     )]
     ForceSystemWrites {
         /// The system.
         system: String,
         /// The forbidden write.
-        data: Data,
+        resource: ResourceId,
+    },
+    /// A system needs a resource that no plugin inserted.
+    #[error(
+        "system `{system}` needs resource `{resource}`, which no plugin inserted (resources: {available})"
+    )]
+    MissingResource {
+        /// The system.
+        system: String,
+        /// The missing resource.
+        resource: ResourceId,
+        /// The resources that exist (comma separated).
+        available: String,
+    },
+    /// A system declares one resource twice, at least once as a write.
+    #[error("system `{system}` borrows `{resource}` twice, once for writing")]
+    ConflictingAccess {
+        /// The system.
+        system: String,
+        /// The resource.
+        resource: ResourceId,
     },
 }
 
-struct Entry {
+pub(crate) struct Entry {
     stage: Stage,
-    system: Box<dyn System>,
+    system: Box<dyn ErasedSystem>,
+    access: Access,
     before: Vec<String>,
     after: Vec<String>,
 }
@@ -204,26 +273,28 @@ impl ScheduleBuilder {
         Self::default()
     }
 
-    /// Adds `system` to `stage`; returns a handle for before/after constraints.
-    pub fn add(&mut self, stage: Stage, system: Box<dyn System>) -> Registered<'_> {
+    /// Adds a typed `system` to `stage`; returns a handle for before/after
+    /// constraints.
+    pub fn add(&mut self, stage: Stage, system: impl System) -> Registered<'_> {
+        self.push(stage, Box::new(Typed(system)))
+    }
+
+    /// Adds a dynamic `system` to `stage`.
+    pub fn add_dynamic(&mut self, stage: Stage, system: impl DynamicSystem) -> Registered<'_> {
+        self.push(stage, Box::new(Dynamic(system)))
+    }
+
+    fn push(&mut self, stage: Stage, system: Box<dyn ErasedSystem>) -> Registered<'_> {
+        let access = system.access();
         self.entries.push(Entry {
             stage,
             system,
+            access,
             before: Vec::new(),
             after: Vec::new(),
         });
         let entry = self.entries.last_mut().expect("just pushed");
         Registered { entry }
-    }
-
-    /// Adds `system` to the stage named `stage` (for text registries).
-    pub fn add_named(
-        &mut self,
-        stage: &str,
-        system: Box<dyn System>,
-    ) -> Result<Registered<'_>, ScheduleError> {
-        let stage = Stage::from_name(stage)?;
-        Ok(self.add(stage, system))
     }
 
     /// Names of the registered systems, in registration order.
@@ -234,21 +305,44 @@ impl ScheduleBuilder {
             .collect()
     }
 
-    /// Validates the systems and fixes their order.
-    pub fn build(self) -> Result<Schedule, ScheduleError> {
+    /// Validates the systems against `resources` and fixes their order.
+    pub fn build(self, resources: &Resources) -> Result<Schedule, ScheduleError> {
         let mut seen = HashMap::new();
+        let force_buffers = ResourceId::of::<ForceBuffers>();
         for e in &self.entries {
             let name = e.system.name().to_string();
             if seen.insert(name.clone(), ()).is_some() {
                 return Err(ScheduleError::DuplicateName(name));
             }
-            let access = e.system.access();
-            let forbidden = access
-                .writes
+            let a = &e.access;
+            for (k, id) in a.writes.iter().enumerate() {
+                if a.reads.contains(id) || a.writes[..k].contains(id) {
+                    return Err(ScheduleError::ConflictingAccess {
+                        system: name,
+                        resource: *id,
+                    });
+                }
+            }
+            if let Some(id) = a
+                .reads
                 .iter()
-                .find(|d| **d != Data::ForceAccumulators);
-            if let (Stage::Forces, Some(&data)) = (e.stage, forbidden) {
-                return Err(ScheduleError::ForceSystemWrites { system: name, data });
+                .chain(&a.writes)
+                .find(|id| !a.optional.contains(id) && !resources.contains_id(**id))
+            {
+                let available: Vec<&str> = resources.ids().iter().map(|i| i.name()).collect();
+                return Err(ScheduleError::MissingResource {
+                    system: name,
+                    resource: *id,
+                    available: available.join(", "),
+                });
+            }
+            if e.stage == Stage::Forces
+                && let Some(&resource) = a.writes.iter().find(|d| **d != force_buffers)
+            {
+                return Err(ScheduleError::ForceSystemWrites {
+                    system: name,
+                    resource,
+                });
             }
         }
         let mut entries = self.entries;
@@ -363,15 +457,34 @@ pub struct SystemTiming {
 
 impl Schedule {
     /// Runs one tick: every system in order. Stops at the first error.
-    pub fn run_tick(&mut self, state: &mut SimState) -> Result<(), SimError> {
+    pub fn run_tick(&mut self, resources: &Resources) -> Result<(), SimError> {
+        self.run_stages(&Stage::ALL, resources)?;
+        self.ticks += 1;
+        Ok(())
+    }
+
+    /// Runs the systems of `stages` only, in schedule order (e.g. Gather and
+    /// Forces to evaluate the forces of the current state). Their time is
+    /// added to their timings.
+    pub fn run_stages(&mut self, stages: &[Stage], resources: &Resources) -> Result<(), SimError> {
         for (entry, time) in self.entries.iter_mut().zip(self.timings.iter_mut()) {
+            if !stages.contains(&entry.stage) {
+                continue;
+            }
             let start = Instant::now();
-            let result = entry.system.run(state);
+            let result = entry.system.run(resources, &entry.access);
             *time += start.elapsed();
             result?;
         }
-        self.ticks += 1;
         Ok(())
+    }
+
+    /// The declared access of the system named `name`.
+    pub fn access(&self, name: &str) -> Option<&Access> {
+        self.entries
+            .iter()
+            .find(|e| e.system.name() == name)
+            .map(|e| &e.access)
     }
 
     /// System names in run order, with their stages.

@@ -1,15 +1,14 @@
-//! [`Simulation`]: a built scene: the simulation state (world, dense
-//! mirrors, forces, clock) and the schedule of systems that advances it.
+//! [`Simulation`]: the world and typed resources of a built scene plus the
+//! schedule of systems that advances them; [`SimBuilder`] and [`Plugin`],
+//! through which built-in and user physics register alike; the core
+//! resources every simulation has (clock, dense mirrors, seed).
 
-use crate::energy::vin::Segmentation;
-use crate::force::{ForceEvaluation, ForceSet};
+use crate::force::{FORCE_TOTAL, ForceBuffers, ForceTerm, ForceTermSystem, TermInfo};
 use crate::membrane::Membrane;
-use crate::params::{DynamicsParams, RemeshParams};
-use crate::schedule::{Schedule, ScheduleBuilder, ScheduleError, Stage, System};
-use crate::timestep::TimeStepChoice;
+use crate::resources::{Res, Resource, Resources};
+use crate::schedule::{Registered, Schedule, ScheduleBuilder, ScheduleError, Stage, System};
 use crate::topology::TopologyError;
 use glam::DVec3;
-use std::sync::Arc;
 
 /// Quantities of the initial mesh that targets are resolved against.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,43 +33,29 @@ pub struct Clock {
     pub time: f64,
 }
 
-/// Everything systems read and write.
-pub struct SimState {
-    /// The world (source of truth) and its caches.
-    pub membrane: Membrane,
-    /// The force terms.
-    pub forces: ForceSet,
-    /// The current tick's forces.
-    pub evaluation: ForceEvaluation,
-    /// Dense position mirror, by vertex slot (l̄).
-    pub positions: Vec<DVec3>,
-    /// Dense lipid density mirror (empty without lipid density).
-    pub lipid: Vec<f64>,
-    /// Simulated time and iterations.
-    pub clock: Clock,
-    /// The current tick's time step.
-    pub time_step: TimeStepChoice,
-    /// Dynamics parameters.
-    pub dynamics: DynamicsParams,
-    /// Barrier-crossing triggers.
-    pub remesh: RemeshParams,
-    /// V_in segmentation (when the scene uses V_in).
-    pub segmentation: Option<Arc<Segmentation>>,
-    /// Initial-mesh quantities.
-    pub initial: InitialState,
-    /// Seed of all random streams.
-    pub seed: u64,
-    /// Edges (slots) outside [l_−, l_+] after the last integration.
-    pub abnormal_edges: Vec<u32>,
-    /// Allowed valences (remeshing keeps every vertex inside).
-    pub valence: crate::mesh::ValenceRange,
-    /// Remeshing outcome counts and event positions.
-    pub remesh_stats: crate::remesh::RemeshStats,
-    /// Whether this tick's remeshing was triggered (abnormal edges existed).
-    pub remesh_triggered: bool,
-    /// Run the full mesh invariant check after every topology edit (always
-    /// on in debug builds; `remembrane run --check-invariants` in release).
-    pub check_invariants: bool,
+/// Dense position mirror, by vertex slot (l̄). Gathered from the world's
+/// [`crate::components::Position`] every tick; written back by integration.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DensePositions(pub Vec<DVec3>);
+
+/// Dense lipid density mirror, by vertex slot (dimensionless; empty when the
+/// scene declares no lipid density).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DenseLipid(pub Vec<f64>);
+
+/// Seed of every random stream of the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Seed(pub u64);
+
+/// Run the full mesh invariant check after every topology edit (always on
+/// in debug builds; `remembrane run --check-invariants` in release).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CheckInvariants(pub bool);
+
+impl Default for CheckInvariants {
+    fn default() -> Self {
+        Self(cfg!(debug_assertions))
+    }
 }
 
 /// A run cannot continue.
@@ -131,56 +116,181 @@ pub enum SimError {
     /// A system was added after the schedule was fixed by the first tick.
     #[error("system `{0}` can only be added before the first tick")]
     AlreadyStarted(String),
+    /// A system could not be handed its resources (an undeclared access
+    /// of a dynamic system, or a resource removed after validation).
+    #[error("system `{system}`: {source}")]
+    Resource {
+        /// The system.
+        system: String,
+        /// What went wrong.
+        source: crate::resources::FetchError,
+    },
+    /// A plugin could not be registered.
+    #[error(transparent)]
+    Build(#[from] BuildError),
 }
 
-/// A simulation: state plus schedule.
+/// A plugin could not be added to a simulation.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// Two force terms share a name.
+    #[error(transparent)]
+    DuplicateTerm(#[from] crate::force::DuplicateTerm),
+    /// A plugin needs a resource that an earlier plugin inserts.
+    #[error("{what} needs resource `{resource}`: add {plugin} first")]
+    Requires {
+        /// What was being added.
+        what: String,
+        /// The missing resource.
+        resource: &'static str,
+        /// The plugin that provides it.
+        plugin: &'static str,
+    },
+    /// A plugin's configuration is invalid.
+    #[error("field `{field}`: {reason}")]
+    Invalid {
+        /// The field (relative to the plugin's declaration).
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A system was added after the first tick.
+    #[error("`{0}` can only be added before the first tick")]
+    AlreadyStarted(String),
+}
+
+/// A plugin: anything that registers resources and systems on a
+/// [`SimBuilder`]. Every `FnOnce(&mut SimBuilder) -> Result<(), BuildError>`
+/// is one; configurable plugins are structs implementing [`Plugin::build`].
+/// Built-in physics registers itself through this same interface.
+pub trait Plugin {
+    /// Registers the plugin's resources and systems.
+    fn build(self, builder: &mut SimBuilder) -> Result<(), BuildError>;
+}
+
+impl<F: FnOnce(&mut SimBuilder) -> Result<(), BuildError>> Plugin for F {
+    fn build(self, builder: &mut SimBuilder) -> Result<(), BuildError> {
+        self(builder)
+    }
+}
+
+/// Builds a [`Simulation`] in one phase: the membrane and its initial
+/// quantities, then plugins, each adding its own resources and systems.
+pub struct SimBuilder {
+    resources: Resources,
+    schedule: ScheduleBuilder,
+}
+
+impl SimBuilder {
+    /// A builder holding `membrane` (the world) and `initial` as resources.
+    pub fn new(membrane: Membrane, initial: InitialState) -> Self {
+        let mut resources = Resources::new();
+        resources.insert(membrane);
+        resources.insert(initial);
+        Self {
+            resources,
+            schedule: ScheduleBuilder::new(),
+        }
+    }
+
+    /// Adds `plugin`.
+    pub fn add_plugin(&mut self, plugin: impl Plugin) -> Result<&mut Self, BuildError> {
+        plugin.build(self)?;
+        Ok(self)
+    }
+
+    /// Inserts (or replaces) a resource.
+    pub fn insert_resource<T: Resource>(&mut self, value: T) -> &mut Self {
+        self.resources.insert(value);
+        self
+    }
+
+    /// The resources so far.
+    pub fn resources(&self) -> &Resources {
+        &self.resources
+    }
+
+    /// A resource inserted so far, for a plugin to adjust.
+    pub fn resource_mut<T: Resource>(&mut self) -> Option<&mut T> {
+        self.resources.value_mut::<T>()
+    }
+
+    /// Adds a typed system to `stage`; returns the handle for
+    /// `before`/`after` constraints.
+    pub fn add_system(&mut self, stage: Stage, system: impl System) -> Registered<'_> {
+        self.schedule.add(stage, system)
+    }
+
+    /// Adds a dynamic system (access checked at every borrow) to `stage`.
+    pub fn add_dynamic_system(
+        &mut self,
+        stage: Stage,
+        system: impl crate::schedule::DynamicSystem,
+    ) -> Registered<'_> {
+        self.schedule.add_dynamic(stage, system)
+    }
+
+    /// Registers a force term: its buffer in [`ForceBuffers`] and its system
+    /// in the Forces stage (before `force_total`), together. Needs the core
+    /// plugin (which inserts the buffers).
+    pub fn add_force_term(
+        &mut self,
+        term: impl ForceTerm + 'static,
+    ) -> Result<Registered<'_>, BuildError> {
+        register_force_term(&mut self.resources, &mut self.schedule, term)
+    }
+
+    /// The simulation (its schedule is validated by [`Simulation::start`]
+    /// or the first tick).
+    pub fn build(self) -> Simulation {
+        Simulation {
+            resources: self.resources,
+            builder: Some(self.schedule),
+            schedule: None,
+        }
+    }
+}
+
+fn register_force_term<'a>(
+    resources: &mut Resources,
+    schedule: &'a mut ScheduleBuilder,
+    term: impl ForceTerm + 'static,
+) -> Result<Registered<'a>, BuildError> {
+    let name = term.name().to_string();
+    let buffers = resources
+        .value_mut::<ForceBuffers>()
+        .ok_or_else(|| BuildError::Requires {
+            what: format!("force term `{name}`"),
+            resource: "ForceBuffers",
+            plugin: "the core plugin",
+        })?;
+    let index = buffers.register(TermInfo {
+        name,
+        kind: term.kind(),
+        uses_face_geometry: term.uses_face_geometry(),
+    })?;
+    Ok(schedule
+        .add(Stage::Forces, ForceTermSystem::new(index, term))
+        .before(FORCE_TOTAL))
+}
+
+/// A simulation: the world and resources, plus the schedule of systems
+/// that advances them.
 pub struct Simulation {
-    /// The state systems operate on.
-    pub state: SimState,
+    resources: Resources,
     builder: Option<ScheduleBuilder>,
     schedule: Option<Schedule>,
 }
 
 impl Simulation {
-    /// A simulation of `membrane` under `forces`, with the built-in systems
-    /// registered (forces, time step, integration, barrier check).
-    pub fn new(membrane: Membrane, forces: ForceSet, initial: InitialState) -> Self {
-        let terms = forces.names();
-        let state = SimState {
-            membrane,
-            forces,
-            evaluation: ForceEvaluation::default(),
-            positions: Vec::new(),
-            lipid: Vec::new(),
-            clock: Clock::default(),
-            time_step: TimeStepChoice::default(),
-            dynamics: DynamicsParams::default(),
-            remesh: RemeshParams::default(),
-            segmentation: None,
-            initial,
-            seed: 1,
-            abnormal_edges: Vec::new(),
-            valence: crate::mesh::ValenceRange::default(),
-            remesh_stats: crate::remesh::RemeshStats::default(),
-            remesh_triggered: false,
-            check_invariants: cfg!(debug_assertions),
-        };
-        let mut builder = ScheduleBuilder::new();
-        crate::systems::register_builtin(&mut builder, &terms);
-        Self {
-            state,
-            builder: Some(builder),
-            schedule: None,
-        }
-    }
-
-    /// Adds a system to `stage` before the run starts; returns the builder
-    /// handle for `before`/`after` constraints. Errors if the run started.
+    /// Adds a typed system to `stage` before the run starts; returns the
+    /// builder handle for `before`/`after` constraints. Errors if the run
+    /// started.
     pub fn add_system(
         &mut self,
         stage: Stage,
-        system: Box<dyn System>,
-    ) -> Result<crate::schedule::Registered<'_>, SimError> {
+        system: impl System,
+    ) -> Result<Registered<'_>, SimError> {
         let name = system.name().to_string();
         let builder = self
             .builder
@@ -189,10 +299,50 @@ impl Simulation {
         Ok(builder.add(stage, system))
     }
 
+    /// Adds a dynamic system (access checked at every borrow) to `stage`
+    /// before the run starts.
+    pub fn add_dynamic_system(
+        &mut self,
+        stage: Stage,
+        system: impl crate::schedule::DynamicSystem,
+    ) -> Result<Registered<'_>, SimError> {
+        let name = system.name().to_string();
+        let builder = self
+            .builder
+            .as_mut()
+            .ok_or(SimError::AlreadyStarted(name))?;
+        Ok(builder.add_dynamic(stage, system))
+    }
+
+    /// Registers a force term (buffer and system together) before the run
+    /// starts: it acts on the dynamics exactly like a scene's terms.
+    pub fn add_force_term(
+        &mut self,
+        term: impl ForceTerm + 'static,
+    ) -> Result<Registered<'_>, SimError> {
+        let name = term.name().to_string();
+        let builder = self
+            .builder
+            .as_mut()
+            .ok_or(SimError::AlreadyStarted(name))?;
+        Ok(register_force_term(&mut self.resources, builder, term)?)
+    }
+
+    /// Inserts (or replaces) a resource before the run starts.
+    pub fn insert_resource<T: Resource>(&mut self, value: T) -> Result<(), SimError> {
+        if self.schedule.is_some() {
+            return Err(SimError::AlreadyStarted(
+                crate::resources::ResourceId::of::<T>().name().to_string(),
+            ));
+        }
+        self.resources.insert(value);
+        Ok(())
+    }
+
     /// Validates and fixes the schedule (done by the first tick otherwise).
     pub fn start(&mut self) -> Result<(), SimError> {
         if let Some(builder) = self.builder.take() {
-            self.schedule = Some(builder.build()?);
+            self.schedule = Some(builder.build(&self.resources)?);
         }
         Ok(())
     }
@@ -201,7 +351,7 @@ impl Simulation {
     pub fn tick(&mut self) -> Result<(), SimError> {
         self.start()?;
         let schedule = self.schedule.as_mut().expect("started");
-        schedule.run_tick(&mut self.state)
+        schedule.run_tick(&self.resources)
     }
 
     /// The schedule (after [`Simulation::start`]).
@@ -209,21 +359,54 @@ impl Simulation {
         self.schedule.as_ref()
     }
 
-    /// Refreshes the caches, gathers the dense mirror and evaluates all force
-    /// terms (outside the schedule; used for reports).
-    pub fn evaluate_forces(&mut self) -> Result<&ForceEvaluation, TopologyError> {
-        let s = &mut self.state;
-        s.membrane.topology()?;
-        s.membrane.gather_positions(&mut s.positions);
-        s.membrane.gather_lipid(&mut s.lipid);
-        s.forces.evaluate(
-            &s.membrane.world,
-            s.membrane.cached_topology(),
-            &s.positions,
-            &s.lipid,
-            &mut s.evaluation,
-        );
-        s.membrane.scatter_forces(&s.evaluation.total);
-        Ok(&s.evaluation)
+    /// Evaluates the forces of the current state by running the schedule's
+    /// own Gather and Forces systems (the same terms, finite checks and
+    /// timing as a tick), without moving anything.
+    pub fn evaluate_forces(&mut self) -> Result<Res<'_, ForceBuffers>, SimError> {
+        self.start()?;
+        let schedule = self.schedule.as_mut().expect("started");
+        schedule.run_stages(&[Stage::Gather, Stage::Forces], &self.resources)?;
+        Ok(self.resource::<ForceBuffers>())
+    }
+
+    /// All resources.
+    pub fn resources(&self) -> &Resources {
+        &self.resources
+    }
+
+    /// Resource `T`. Panics if no plugin inserted it (use
+    /// [`Simulation::resources`] to test).
+    pub fn resource<T: Resource>(&self) -> Res<'_, T> {
+        self.resources
+            .get::<T>()
+            .unwrap_or_else(|e| panic!("Simulation::resource: {e}"))
+    }
+
+    /// Resource `T`, mutably. Panics if no plugin inserted it.
+    pub fn resource_mut<T: Resource>(&mut self) -> &mut T {
+        let id = crate::resources::ResourceId::of::<T>();
+        self.resources
+            .value_mut::<T>()
+            .unwrap_or_else(|| panic!("Simulation::resource_mut: resource `{id}` does not exist"))
+    }
+
+    /// Simulated time and iterations.
+    pub fn clock(&self) -> Clock {
+        *self.resource::<Clock>()
+    }
+
+    /// The membrane (world and topology cache).
+    pub fn membrane(&self) -> Res<'_, Membrane> {
+        self.resource::<Membrane>()
+    }
+
+    /// The membrane, mutably.
+    pub fn membrane_mut(&mut self) -> &mut Membrane {
+        self.resource_mut::<Membrane>()
+    }
+
+    /// The dense positions as of the last gather or integration (l̄).
+    pub fn positions(&self) -> Vec<DVec3> {
+        self.resource::<DensePositions>().0.clone()
     }
 }

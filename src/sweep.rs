@@ -13,8 +13,8 @@
 //! can drive it; `--emit-slurm` prints such a job-array script.
 
 use crate::params::{BlockedRegion, DiffusionRate};
+use crate::rng::stream_seed;
 use crate::scene::{EnergyTerm, Scene, SceneError};
-use crate::systems::langevin_integration::stream_seed;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

@@ -1,35 +1,46 @@
 //! Chooses the tick's time step (SPEC §3, [`crate::timestep`]).
 //!
-//! Stage: TimeStep. Reads: positions, total force, topology, V_in
-//! segmentation, mobility, dt_max, s_max. Writes: time step. Units: s.
+//! Stage: TimeStep. Reads: [`Membrane`] (edges), [`DensePositions`], the
+//! total force in [`ForceBuffers`], [`DynamicsParams`] (mobility, dt_max,
+//! s_max), the V_in segmentation when a Vin plugin inserted one. Writes:
+//! [`TimeStepChoice`]. Units: s.
 
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
-use crate::timestep::{Limiter, choose_time_step};
+use crate::force::ForceBuffers;
+use crate::membrane::Membrane;
+use crate::params::DynamicsParams;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{Clock, DensePositions, SimError};
+use crate::systems::vin_forces::VinSegmentation;
+use crate::timestep::{Limiter, TimeStepChoice, choose_time_step};
 
 /// The adaptive time-step system.
 pub struct AdaptiveTimeStep;
 
 impl System for AdaptiveTimeStep {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, ForceBuffers>,
+        Res<'a, DynamicsParams>,
+        Res<'a, Clock>,
+        Option<Res<'a, VinSegmentation>>,
+        ResMut<'a, TimeStepChoice>,
+    );
+
     fn name(&self) -> &str {
         "adaptive_time_step"
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::Positions, Data::ForceAccumulators, Data::Topology],
-            &[Data::TimeStep],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        let s = state;
-        let d = &s.dynamics;
+    fn run(
+        &mut self,
+        (membrane, positions, buffers, d, clock, segmentation, mut time_step): Self::Data<'_>,
+    ) -> Result<(), SimError> {
         let choice = choose_time_step(
-            s.segmentation.as_deref(),
-            &s.membrane.cached_topology().edges,
-            &s.positions,
-            &s.evaluation.total,
+            segmentation.as_deref().map(|s| &*s.0),
+            &membrane.cached_topology().edges,
+            &positions.0,
+            &buffers.evaluation.total,
             d.mobility,
             d.dt_max,
             d.max_displacement,
@@ -41,14 +52,14 @@ impl System for AdaptiveTimeStep {
                 Limiter::Cap => "the cap".to_string(),
             };
             return Err(SimError::BlowUp {
-                iteration: s.clock.iteration + 1,
+                iteration: clock.iteration + 1,
                 quantity: "time step",
                 term: "adaptive_time_step".into(),
                 element,
                 value: format!("{}", choice.dt),
             });
         }
-        s.time_step = choice;
+        *time_step = choice;
         Ok(())
     }
 }

@@ -1,36 +1,47 @@
 //! Barrier-crossing detection: the edges outside [l_−, l_+].
 //!
-//! Stage: BarrierCheck. Reads: positions, topology, triggers. Writes: the
-//! list of abnormal edges (slots), consumed by remeshing.
+//! Stage: BarrierCheck. Reads: [`Membrane`] (edges), [`DensePositions`],
+//! the triggers in [`RemeshParams`]. Writes: [`AbnormalEdges`], consumed by
+//! remeshing.
 
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
+use crate::membrane::Membrane;
+use crate::params::RemeshParams;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{DensePositions, SimError};
+
+/// Edges (slots) outside [l_−, l_+] after the last integration (or, after
+/// remeshing, those it left abnormal).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct AbnormalEdges(pub Vec<u32>);
 
 /// The barrier-check system.
 pub struct BarrierCheck;
 
 impl System for BarrierCheck {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, RemeshParams>,
+        ResMut<'a, AbnormalEdges>,
+    );
+
     fn name(&self) -> &str {
         "barrier_check"
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::Positions, Data::Topology],
-            &[Data::BarrierCrossings],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        let s = state;
-        let (short, long) = (s.remesh.shorter_than, s.remesh.longer_than);
+    fn run(
+        &mut self,
+        (membrane, positions, remesh, mut abnormal): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let (short, long) = (remesh.shorter_than, remesh.longer_than);
         let (short2, long2) = (short * short, long * long);
-        s.abnormal_edges.clear();
-        let p = &s.positions;
-        for (e, &[a, b]) in s.membrane.cached_topology().edges.iter().enumerate() {
+        abnormal.0.clear();
+        let p = &positions.0;
+        for (e, &[a, b]) in membrane.cached_topology().edges.iter().enumerate() {
             let l2 = p[a as usize].distance_squared(p[b as usize]);
             if !(short2..=long2).contains(&l2) {
-                s.abnormal_edges.push(e as u32);
+                abnormal.0.push(e as u32);
             }
         }
         Ok(())

@@ -1,15 +1,18 @@
 //! Scheduled changes of control points (scene data: "at iteration N move or
 //! scale these points", "every I iterations move point k by d").
 //!
-//! Stage: Prepare. Reads: clock. Writes: control points (positions and
-//! stiffness of the [`ControlPoint`] entities, by declaration index). A
+//! Stage: Prepare. Reads: [`Clock`]. Writes: control points (positions and
+//! stiffness of the [`ControlPoint`] entities in the [`Membrane`]'s world,
+//! by declaration index). A
 //! change with `At(iteration: N)` is applied once N iterations are done,
 //! i.e. before iteration N + 1 is computed; `Every(interval: I, start: S)`
 //! applies at S, S + I, S + 2I, …
 
 use crate::components::{ControlPoint, ControlPointIndex};
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
+use crate::membrane::Membrane;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{Clock, SimError};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -128,16 +131,14 @@ impl ControlPointSchedule {
 }
 
 impl System for ControlPointSchedule {
+    type Data<'a> = (Res<'a, Clock>, ResMut<'a, Membrane>);
+
     fn name(&self) -> &str {
         "control_point_schedule"
     }
 
-    fn access(&self) -> Access {
-        Access::new(&[Data::Clock], &[Data::ControlPoints])
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        let (iteration, time) = (state.clock.iteration, state.clock.time);
+    fn run(&mut self, (clock, mut membrane): Self::Data<'_>) -> Result<(), SimError> {
+        let (iteration, time) = (clock.iteration, clock.time);
         for (change, next) in self.changes.iter().zip(&mut self.next_time) {
             let due = match change.when {
                 When::EveryTime { interval, .. } if time >= *next => {
@@ -151,8 +152,7 @@ impl System for ControlPointSchedule {
             if !due {
                 continue;
             }
-            for (index, point) in state
-                .membrane
+            for (index, point) in membrane
                 .world
                 .query_mut::<(&ControlPointIndex, &mut ControlPoint)>()
             {

@@ -1,34 +1,42 @@
-//! Prepares the force accumulators and the shared per-face geometry.
+//! Prepares the force buffers and the shared per-face geometry.
 //!
-//! Stage: Prepare (after `gather_state`). Reads: positions, topology.
-//! Writes: face geometry (edges, unit normals, areas, cotangents; computed
-//! only if a force term uses it), zeroed force accumulators.
+//! Stage: Gather (after `gather_state`). Reads: [`Membrane`] (faces),
+//! [`DensePositions`]. Writes: [`FaceGeometry`] (edges, unit normals, areas,
+//! cotangents; computed only if a force term uses it), zeroed term buffers
+//! in [`ForceBuffers`].
 
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
+use crate::force::{FaceGeometry, ForceBuffers};
+use crate::membrane::Membrane;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{DensePositions, SimError};
 
 /// The face-geometry system.
-pub struct FaceGeometry;
+pub struct FaceGeometrySystem;
 
-impl System for FaceGeometry {
+impl System for FaceGeometrySystem {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        ResMut<'a, FaceGeometry>,
+        ResMut<'a, ForceBuffers>,
+    );
+
     fn name(&self) -> &str {
         "face_geometry"
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::Positions, Data::Topology],
-            &[Data::FaceGeometry, Data::ForceAccumulators],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        let s = state;
-        s.forces.begin(
-            s.membrane.cached_topology(),
-            &s.positions,
-            &mut s.evaluation,
-        );
+    fn run(
+        &mut self,
+        (membrane, positions, mut geometry, mut buffers): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        buffers.begin(positions.0.len());
+        if buffers.needs_face_geometry() {
+            let faces = &membrane.cached_topology().faces;
+            crate::geometry::face_geometry(&positions.0, faces, &mut geometry.0);
+        } else {
+            geometry.0.clear();
+        }
         Ok(())
     }
 }

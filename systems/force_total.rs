@@ -1,56 +1,53 @@
-//! Sums the force terms, smooths the penalty forces, checks finiteness and
-//! writes the total force back to the world.
+//! Checks every term's force for finiteness, sums the term buffers and
+//! smooths the penalty forces.
 //!
-//! Stage: Forces (last). Reads: per-term force accumulators. Writes: total
-//! force (dense and the world's `Force` components). Fails with a blow-up
-//! error naming the term and vertex of the first non-finite force.
+//! Stage: Forces (last; every registered term runs before it). Reads:
+//! [`Membrane`] (1-rings for the smoothing), [`Clock`] (for errors).
+//! Writes: the total in [`ForceBuffers`] (the Forces stage writes only the
+//! force buffers; the world's `Force` components are written with the
+//! positions by the integrator). Fails with a blow-up error naming the term
+//! and vertex of the first non-finite force.
 
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
+use crate::force::{FORCE_TOTAL, ForceBuffers};
+use crate::membrane::Membrane;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{Clock, SimError};
 
 /// The force-total system.
 pub struct ForceTotal;
 
 impl System for ForceTotal {
+    type Data<'a> = (Res<'a, Membrane>, Res<'a, Clock>, ResMut<'a, ForceBuffers>);
+
     fn name(&self) -> &str {
-        "force_total"
+        FORCE_TOTAL
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::ForceAccumulators, Data::Topology],
-            &[Data::ForceAccumulators],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        let s = state;
-        let names = s.forces.names();
-        for (t, (buf, energy)) in s
-            .evaluation
-            .term_forces
-            .iter()
-            .zip(&s.evaluation.energies)
-            .enumerate()
-        {
-            let bad = buf.iter().position(|f| !f.is_finite());
-            if bad.is_some() || !energy.is_finite() {
-                let (element, value) = match bad {
-                    Some(v) => (format!("vertex {v}"), format!("{:?}", buf[v])),
-                    None => ("the energy".to_string(), format!("{energy}")),
-                };
-                return Err(SimError::BlowUp {
-                    iteration: s.clock.iteration + 1,
-                    quantity: "force",
-                    term: names[t].clone(),
-                    element,
-                    value,
-                });
-            }
+    fn run(&mut self, (membrane, clock, mut buffers): Self::Data<'_>) -> Result<(), SimError> {
+        if let Some((term, vertex)) = buffers.first_non_finite() {
+            let ev = &buffers.evaluation;
+            let index = buffers
+                .terms()
+                .iter()
+                .position(|t| t.name == term)
+                .unwrap_or(0);
+            let (element, value) = match vertex {
+                Some(v) => (
+                    format!("vertex {v}"),
+                    format!("{:?}", ev.term_forces[index][v]),
+                ),
+                None => ("the energy".to_string(), format!("{}", ev.energies[index])),
+            };
+            return Err(SimError::BlowUp {
+                iteration: clock.iteration + 1,
+                quantity: "force",
+                term: term.to_string(),
+                element,
+                value,
+            });
         }
-        s.forces
-            .finish(s.membrane.cached_topology(), &mut s.evaluation);
-        s.membrane.scatter_forces(&s.evaluation.total);
+        buffers.finish(membrane.cached_topology());
         Ok(())
     }
 }

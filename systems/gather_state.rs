@@ -1,31 +1,35 @@
 //! Refreshes the topology cache and gathers the dense state mirror.
 //!
-//! Stage: Prepare (first). Reads: the world (positions, lipid density,
-//! mesh entities). Writes: topology cache (rebuilt only when the structure
-//! epoch changed), dense positions and lipid density.
+//! Stage: Gather (first). Reads: the world (positions, lipid density, mesh
+//! entities). Writes: the topology cache in [`Membrane`] (rebuilt only when
+//! the structure epoch changed), [`DensePositions`], [`DenseLipid`].
 
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
+use crate::membrane::Membrane;
+use crate::resources::ResMut;
+use crate::schedule::System;
+use crate::simulation::{DenseLipid, DensePositions, SimError};
 
 /// The gather system.
 pub struct GatherState;
 
 impl System for GatherState {
+    type Data<'a> = (
+        ResMut<'a, Membrane>,
+        ResMut<'a, DensePositions>,
+        ResMut<'a, DenseLipid>,
+    );
+
     fn name(&self) -> &str {
         "gather_state"
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::Topology, Data::Positions, Data::LipidDensity],
-            &[Data::Topology, Data::Positions],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        state.membrane.topology()?;
-        state.membrane.gather_positions(&mut state.positions);
-        state.membrane.gather_lipid(&mut state.lipid);
+    fn run(
+        &mut self,
+        (mut membrane, mut positions, mut lipid): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        membrane.topology()?;
+        membrane.gather_positions(&mut positions.0);
+        membrane.gather_lipid(&mut lipid.0);
         Ok(())
     }
 }

@@ -1,15 +1,19 @@
 //! Lipid diffusion over mesh edges (SPEC §5, paper Eq. 11).
 //!
 //! Stage: Diffuse. Runs after every tick whose remeshing was triggered.
-//! Reads: positions (barrier regions), topology, valences. Writes: lipid
-//! density (dense mirror and world). Each of `sweeps` synchronous sweeps
+//! Reads: [`RemeshTriggered`], [`DensePositions`] (barrier regions), the
+//! topology and valences in [`Membrane`]. Writes: [`DenseLipid`] and the
+//! world's lipid density (in [`Membrane`]). Each of `sweeps` synchronous sweeps
 //! moves k_d ρ_a / v_a from a to b and k_d ρ_b / v_b from b to a over every
 //! allowed edge (a, b) (v = valence), so Σρ is conserved; an edge touching a
 //! blocked vertex does not diffuse. `Instant` sets ρ = Σρ / N everywhere.
 
+use crate::membrane::Membrane;
 use crate::params::{BlockedRegion, DiffusionParams, DiffusionRate};
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{DenseLipid, DensePositions, SimError};
+use crate::systems::remesh::RemeshTriggered;
 use glam::DVec3;
 
 /// The diffusion system.
@@ -68,36 +72,36 @@ pub fn diffuse(
 }
 
 impl System for LipidDiffusion {
+    type Data<'a> = (
+        Res<'a, RemeshTriggered>,
+        Res<'a, DensePositions>,
+        ResMut<'a, DenseLipid>,
+        ResMut<'a, Membrane>,
+    );
+
     fn name(&self) -> &str {
         "lipid_diffusion"
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::Positions, Data::Topology, Data::LipidDensity],
-            &[Data::LipidDensity],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        if !state.remesh_triggered || state.lipid.is_empty() {
+    fn run(
+        &mut self,
+        (triggered, positions, mut lipid, mut membrane): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let lipid = &mut lipid.0;
+        if !triggered.0 || lipid.is_empty() {
             return Ok(());
         }
-        let t = state.membrane.cached_topology();
+        let t = membrane.cached_topology();
         match self.params.rate {
             DiffusionRate::Instant => {
-                let mean = state.lipid.iter().sum::<f64>() / state.lipid.len() as f64;
-                state.lipid.iter_mut().for_each(|r| *r = mean);
+                let mean = lipid.iter().sum::<f64>() / lipid.len() as f64;
+                lipid.iter_mut().for_each(|r| *r = mean);
             }
             DiffusionRate::Finite(k) => {
                 let regions = &self.params.barrier;
-                let free: Vec<bool> = state
-                    .positions
-                    .iter()
-                    .map(|&p| !blocked(regions, p))
-                    .collect();
+                let free: Vec<bool> = positions.0.iter().map(|&p| !blocked(regions, p)).collect();
                 diffuse(
-                    &mut state.lipid,
+                    lipid,
                     &t.edges,
                     |v| t.valence(v),
                     |v| free[v],
@@ -107,7 +111,7 @@ impl System for LipidDiffusion {
                 );
             }
         }
-        state.membrane.scatter_lipid(&state.lipid);
+        membrane.scatter_lipid(lipid);
         Ok(())
     }
 }

@@ -2,10 +2,12 @@
 //! is processed once per tick, in a seeded random order, until none remain
 //! or `max_events_per_tick` is reached (an overflow, counted).
 //!
-//! Stage: Remesh. Reads: positions, topology, V_in segmentation, remesh
-//! parameters, valence range. Writes: positions (patch relaxation), mesh
-//! entities (splits and merges through the mesh-edit layer), lipid density
-//! (split/merge policies), remesh statistics.
+//! Stage: Remesh. Reads: [`VinSegmentation`], [`RemeshParams`],
+//! [`ValenceRange`], [`DynamicsParams`] (mobility), [`Seed`], [`Clock`],
+//! [`CheckInvariants`]. Writes: [`DensePositions`] and [`DenseLipid`] (patch
+//! relaxation, split/merge policies), the mesh entities in [`Membrane`]
+//! (splits and merges through the mesh-edit layer), [`AbnormalEdges`] (what
+//! is left), [`RemeshStats`], [`RemeshTriggered`].
 //!
 //! Per edge: pre-relax the patch (edge ends and their 1-ring move, the
 //! 2-ring is fixed) under V_in plus Lévy kicks, extending (split) or
@@ -16,12 +18,18 @@
 //! of the tick is counted as unresolved (never dropped silently).
 
 use crate::components::Position;
-use crate::params::RemeshParams;
+use crate::membrane::Membrane;
+use crate::mesh::ValenceRange;
+use crate::params::{DynamicsParams, RemeshParams};
 use crate::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
-use crate::remesh::{OutcomeCounts, check_feasible, merge_edge, split_edge};
-use crate::schedule::{Access, Data, System};
-use crate::simulation::{SimError, SimState};
-use crate::systems::langevin_integration::stream_seed;
+use crate::remesh::{OutcomeCounts, RemeshStats, check_feasible, merge_edge, split_edge};
+use crate::resources::{Res, ResMut};
+use crate::rng::stream_seed;
+use crate::schedule::System;
+use crate::simulation::{CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError};
+use crate::systems::barrier_check::AbnormalEdges;
+use crate::systems::vin_forces::VinSegmentation;
+use glam::DVec3;
 use hecs::Entity;
 use rand::{RngExt, SeedableRng};
 use std::collections::HashSet;
@@ -39,49 +47,88 @@ pub struct Remesh {
     kicks: Option<KickTable>,
 }
 
+/// Whether this tick's remeshing was triggered (abnormal edges existed);
+/// diffusion runs only after such ticks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RemeshTriggered(pub bool);
+
+/// What the remesh steps below work on: borrowed resources.
+struct State<'a> {
+    membrane: &'a mut Membrane,
+    positions: &'a mut Vec<DVec3>,
+    lipid: &'a mut Vec<f64>,
+    remesh_stats: &'a mut RemeshStats,
+    remesh: RemeshParams,
+    valence: ValenceRange,
+    iteration: u64,
+    check_invariants: bool,
+}
+
 impl System for Remesh {
+    type Data<'a> = (
+        (
+            Res<'a, VinSegmentation>,
+            Res<'a, RemeshParams>,
+            Res<'a, ValenceRange>,
+            Res<'a, DynamicsParams>,
+            Res<'a, Seed>,
+            Res<'a, Clock>,
+            Res<'a, CheckInvariants>,
+        ),
+        (
+            ResMut<'a, Membrane>,
+            ResMut<'a, DensePositions>,
+            ResMut<'a, DenseLipid>,
+            ResMut<'a, AbnormalEdges>,
+            ResMut<'a, RemeshStats>,
+            ResMut<'a, RemeshTriggered>,
+        ),
+    );
+
     fn name(&self) -> &str {
         "remesh"
     }
 
-    fn access(&self) -> Access {
-        Access::new(
-            &[Data::Positions, Data::Topology, Data::BarrierCrossings],
-            &[
-                Data::Positions,
-                Data::Topology,
-                Data::LipidDensity,
-                Data::BarrierCrossings,
-            ],
-        )
-    }
-
-    fn run(&mut self, state: &mut SimState) -> Result<(), SimError> {
-        state.remesh_triggered = !state.abnormal_edges.is_empty();
-        if !state.remesh_triggered {
+    fn run(
+        &mut self,
+        (
+            (seg, params, valence, dynamics, seed, clock, check),
+            (mut membrane, mut positions, mut lipid, mut abnormal, mut stats, mut triggered),
+        ): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        triggered.0 = !abnormal.0.is_empty();
+        if !triggered.0 {
             return Ok(());
         }
-        let Some(seg) = state.segmentation.clone() else {
-            return Ok(());
-        };
-        let p = state.remesh;
+        let seg = seg.0.clone();
+        let p = *params;
         let settings = RelaxSettings {
             normal: p.normal_range,
             kick_scale: p.kick_scale,
-            mobility: state.dynamics.mobility,
+            mobility: dynamics.mobility,
             max_iterations: p.relax_iterations,
         };
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(stream_seed(
-            state.seed,
+            seed.0,
             REMESH_STREAM,
-            state.clock.iteration,
+            clock.iteration,
         ));
-        let seed = state.seed;
+        let seed = seed.0;
         let kicks = self.kicks.get_or_insert_with(|| {
             KickTable::new(&mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(
                 stream_seed(seed, KICK_TABLE_STREAM, 0),
             ))
         });
+        let state = &mut State {
+            membrane: &mut membrane,
+            positions: &mut positions.0,
+            lipid: &mut lipid.0,
+            remesh_stats: &mut stats,
+            remesh: p,
+            valence: *valence,
+            iteration: clock.iteration,
+            check_invariants: check.0,
+        };
         let mut attempted: HashSet<(Entity, Entity)> = HashSet::new();
         let mut events = 0;
         loop {
@@ -103,15 +150,15 @@ impl System for Remesh {
             events += 1;
             process(state, edge, long, &seg, &settings, kicks, &mut rng)?;
         }
-        let abnormal: Vec<u32> = abnormal_edges(state, &p, &HashSet::new())
+        let left: Vec<u32> = abnormal_edges(state, &p, &HashSet::new())
             .into_iter()
             .map(|(e, _)| e)
             .collect();
-        if !abnormal.is_empty() && events < p.max_events_per_tick {
+        if !left.is_empty() && events < p.max_events_per_tick {
             state.remesh_stats.unresolved_ticks += 1;
-            state.remesh_stats.unresolved_edges += abnormal.len() as u64;
+            state.remesh_stats.unresolved_edges += left.len() as u64;
         }
-        state.abnormal_edges = abnormal;
+        abnormal.0 = left;
         Ok(())
     }
 }
@@ -126,7 +173,7 @@ fn ordered(a: Entity, b: Entity) -> (Entity, Entity) {
 
 /// Abnormal edges not yet attempted this tick: (slot, too long?).
 fn abnormal_edges(
-    state: &SimState,
+    state: &State<'_>,
     p: &RemeshParams,
     attempted: &HashSet<(Entity, Entity)>,
 ) -> Vec<(u32, bool)> {
@@ -151,13 +198,13 @@ fn abnormal_edges(
 
 /// With `check_invariants` (debug builds, every test, and
 /// `--check-invariants`), the full invariant check after each topology edit.
-fn debug_check_invariants(state: &SimState) -> Result<(), SimError> {
+fn debug_check_invariants(state: &State<'_>) -> Result<(), SimError> {
     if state.check_invariants {
         let t = state.membrane.cached_topology();
-        if let Err(e) = crate::mesh::check_mesh(&state.positions, &t.faces, Some(state.valence)) {
+        if let Err(e) = crate::mesh::check_mesh(state.positions, &t.faces, Some(state.valence)) {
             return Err(SimError::Output(format!(
                 "mesh invariant broken after a remesh edit at iteration {}: {e}",
-                state.clock.iteration + 1
+                state.iteration + 1
             )));
         }
     }
@@ -165,7 +212,7 @@ fn debug_check_invariants(state: &SimState) -> Result<(), SimError> {
 }
 
 /// Writes a patch's moveable positions back (dense mirror and world).
-fn write_back(state: &mut SimState, patch: &Patch, slots: &[u32]) {
+fn write_back(state: &mut State<'_>, patch: &Patch, slots: &[u32]) {
     let t = state.membrane.cached_topology();
     let entities: Vec<Entity> = slots[..patch.moveable]
         .iter()
@@ -181,15 +228,15 @@ fn write_back(state: &mut SimState, patch: &Patch, slots: &[u32]) {
 }
 
 /// Re-gathers the dense mirror after a topology change.
-fn refresh(state: &mut SimState) -> Result<(), SimError> {
+fn refresh(state: &mut State<'_>) -> Result<(), SimError> {
     state.membrane.topology()?;
-    state.membrane.gather_positions(&mut state.positions);
-    state.membrane.gather_lipid(&mut state.lipid);
+    state.membrane.gather_positions(state.positions);
+    state.membrane.gather_lipid(state.lipid);
     Ok(())
 }
 
 fn process(
-    state: &mut SimState,
+    state: &mut State<'_>,
     edge: u32,
     long: bool,
     seg: &crate::energy::vin::Segmentation,
@@ -207,7 +254,7 @@ fn process(
     } else {
         &mut state.remesh_stats.merge
     };
-    if check_feasible(&state.membrane, edge, long, valence).is_err() {
+    if check_feasible(state.membrane, edge, long, valence).is_err() {
         counts.impossible += 1;
         push_back(state, a, b, seg, settings, kicks, rng);
         return Ok(());
@@ -266,9 +313,9 @@ fn process(
     write_back(state, &patch, &slots);
     // The edge's slot is unchanged until the topology changes.
     let result = if long {
-        split_edge(&mut state.membrane, edge, valence)
+        split_edge(state.membrane, edge, valence)
     } else {
-        merge_edge(&mut state.membrane, edge, valence)
+        merge_edge(state.membrane, edge, valence)
     };
     let counts: &mut OutcomeCounts = if long {
         &mut state.remesh_stats.split
@@ -279,7 +326,7 @@ fn process(
         Ok(out) => {
             counts.success += 1;
             state.remesh_stats.events.push(crate::remesh::RemeshEvent {
-                iteration: state.clock.iteration,
+                iteration: state.iteration,
                 split: long,
                 position: out.position.to_array(),
             });
@@ -294,7 +341,7 @@ fn process(
             moveable.extend_from_slice(t.neighbours(v as usize));
             let (mut post, post_slots) = Patch::around(
                 state.membrane.cached_topology(),
-                &state.positions,
+                state.positions,
                 &moveable,
                 None,
             );
@@ -356,7 +403,7 @@ fn ladder(
 /// fail. Returns the last attempt's outcome, patch and slots, and the
 /// iterations of all attempts.
 fn relax_around_edge(
-    state: &SimState,
+    state: &State<'_>,
     [a, b]: [u32; 2],
     attempts: &[(usize, RelaxSettings)],
     goal: Goal,
@@ -369,7 +416,7 @@ fn relax_around_edge(
     let mut last = (RelaxOutcome::Failure, Patch::default(), Vec::new());
     for (depth, settings) in attempts {
         let moveable = rings(t, &[a, b], *depth);
-        let (mut patch, slots) = Patch::around(t, &state.positions, &moveable, Some([a, b]));
+        let (mut patch, slots) = Patch::around(t, state.positions, &moveable, Some([a, b]));
         let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
         iterations += u64::from(relaxed.iterations);
         last = (relaxed.outcome, patch, slots);
@@ -386,7 +433,7 @@ fn relax_around_edge(
 /// moveable too (the reference's wider-ring fallback), and then with the
 /// paper's normal range (see `ladder`). Keeps the result unless all fail.
 fn push_back(
-    state: &mut SimState,
+    state: &mut State<'_>,
     a: u32,
     b: u32,
     seg: &crate::energy::vin::Segmentation,

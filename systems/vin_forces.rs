@@ -10,7 +10,12 @@ use crate::force::{ForceContext, ForceTerm};
 use glam::DVec3;
 use std::sync::Arc;
 
-/// The V_in force system.
+/// The V_in segmentation shared by the V_in force, the time-step
+/// controller and remeshing (inserted by the Vin plugin).
+#[derive(Clone, Debug)]
+pub struct VinSegmentation(pub Arc<Segmentation>);
+
+/// The V_in force term.
 pub struct VinForces {
     segmentation: Arc<Segmentation>,
     form: VinForm,

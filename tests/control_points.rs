@@ -24,8 +24,7 @@ const SCENE: &str = r#"Scene(
 
 fn points(sim: &remembrane::simulation::Simulation) -> Vec<ControlPoint> {
     let mut v: Vec<(u32, ControlPoint)> = sim
-        .state
-        .membrane
+        .membrane()
         .world
         .query::<(&ControlPointIndex, &ControlPoint)>()
         .iter()
@@ -45,7 +44,7 @@ fn schedules_move_scale_and_restiffen_points_when_due() {
     let mut history = Vec::new();
     for _ in 0..60 {
         sim.tick().unwrap();
-        history.push((sim.state.clock.iteration, points(&sim)));
+        history.push((sim.clock().iteration, points(&sim)));
     }
     let at = |n: u64| &history.iter().find(|(i, _)| *i == n).unwrap().1;
     // Every 10 from 10: applied before iterations 11, 21, 31, 41, 51.
@@ -70,8 +69,7 @@ fn the_membrane_follows_a_moved_control_point() {
         .build(path)
         .unwrap();
     let x_max = |sim: &remembrane::simulation::Simulation| {
-        sim.state
-            .positions
+        sim.positions()
             .iter()
             .map(|p: &DVec3| p.x)
             .fold(f64::MIN, f64::max)

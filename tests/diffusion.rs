@@ -7,8 +7,10 @@ use remembrane::components::LipidDensity;
 use remembrane::membrane::Membrane;
 use remembrane::mesh::icosphere;
 use remembrane::params::BlockedRegion;
+use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
 use remembrane::systems::lipid_diffusion::{blocked, diffuse};
+use remembrane::systems::remesh::RemeshTriggered;
 use std::path::Path;
 
 fn sphere() -> (Vec<DVec3>, remembrane::topology::Topology) {
@@ -140,8 +142,7 @@ fn instant_diffusion_and_remeshing_conserve_density() {
         let scene = Scene::from_ron_str(&text, &path).unwrap();
         let mut sim = scene.build(&path).unwrap();
         let density = |sim: &remembrane::simulation::Simulation| -> Vec<f64> {
-            sim.state
-                .membrane
+            sim.membrane()
                 .world
                 .query::<&LipidDensity>()
                 .iter()
@@ -152,7 +153,7 @@ fn instant_diffusion_and_remeshing_conserve_density() {
         let mut diffused = 0;
         for _ in 0..1500 {
             sim.tick().unwrap();
-            if sim.state.remesh_triggered {
+            if sim.resource::<RemeshTriggered>().0 {
                 diffused += 1;
                 let rho = density(&sim);
                 assert!((sum(&rho) - total).abs() < 1e-12 * total, "{rate}");
@@ -162,13 +163,13 @@ fn instant_diffusion_and_remeshing_conserve_density() {
                     assert!(
                         worst < 1e-12 * mean,
                         "iteration {}: deviation {worst}",
-                        sim.state.clock.iteration
+                        sim.clock().iteration
                     );
                 }
             }
         }
         assert!(diffused > 10, "{rate}: diffusion ran {diffused} times");
-        assert!(sim.state.remesh_stats.successes() > 10);
+        assert!(sim.resource::<RemeshStats>().successes() > 10);
     }
 }
 

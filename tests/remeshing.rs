@@ -5,10 +5,14 @@
 use rand::SeedableRng;
 use remembrane::components::LipidDensity;
 use remembrane::energy::vin::{Segmentation, VinParams};
+use remembrane::force::ForceBuffers;
 use remembrane::relax::{
     Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, Relaxed, relax, rings, stable_alpha1_beta1,
 };
+use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
+use remembrane::systems::barrier_check::AbnormalEdges;
+use remembrane::systems::vin_forces::VinSegmentation;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -124,8 +128,7 @@ fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
     let mut sim = scene.build(&path).unwrap();
     let total = |sim: &remembrane::simulation::Simulation| -> f64 {
         let mut v: Vec<f64> = sim
-            .state
-            .membrane
+            .membrane()
             .world
             .query::<&LipidDensity>()
             .iter()
@@ -138,21 +141,25 @@ fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
     let mut reported = 0;
     for _ in 0..3000 {
         sim.tick().unwrap();
-        let s = &sim.state;
         // A tick may end with abnormal edges only if it says so.
-        let now = s.remesh_stats.overflow_ticks + s.remesh_stats.unresolved_ticks;
+        let now = {
+            let stats = sim.resource::<RemeshStats>();
+            stats.overflow_ticks + stats.unresolved_ticks
+        };
         if now > reported {
             reported = now;
-            assert!(!s.abnormal_edges.is_empty());
+            assert!(!sim.resource::<AbnormalEdges>().0.is_empty());
             continue;
         }
-        let t = s.membrane.cached_topology();
+        let membrane = sim.membrane();
+        let t = membrane.cached_topology();
+        let p = sim.positions();
         for &[a, b] in &t.edges {
-            let l = s.positions[a as usize].distance(s.positions[b as usize]);
+            let l = p[a as usize].distance(p[b as usize]);
             assert!(
                 (0.7..=1.3).contains(&l),
                 "iteration {}: edge length {l}",
-                s.clock.iteration
+                sim.clock().iteration
             );
         }
         for v in 0..t.vertex_count() {
@@ -160,7 +167,7 @@ fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
         }
         assert!((total(&sim) - initial).abs() < 1e-12 * initial);
     }
-    let stats = &sim.state.remesh_stats;
+    let stats = sim.resource::<RemeshStats>();
     println!(
         "{:?} {:?} overflow {} unresolved {}",
         stats.split, stats.merge, stats.overflow_ticks, stats.unresolved_ticks
@@ -187,9 +194,13 @@ fn geometric_mode_removes_the_global_vin_force_only() {
     let mut scene = Scene::load(&path).unwrap();
     scene.remesh.mode = remembrane::params::RemeshMode::Geometric;
     let sim = scene.build(&path).unwrap();
-    assert!(!sim.state.forces.names().contains(&"vin".to_string()));
     assert!(
-        sim.state.segmentation.is_some(),
+        !sim.resource::<ForceBuffers>()
+            .names()
+            .contains(&"vin".to_string())
+    );
+    assert!(
+        sim.resources().contains::<VinSegmentation>(),
         "V_in still sets Δt and relaxes patches"
     );
 }
@@ -210,7 +221,7 @@ fn centroid_coupling_removes_the_merge_churn_around_holders() {
         for _ in 0..2000 {
             sim.tick().unwrap();
         }
-        let m = sim.state.remesh_stats.merge;
+        let m = sim.resource::<RemeshStats>().merge;
         println!("{name}: merge {m:?}");
         m.success + m.cancel + m.impossible + m.failure
     };

@@ -49,7 +49,7 @@ fn the_good_scene_loads() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "scene.ron", GOOD);
     let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
-    let e = sim.evaluate_forces().unwrap().total_energy();
+    let e = sim.evaluate_forces().unwrap().evaluation.total_energy();
     assert!((e - 24.662632).abs() < 1e-5);
 }
 

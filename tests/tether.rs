@@ -51,15 +51,15 @@ fn a_phase_continues_from_the_saved_state_of_the_previous_one() {
     opts.from = Some(first.join("state.json"));
     let mut sim_pull = None;
     let summary = run_scene(&pull, &pull_path, &opts, |sim| {
-        assert_eq!(
-            sim.state.membrane.cached_topology().vertex_count(),
-            rho.len()
-        );
+        assert_eq!(sim.membrane().cached_topology().vertex_count(), rho.len());
         let mut gathered = Vec::new();
-        sim.state.membrane.gather_lipid(&mut gathered);
+        sim.membrane().gather_lipid(&mut gathered);
         assert_eq!(gathered, rho, "densities are restored vertex by vertex");
         // a0 = A_t / Σρ.
-        sim_pull = Some(sim.state.initial.lipid_total);
+        sim_pull = Some(
+            sim.resource::<remembrane::simulation::InitialState>()
+                .lipid_total,
+        );
         Ok(())
     })
     .unwrap();
@@ -124,14 +124,13 @@ fn time_scheduled_moves_follow_simulated_time() {
     let mut sim = scene.build(&path).unwrap();
     sim.start().unwrap();
     let start = (-14.0, 14.0);
-    while sim.state.clock.time < 3.0 * 1.25e-4 && sim.state.clock.iteration < 20_000 {
+    while sim.clock().time < 3.0 * 1.25e-4 && sim.clock().iteration < 20_000 {
         // The move for the interval that starts at time t is applied at the
         // beginning of the first tick with clock.time ≥ t.
-        let due = (sim.state.clock.time / 1.25e-4).floor() as i64 + 1;
+        let due = (sim.clock().time / 1.25e-4).floor() as i64 + 1;
         sim.tick().unwrap();
         let p = sim
-            .state
-            .membrane
+            .membrane_mut()
             .world
             .query_mut::<(&ControlPointIndex, &ControlPoint)>()
             .into_iter()
@@ -139,11 +138,11 @@ fn time_scheduled_moves_follow_simulated_time() {
             .map(|(_, c)| c.position)
             .unwrap();
         let moves = ((start.0 - p.x) / 0.75).round() as i64;
-        assert_eq!(moves, due, "t = {}", sim.state.clock.time);
+        assert_eq!(moves, due, "t = {}", sim.clock().time);
         assert!((p.y - (start.1 + 0.75 * moves as f64)).abs() < 1e-9);
     }
     assert!(
-        sim.state.clock.time > 2.0 * 1.25e-4,
+        sim.clock().time > 2.0 * 1.25e-4,
         "the test spans several intervals"
     );
 }

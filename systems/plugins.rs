@@ -1,0 +1,197 @@
+//! The built-in plugins. Each is a function returning a [`Plugin`] that
+//! registers its resources and systems on a [`SimBuilder`], through the same
+//! calls a user's crate makes (`insert_resource`, `add_system`,
+//! `add_force_term`). A scene's build is the list of these plugins.
+//!
+//! | plugin | resources it inserts | systems (stage) |
+//! |---|---|---|
+//! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), `barrier_check` (BarrierCheck) |
+//! | [`vin`] | `VinSegmentation` | term `vin` (Forces) unless force-free |
+//! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`] | — | their term (Forces) |
+//! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
+//! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
+//! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
+
+use crate::components::ControlPoint;
+use crate::energy::vin::{Segmentation, VinParams};
+use crate::force::{FaceGeometry, ForceBuffers};
+use crate::membrane::Membrane;
+use crate::mesh::ValenceRange;
+use crate::params::{
+    AreaParams, BendingParams, DiffusionParams, DynamicsParams, LocalTensionParams, RemeshParams,
+    SpringCoupling, VolumeParams,
+};
+use crate::remesh::RemeshStats;
+use crate::schedule::Stage;
+use crate::simulation::{
+    BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Plugin, Seed,
+    SimBuilder,
+};
+use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
+use crate::systems::control_point_schedule::{ControlPointSchedule, ScheduledChange};
+use crate::systems::remesh::{Remesh, RemeshTriggered};
+use crate::systems::vin_forces::VinSegmentation;
+use crate::systems::{
+    AreaForces, BendingForces, LocalTensionForces, SpringForces, VinForces, VolumeForces,
+};
+use crate::timestep::TimeStepChoice;
+use std::sync::Arc;
+
+/// Settings of the core plugin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoreSettings {
+    /// Mobility, temperature, time-step limits.
+    pub dynamics: DynamicsParams,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Passes of 1-ring averaging of penalty forces.
+    pub penalty_smoothing: u32,
+    /// Barrier-crossing triggers (and, for the remesh plugin, its settings).
+    pub remesh: RemeshParams,
+}
+
+/// The core of every simulation: gather, face geometry, force sum, time
+/// step, integration and barrier check, with their resources.
+pub fn core(settings: CoreSettings) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.insert_resource(Clock::default())
+            .insert_resource(DensePositions::default())
+            .insert_resource(DenseLipid::default())
+            .insert_resource(ForceBuffers::new(settings.penalty_smoothing))
+            .insert_resource(FaceGeometry::default())
+            .insert_resource(TimeStepChoice::default())
+            .insert_resource(settings.dynamics)
+            .insert_resource(settings.remesh)
+            .insert_resource(AbnormalEdges::default())
+            .insert_resource(Seed(settings.seed))
+            .insert_resource(CheckInvariants::default());
+        use crate::systems::{adaptive_time_step, face_geometry, force_total, gather_state};
+        b.add_system(Stage::Gather, gather_state::GatherState);
+        b.add_system(Stage::Gather, face_geometry::FaceGeometrySystem)
+            .after("gather_state");
+        b.add_system(Stage::Forces, force_total::ForceTotal);
+        b.add_system(Stage::TimeStep, adaptive_time_step::AdaptiveTimeStep);
+        b.add_system(
+            Stage::Integrate,
+            crate::systems::langevin_integration::LangevinIntegration::default(),
+        );
+        b.add_system(Stage::BarrierCheck, BarrierCheck);
+        Ok(())
+    }
+}
+
+fn initial(b: &SimBuilder, what: &str) -> Result<InitialState, BuildError> {
+    b.resources()
+        .get::<InitialState>()
+        .map(|i| *i)
+        .map_err(|_| BuildError::Requires {
+            what: what.to_string(),
+            resource: "InitialState",
+            plugin: "SimBuilder::new",
+        })
+}
+
+/// The double-barrier edge potential V_in: inserts its segmentation (used by
+/// the time step and remeshing) and, with `exerts_force`, its force term.
+/// The geometric remeshing baseline uses V_in without its global force.
+pub fn vin(params: VinParams, exerts_force: bool) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let segmentation = Arc::new(Segmentation::new(params));
+        b.insert_resource(VinSegmentation(segmentation.clone()));
+        if exerts_force {
+            b.add_force_term(VinForces::new(segmentation, params.form))?;
+        }
+        Ok(())
+    }
+}
+
+/// Helfrich bending.
+pub fn bending(params: BendingParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.add_force_term(BendingForces::new(params))?;
+        Ok(())
+    }
+}
+
+/// The volume penalty, its target resolved against the initial volume.
+pub fn volume(params: VolumeParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let target = params.target.resolve(initial(b, "Volume")?.volume);
+        b.add_force_term(VolumeForces::new(params.k, target))?;
+        Ok(())
+    }
+}
+
+/// The area penalty, its target resolved against the initial area.
+pub fn area(params: AreaParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let target = params.target.resolve(initial(b, "Area")?.area);
+        b.add_force_term(AreaForces::new(params.k, target))?;
+        Ok(())
+    }
+}
+
+/// Density-dependent local tension with a0 = A_t / Σρ: A_t / N_initial for a
+/// fresh mesh (ρ = 1), and the same lipid unit after remeshing or when
+/// starting from a saved state (Σρ is conserved).
+pub fn local_tension(params: LocalTensionParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let init = initial(b, "LocalTension")?;
+        let a0 = params.target_area.resolve(init.area) / init.lipid_total;
+        b.add_force_term(LocalTensionForces::new(params.k, a0))?;
+        Ok(())
+    }
+}
+
+/// Control-point springs with `coupling` (the points come from
+/// [`control_points`]).
+pub fn springs(coupling: SpringCoupling) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.add_force_term(SpringForces::new(coupling))?;
+        Ok(())
+    }
+}
+
+/// Spawns fixed control points (declaration order gives their indices) and,
+/// if `schedule` is not empty, the system applying its changes.
+pub fn control_points(points: Vec<ControlPoint>, schedule: Vec<ScheduledChange>) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let membrane = b
+            .resource_mut::<Membrane>()
+            .ok_or_else(|| BuildError::Requires {
+                what: "control points".into(),
+                resource: "Membrane",
+                plugin: "SimBuilder::new",
+            })?;
+        for p in points {
+            membrane.add_control_point(p);
+        }
+        if !schedule.is_empty() {
+            b.add_system(Stage::Prepare, ControlPointSchedule::new(schedule));
+        }
+        Ok(())
+    }
+}
+
+/// Free-energy remeshing (needs [`core`] and [`vin`]): keeps every vertex's
+/// valence inside `valence`.
+pub fn remesh(valence: ValenceRange) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.insert_resource(valence)
+            .insert_resource(RemeshStats::default())
+            .insert_resource(RemeshTriggered::default());
+        b.add_system(Stage::Remesh, Remesh::default());
+        Ok(())
+    }
+}
+
+/// Lipid diffusion after remeshing ticks (needs [`remesh`]).
+pub fn diffusion(params: DiffusionParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.add_system(
+            Stage::Diffuse,
+            crate::systems::lipid_diffusion::LipidDiffusion::new(params),
+        );
+        Ok(())
+    }
+}

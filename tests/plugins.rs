@@ -1,0 +1,261 @@
+//! The open engine: force terms and systems that a user's crate registers
+//! through the public API act on the dynamics exactly like built-in ones,
+//! and a system gets only the resources it declared.
+
+use glam::DVec3;
+use remembrane::force::{ForceContext, ForceTerm};
+use remembrane::resources::{CheckedResources, FetchError, Res, ResMut};
+use remembrane::scene::Scene;
+use remembrane::schedule::{DynamicSystem, Stage, System};
+use remembrane::simulation::{BuildError, Clock, DensePositions, SimBuilder, SimError, Simulation};
+use std::path::Path;
+
+/// A uniform external field: E = −Σ_i F·x_i, so every vertex feels F.
+struct UniformField(DVec3);
+
+impl ForceTerm for UniformField {
+    fn name(&self) -> &str {
+        "uniform_field"
+    }
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        -ctx.positions.iter().map(|p| self.0.dot(*p)).sum::<f64>()
+    }
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        for f in force.iter_mut() {
+            *f += self.0;
+        }
+        self.energy(ctx)
+    }
+}
+
+/// Bending only (its net force is zero: translation invariance), no
+/// noise, no penalty smoothing: the centroid moves by the field alone.
+const SCENE: &str = r#"Scene(
+    name: "field",
+    membrane: Icosphere(level: 2, jitter: 0.02),
+    energy: [Bending(kappa: 1.0)],
+    penalty_smoothing: 0,
+    dynamics: (mobility: 1.0, temperature: 0.0, dt_max: 1e-3, max_displacement: 0.01, iterations: 200),
+)"#;
+
+const MOBILITY: f64 = 1.0;
+const FIELD: DVec3 = DVec3::new(0.3, -0.2, 0.5);
+/// The centroid moves by μ F t up to the rounding of the bending forces'
+/// zero net sum (~1e-13 per step); 200 steps of ≤ 1e-3 s.
+const CENTROID_TOLERANCE: f64 = 1e-9;
+
+fn scene_sim() -> Simulation {
+    let path = Path::new("field.ron");
+    Scene::from_ron_str(SCENE, path)
+        .unwrap()
+        .build(path)
+        .unwrap()
+}
+
+fn centroid(sim: &Simulation) -> DVec3 {
+    let p = sim.positions();
+    p.iter().copied().sum::<DVec3>() / p.len() as f64
+}
+
+/// Runs 200 ticks and checks the centroid moved by μ F t.
+fn assert_centroid_follows_the_field(sim: &mut Simulation) {
+    sim.evaluate_forces().unwrap();
+    let start = centroid(sim);
+    for _ in 0..200 {
+        sim.tick().unwrap();
+    }
+    let t = sim.clock().time;
+    assert!(t > 0.0);
+    let moved = centroid(sim) - start;
+    let predicted = MOBILITY * FIELD * t;
+    assert!(
+        (moved - predicted).length() < CENTROID_TOLERANCE,
+        "moved {moved:?}, predicted μFt = {predicted:?} (t = {t})"
+    );
+}
+
+#[test]
+fn a_force_term_added_after_the_scene_is_built_moves_the_centroid_by_mu_f_t() {
+    let mut sim = scene_sim();
+    sim.add_force_term(UniformField(FIELD)).unwrap();
+    assert_centroid_follows_the_field(&mut sim);
+    // It is reported, timed and summed like a built-in term.
+    let buffers = sim.evaluate_forces().unwrap();
+    assert_eq!(buffers.names(), ["bending", "uniform_field"]);
+    let total: DVec3 = buffers.evaluation.total.iter().copied().sum();
+    let n = buffers.evaluation.total.len() as f64;
+    assert!((total / n - FIELD).length() < 1e-9, "{total:?}");
+    drop(buffers);
+    let timings = sim.schedule().unwrap().timings();
+    assert!(
+        timings
+            .iter()
+            .any(|t| t.system == "uniform_field" && t.stage == "Forces")
+    );
+}
+
+#[test]
+fn a_plugin_registering_a_force_term_on_the_builder_moves_the_centroid_by_mu_f_t() {
+    use remembrane::systems::plugins;
+    let mesh = remembrane::mesh::icosphere(2, 1.0);
+    let membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let initial = remembrane::simulation::InitialState {
+        vertices: mesh.vertex_count(),
+        lipid_total: mesh.vertex_count() as f64,
+        area: remembrane::geometry::total_area(&mesh.positions, &mesh.faces),
+        volume: remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO),
+    };
+    let field = |b: &mut SimBuilder| -> Result<(), BuildError> {
+        b.add_force_term(UniformField(FIELD))?;
+        Ok(())
+    };
+    let mut builder = SimBuilder::new(membrane, initial);
+    builder
+        .add_plugin(plugins::core(plugins::CoreSettings {
+            dynamics: remembrane::params::DynamicsParams {
+                mobility: MOBILITY,
+                temperature: 0.0,
+                dt_max: 1e-3,
+                ..Default::default()
+            },
+            seed: 1,
+            penalty_smoothing: 0,
+            remesh: Default::default(),
+        }))
+        .unwrap()
+        .add_plugin(plugins::bending(Default::default()))
+        .unwrap()
+        .add_plugin(field)
+        .unwrap();
+    assert_centroid_follows_the_field(&mut builder.build());
+}
+
+#[test]
+fn a_force_term_without_the_core_plugin_is_refused_with_the_reason() {
+    let mesh = remembrane::mesh::icosphere(1, 1.0);
+    let membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let initial = remembrane::simulation::InitialState {
+        vertices: 0,
+        lipid_total: 0.0,
+        area: 0.0,
+        volume: 0.0,
+    };
+    let mut b = SimBuilder::new(membrane, initial);
+    let err = b.add_force_term(UniformField(FIELD)).err().unwrap();
+    assert!(err.to_string().contains("ForceBuffers"), "{err}");
+    assert!(err.to_string().contains("core plugin"), "{err}");
+}
+
+#[test]
+fn a_custom_term_that_goes_non_finite_stops_the_run_naming_it() {
+    let mut sim = scene_sim();
+    sim.add_force_term(UniformField(DVec3::new(f64::NAN, 0.0, 0.0)))
+        .unwrap();
+    let err = sim.tick().unwrap_err();
+    assert!(
+        matches!(&err, SimError::BlowUp { term, .. } if term == "uniform_field"),
+        "{err}"
+    );
+    assert_eq!(sim.clock().iteration, 0);
+}
+
+#[test]
+fn a_custom_term_passes_the_finite_difference_check() {
+    let mut mesh = remembrane::mesh::icosphere(2, 1.0);
+    mesh.jitter(0.05, 3);
+    let mut membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let topology = membrane.topology().unwrap().clone();
+    let report = remembrane::fd::check_force_term(
+        &mut UniformField(FIELD),
+        &membrane.world,
+        &topology,
+        &mesh.positions,
+        &[],
+        None,
+        remembrane::fd::FdOptions::default(),
+    );
+    assert!(report.passed(), "{report:?}");
+}
+
+/// Counts ticks into its own resource: a plugin's own state without any
+/// engine field.
+struct TickCount(u64);
+struct CountTicks;
+
+impl System for CountTicks {
+    type Data<'a> = (Res<'a, Clock>, ResMut<'a, TickCount>);
+    fn name(&self) -> &str {
+        "count_ticks"
+    }
+    fn run(&mut self, (clock, mut count): Self::Data<'_>) -> Result<(), SimError> {
+        count.0 += 1;
+        assert_eq!(count.0, clock.iteration);
+        Ok(())
+    }
+}
+
+#[test]
+fn a_plugin_adds_its_own_resource_and_system() {
+    let mut sim = scene_sim();
+    sim.insert_resource(TickCount(0)).unwrap();
+    sim.add_system(Stage::Observe, CountTicks).unwrap();
+    for _ in 0..5 {
+        sim.tick().unwrap();
+    }
+    assert_eq!(sim.resource::<TickCount>().0, 5);
+}
+
+#[test]
+fn a_system_declaring_a_resource_nobody_inserted_fails_before_tick_zero() {
+    let mut sim = scene_sim();
+    sim.add_system(Stage::Observe, CountTicks).unwrap();
+    let err = sim.tick().unwrap_err();
+    assert!(err.to_string().contains("TickCount"), "{err}");
+    assert_eq!(sim.clock().iteration, 0);
+}
+
+/// A dynamic system that declares a read of the clock but then writes the
+/// positions.
+struct Undeclared;
+
+impl DynamicSystem for Undeclared {
+    fn name(&self) -> &str {
+        "undeclared"
+    }
+    fn access(&self) -> remembrane::resources::Access {
+        remembrane::resources::Access::default().read::<Clock>()
+    }
+    fn run(&mut self, res: &CheckedResources<'_>) -> Result<(), SimError> {
+        let _clock = res.get::<Clock>().unwrap();
+        let resource_error = |source| SimError::Resource {
+            system: "undeclared".into(),
+            source,
+        };
+        let mut p = res.get_mut::<DensePositions>().map_err(resource_error)?;
+        p.0.clear();
+        Ok(())
+    }
+}
+
+#[test]
+fn a_system_touching_a_resource_it_did_not_declare_is_rejected() {
+    let mut sim = scene_sim();
+    sim.add_dynamic_system(Stage::Prepare, Undeclared).unwrap();
+    sim.evaluate_forces().unwrap();
+    let before = sim.positions();
+    assert!(!before.is_empty());
+    let err = sim.tick().unwrap_err();
+    match &err {
+        SimError::Resource {
+            system,
+            source: FetchError::Undeclared { resource, write },
+        } => {
+            assert_eq!(system, "undeclared");
+            assert_eq!(resource.name(), "DensePositions");
+            assert!(*write);
+        }
+        other => panic!("expected an undeclared access, got {other}"),
+    }
+    assert_eq!(sim.positions(), before, "nothing was written");
+    assert_eq!(sim.clock().iteration, 0);
+}
