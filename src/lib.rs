@@ -1,6 +1,7 @@
 //! remembrane: closed triangulated membranes moved by overdamped Langevin
 //! dynamics under their free energy, with free-energy-controlled remeshing.
 
+pub mod cli;
 pub mod collect;
 pub mod compare;
 pub mod components;
@@ -35,7 +36,9 @@ pub mod force;
 pub mod params;
 
 pub mod plot;
+pub mod plugin_decl;
 pub mod quality;
+pub mod registry;
 pub mod relax;
 pub mod remesh;
 pub mod render;

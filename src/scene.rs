@@ -45,6 +45,9 @@ pub struct Scene {
     pub lipid_density: bool,
     /// The energy terms, each at most once. Only these are spawned and run.
     pub energy: Vec<EnergyTerm>,
+    /// Plugin systems, each added to its stage after the built-in ones.
+    #[serde(default)]
+    pub systems: Vec<SystemDecl>,
     /// Passes of closed 1-ring averaging of penalty forces (volume, area,
     /// local tension); as run: 4, 0 = exact gradient.
     #[serde(default = "default_smoothing")]
@@ -146,6 +149,16 @@ pub enum EnergyTerm {
     LocalTension(LocalTensionParams),
     /// Springs from the control points.
     Springs(SpringParams),
+    /// A plugin term from the registry: `Custom(name: "...", params: (...))`.
+    Custom(crate::plugin_decl::TermPlugin),
+}
+
+/// A system declared by a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum SystemDecl {
+    /// A plugin system from the registry:
+    /// `Custom(name: "...", stage: Observe, params: (...))`.
+    Custom(crate::plugin_decl::SystemPlugin),
 }
 
 impl EnergyTerm {
@@ -158,6 +171,7 @@ impl EnergyTerm {
             EnergyTerm::Area(_) => "Area",
             EnergyTerm::LocalTension(_) => "LocalTension",
             EnergyTerm::Springs(_) => "Springs",
+            EnergyTerm::Custom(_) => "Custom",
         }
     }
 }
@@ -246,8 +260,26 @@ fn ron_options() -> ron::Options {
 }
 
 impl Scene {
-    /// Parses scene text; `path` is used in error messages only.
+    /// Parses scene text with the process default plugin registry; `path`
+    /// is used in error messages only.
     pub fn from_ron_str(text: &str, path: &Path) -> Result<Self, SceneError> {
+        Self::from_ron_str_with(
+            text,
+            path,
+            &crate::registry::PluginRegistry::default_registry(),
+        )
+    }
+
+    /// Parses scene text, resolving `Custom` plugins through `registry`.
+    pub fn from_ron_str_with(
+        text: &str,
+        path: &Path,
+        registry: &crate::registry::PluginRegistry,
+    ) -> Result<Self, SceneError> {
+        crate::registry::with_active(registry, || Self::parse(text, path))
+    }
+
+    fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
         let options = ron_options();
         let spanned = |e: ron::error::SpannedError, field: Option<String>| SceneError::Parse {
             path: path.to_owned(),
@@ -272,13 +304,21 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Reads and parses a scene file.
+    /// Reads and parses a scene file with the process default registry.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
+        Self::load_with(path, &crate::registry::PluginRegistry::default_registry())
+    }
+
+    /// Reads and parses a scene file, resolving plugins through `registry`.
+    pub fn load_with(
+        path: &Path,
+        registry: &crate::registry::PluginRegistry,
+    ) -> Result<Self, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             path: path.to_owned(),
             source,
         })?;
-        Self::from_ron_str(&text, path)
+        Self::from_ron_str_with(&text, path, registry)
     }
 
     /// Checks that need the whole scene.
@@ -309,14 +349,18 @@ impl Scene {
         if self.energy.is_empty() {
             return Err(invalid("energy", "declares no energy term".into()));
         }
+        let label = |t: &EnergyTerm| match t {
+            EnergyTerm::Custom(c) => format!("Custom(name: \"{}\")", c.0.name),
+            _ => t.kind().to_string(),
+        };
         for (i, term) in self.energy.iter().enumerate() {
             if let Some(j) = self.energy[..i]
                 .iter()
-                .position(|t| t.kind() == term.kind())
+                .position(|t| label(t) == label(term))
             {
                 return Err(invalid(
                     &format!("energy[{i}]"),
-                    format!("{} is already declared at energy[{j}]", term.kind()),
+                    format!("{} is already declared at energy[{j}]", label(term)),
                 ));
             }
         }
@@ -563,6 +607,11 @@ impl Scene {
         use crate::systems::plugins;
         let mut builder = SimBuilder::new(membrane, initial);
         let build_err = |e: BuildError| invalid(e.to_string());
+        let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field,
+            reason: e.to_string(),
+        };
         builder
             .add_plugin(plugins::core(plugins::CoreSettings {
                 dynamics: self.dynamics,
@@ -573,21 +622,22 @@ impl Scene {
             .map_err(build_err)?;
         let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
         let mut spring_stiffness = SpringParams::default().stiffness;
-        for term in &self.energy {
-            let added = match *term {
+        for (i, term) in self.energy.iter().enumerate() {
+            let added = match term {
                 // The geometric baseline: V_in sets Δt and drives the local
                 // relaxation but exerts no global force.
-                EnergyTerm::Vin(p) => builder.add_plugin(plugins::vin(p, !geometric)),
-                EnergyTerm::Bending(p) => builder.add_plugin(plugins::bending(p)),
-                EnergyTerm::Volume(p) => builder.add_plugin(plugins::volume(p)),
-                EnergyTerm::Area(p) => builder.add_plugin(plugins::area(p)),
-                EnergyTerm::LocalTension(p) => builder.add_plugin(plugins::local_tension(p)),
+                EnergyTerm::Vin(p) => builder.add_plugin(plugins::vin(*p, !geometric)),
+                EnergyTerm::Bending(p) => builder.add_plugin(plugins::bending(*p)),
+                EnergyTerm::Volume(p) => builder.add_plugin(plugins::volume(*p)),
+                EnergyTerm::Area(p) => builder.add_plugin(plugins::area(*p)),
+                EnergyTerm::LocalTension(p) => builder.add_plugin(plugins::local_tension(*p)),
                 EnergyTerm::Springs(p) => {
                     spring_stiffness = p.stiffness;
                     builder.add_plugin(plugins::springs(p.coupling))
                 }
+                EnergyTerm::Custom(c) => add_declared(&c.0, &mut builder),
             };
-            added.map_err(build_err)?;
+            added.map_err(|e| invalid_at(format!("energy[{i}]"), e))?;
         }
         let points = self
             .control_points
@@ -616,7 +666,23 @@ impl Scene {
                 .add_plugin(plugins::diffusion(d.clone()))
                 .map_err(build_err)?;
         }
+        for (i, SystemDecl::Custom(c)) in self.systems.iter().enumerate() {
+            add_declared(&c.0, &mut builder).map_err(|e| invalid_at(format!("systems[{i}]"), e))?;
+        }
         let sim = builder.build();
         Ok(sim)
     }
+}
+
+/// Adds a scene-declared plugin (resolved when the scene was parsed).
+fn add_declared<'b>(
+    decl: &crate::plugin_decl::PluginDecl,
+    builder: &'b mut SimBuilder,
+) -> Result<&'b mut SimBuilder, BuildError> {
+    let entry = decl.entry().ok_or_else(|| BuildError::Invalid {
+        field: "Custom.name".into(),
+        reason: format!("plugin \"{}\" was not resolved by a registry", decl.name),
+    })?;
+    entry.build(&decl.params, decl.stage, builder)?;
+    Ok(builder)
 }

@@ -20,7 +20,9 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 /// The ordered stages of a tick.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 pub enum Stage {
     /// Apply scheduled changes (control points) before anything is gathered.
     Prepare,

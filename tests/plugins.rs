@@ -259,3 +259,160 @@ fn a_system_touching_a_resource_it_did_not_declare_is_rejected() {
     assert_eq!(sim.positions(), before, "nothing was written");
     assert_eq!(sim.clock().iteration, 0);
 }
+
+/// Parameters of the scene-declared uniform field.
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FieldParams {
+    /// The force on every vertex (Ē/l̄).
+    force: (f64, f64, f64),
+}
+
+/// Parameters of the scene-declared tick counter (none).
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoParams {}
+
+fn registry() -> remembrane::registry::PluginRegistry {
+    let mut r = remembrane::registry::PluginRegistry::new();
+    r.register_term("uniform_field", |p: FieldParams, b: &mut SimBuilder| {
+        let (x, y, z) = p.force;
+        b.add_force_term(UniformField(DVec3::new(x, y, z)))?;
+        Ok(())
+    });
+    r.register_system("count_ticks", |_: NoParams, stage, b: &mut SimBuilder| {
+        b.insert_resource(TickCount(0));
+        b.add_system(stage, CountTicks);
+        Ok(())
+    });
+    r
+}
+
+fn declared_scene(field: &str) -> String {
+    SCENE.replace(
+        "energy: [Bending(kappa: 1.0)],",
+        &format!(
+            "energy: [Bending(kappa: 1.0), {field}],\n    systems: [Custom(name: \"count_ticks\", stage: Observe)],"
+        ),
+    )
+}
+
+const DECLARED_FIELD: &str = "Custom(name: \"uniform_field\", params: (force: (0.3, -0.2, 0.5)))";
+
+#[test]
+fn a_scene_declared_plugin_term_moves_the_centroid_by_mu_f_t() {
+    let path = Path::new("declared.ron");
+    let scene =
+        Scene::from_ron_str_with(&declared_scene(DECLARED_FIELD), path, &registry()).unwrap();
+    let mut sim = scene.build(path).unwrap();
+    assert_centroid_follows_the_field(&mut sim);
+    assert_eq!(sim.resource::<TickCount>().0, 200);
+}
+
+#[test]
+fn an_unknown_plugin_is_reported_at_its_position_with_the_registered_names() {
+    let path = Path::new("declared.ron");
+    let text = declared_scene("Custom(name: \"bar_domian\", params: ())");
+    let err = Scene::from_ron_str_with(&text, path, &registry())
+        .unwrap_err()
+        .to_string();
+    let line = text.lines().position(|l| l.contains("bar_domian")).unwrap() + 1;
+    assert!(
+        err.starts_with(&format!("declared.ron:{line}:"))
+            && err.contains("field `energy[1].Custom.name`")
+            && err.contains("unknown plugin \"bar_domian\" (registered: uniform_field)"),
+        "{err}"
+    );
+    // Without a registry nothing is registered.
+    let err = Scene::from_ron_str(&text, path).unwrap_err().to_string();
+    assert!(err.contains("(registered: none)"), "{err}");
+}
+
+#[test]
+fn plugin_params_are_validated_as_strictly_as_built_in_ones() {
+    let path = Path::new("declared.ron");
+    let text = declared_scene(
+        "Custom(name: \"uniform_field\", params: (force: (0.3, -0.2, 0.5), strength: 2.0))",
+    );
+    let err = Scene::from_ron_str_with(&text, path, &registry())
+        .unwrap_err()
+        .to_string();
+    let line = text.lines().position(|l| l.contains("strength")).unwrap() + 1;
+    assert!(
+        err.starts_with(&format!("declared.ron:{line}:"))
+            && err.contains("energy[1].Custom.params")
+            && err.contains("strength"),
+        "{err}"
+    );
+    let text = declared_scene("Custom(name: \"uniform_field\", params: (force: 1.0))");
+    let err = Scene::from_ron_str_with(&text, path, &registry())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("energy[1].Custom.params.force"), "{err}");
+    // A system plugin needs its stage.
+    let text = SCENE.replace(
+        "energy: [Bending(kappa: 1.0)],",
+        "energy: [Bending(kappa: 1.0)],\n    systems: [Custom(name: \"count_ticks\")],",
+    );
+    let err = Scene::from_ron_str_with(&text, path, &registry())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("systems[0]") && err.contains("stage"), "{err}");
+}
+
+#[test]
+fn main_with_runs_a_scene_declaring_a_plugin_and_rejects_unknown_ones() {
+    use remembrane::cli::main_with_args;
+    use std::process::ExitCode;
+    let dir = tempfile::tempdir().unwrap();
+    let scene_file = dir.path().join("declared.ron");
+    std::fs::write(&scene_file, declared_scene(DECLARED_FIELD)).unwrap();
+    let out = dir.path().join("run");
+    let args = [
+        "my_membranes".as_ref(),
+        "run".as_ref(),
+        scene_file.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--quiet".as_ref(),
+    ];
+    assert_eq!(main_with_args(registry(), args), ExitCode::SUCCESS);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let t = summary["simulated_time"].as_f64().unwrap();
+    let energies: Vec<&str> = summary["energies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["term"].as_str().unwrap())
+        .collect();
+    assert_eq!(energies, ["bending", "uniform_field"]);
+    let initial =
+        Scene::from_ron_str_with(&declared_scene(DECLARED_FIELD), &scene_file, &registry())
+            .unwrap()
+            .initial_mesh(&scene_file)
+            .unwrap();
+    let last = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    let mean = |p: &[DVec3]| p.iter().copied().sum::<DVec3>() / p.len() as f64;
+    let moved = mean(&last.positions) - mean(&initial.positions);
+    assert!(
+        (moved - MOBILITY * FIELD * t).length() < CENTROID_TOLERANCE,
+        "moved {moved:?} in t = {t}"
+    );
+    // The same scene with a misspelt plugin: bad input, exit 2, no output.
+    let bad = dir.path().join("bad.ron");
+    std::fs::write(&bad, declared_scene("Custom(name: \"nope\", params: ())")).unwrap();
+    let out_bad = dir.path().join("bad_run");
+    let args = [
+        "my_membranes".as_ref(),
+        "run".as_ref(),
+        bad.as_os_str(),
+        "--out".as_ref(),
+        out_bad.as_os_str(),
+        "--quiet".as_ref(),
+    ];
+    assert_eq!(main_with_args(registry(), args), ExitCode::from(2));
+    assert!(!out_bad.exists());
+    let check = ["my_membranes".as_ref(), "check".as_ref(), bad.as_os_str()];
+    assert_eq!(main_with_args(registry(), check), ExitCode::from(2));
+}

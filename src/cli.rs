@@ -1,0 +1,617 @@
+//! The `remembrane` command line as a library: [`main_with`] gives a
+//! user's binary the whole CLI (run, check, energy, compare, sweep,
+//! collect) with its own plugins.
+//!
+//! ```no_run
+//! use remembrane::registry::PluginRegistry;
+//!
+//! fn main() -> std::process::ExitCode {
+//!     let mut plugins = PluginRegistry::new();
+//!     // plugins.register_term::<MyParams, _>("my_term", |p, b| { ... });
+//!     remembrane::cli::main_with(plugins)
+//! }
+//! ```
+
+use crate::report::{EnergyReport, forces_csv};
+use crate::scene::Scene;
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Membrane simulation with free-energy-controlled remeshing.
+#[derive(Parser)]
+#[command(version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene and write frames, series, summary and the final mesh.
+    /// Without a scene, runs the bundled red-blood-cell scene.
+    Run {
+        /// Scene file (RON); default: the bundled red_blood_cell.ron.
+        scene: Option<PathBuf>,
+        #[command(flatten)]
+        args: RunArgs,
+    },
+    /// Run two remeshing scenes (e.g. free-energy vs geometric) and compare
+    /// their remesh events and σ(|r|) (paper Fig 3C/D): a table, CSV and PNG.
+    Compare {
+        /// First scene (e.g. scenes/vesicle_fusion.ron).
+        first: PathBuf,
+        /// Second scene (e.g. scenes/fusion_geometric.ron).
+        second: PathBuf,
+        /// Iterations for both runs (overrides the scenes').
+        #[arg(long)]
+        iterations: Option<u64>,
+        /// Output directory (default out/compare-<first>-<second>); each run
+        /// goes into a subfolder named after its scene.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Replace the output directory if it exists.
+        #[arg(long)]
+        overwrite: bool,
+        /// Seed for both runs (overrides the scenes').
+        #[arg(long)]
+        seed: Option<u64>,
+        /// No progress output.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Run a parameter sweep (base scene × conditions × grid × repeats),
+    /// resumable, in parallel, or one shard of it; or print a Slurm
+    /// job-array script that runs it.
+    Sweep {
+        /// Sweep file (RON), e.g. sweeps/tether.ron.
+        sweep: PathBuf,
+        /// Output directory (default out/<sweep name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Runs at once (default: number of cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run only the runs with index ≡ I (mod N), e.g. 3/8.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
+        /// Override every run's iterations (quick trials).
+        #[arg(long)]
+        iterations: Option<u64>,
+        /// Print an sbatch job-array script for this sweep instead of running.
+        #[arg(long)]
+        emit_slurm: bool,
+        /// Array tasks of the emitted script (default: one per run).
+        #[arg(long)]
+        tasks: Option<usize>,
+        /// No per-run progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Aggregate a sweep's runs: 4th-order fit of one series.csv column
+    /// against another per run, mean ± sd per condition and grid point
+    /// (paper Fig 5E/F) as CSV tables and PNG charts in DIR.
+    Collect {
+        /// Sweep output directory (with sweep.json).
+        dir: PathBuf,
+        /// Column on the x axis.
+        #[arg(long, default_value = "radius_left_norm")]
+        x: String,
+        /// Column on the y axis.
+        #[arg(long, default_value = "radius_right_norm")]
+        y: String,
+        /// Rows of each series.csv used (from the first).
+        #[arg(long, default_value_t = 31)]
+        frames: usize,
+        /// Succeed even if some runs have no results yet.
+        #[arg(long)]
+        partial: bool,
+    },
+    /// Validate a scene and print what it declares.
+    Check {
+        /// Scene file (RON).
+        scene: PathBuf,
+    },
+    /// Evaluate the scene's initial state: energies per term, area, volume,
+    /// reduced volume and mesh quality.
+    Energy {
+        /// Scene file (RON).
+        scene: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Also write per-vertex forces (each term and the total) as CSV.
+        #[arg(long, value_name = "FILE.csv")]
+        forces: Option<PathBuf>,
+    },
+}
+
+/// The scene `remembrane run` uses when none is given.
+const BUNDLED_SCENE: &str = include_str!("../scenes/red_blood_cell.ron");
+const BUNDLED_SCENE_NAME: &str = "bundled:red_blood_cell.ron";
+
+/// Runs the CLI on the process arguments with `registry`'s plugins
+/// available to every scene (installed as the process default registry).
+pub fn main_with(registry: crate::registry::PluginRegistry) -> ExitCode {
+    main_with_args(registry, std::env::args_os())
+}
+
+/// [`main_with`] on explicit arguments (the first is the program name).
+pub fn main_with_args<I, T>(registry: crate::registry::PluginRegistry, args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    registry.install_as_default();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    match cli.command {
+        Command::Run { scene, args } => run_command(scene.as_deref(), args),
+        Command::Compare {
+            first,
+            second,
+            iterations,
+            out,
+            overwrite,
+            seed,
+            quiet,
+        } => compare_command(&first, &second, iterations, out, overwrite, seed, quiet),
+        Command::Sweep {
+            sweep,
+            out,
+            jobs,
+            shard,
+            iterations,
+            emit_slurm,
+            tasks,
+            quiet,
+        } => sweep_command(
+            &sweep, out, jobs, shard, iterations, emit_slurm, tasks, quiet,
+        ),
+        Command::Collect {
+            dir,
+            x,
+            y,
+            frames,
+            partial,
+        } => collect_command(&dir, x, y, frames, partial),
+        other => match run(other) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(message) => {
+                eprintln!("error: {message}");
+                ExitCode::from(2)
+            }
+        },
+    }
+}
+
+/// Options of `remembrane run`.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Output directory (default: out/<scene name>, or out/<name>.N if
+    /// that exists).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    overwrite: bool,
+    /// Seed (overrides the scene's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Iterations (overrides the scene's).
+    #[arg(long)]
+    iterations: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Frames to write (overrides the scene's).
+    #[arg(long)]
+    frames: Option<u32>,
+    /// No progress output.
+    #[arg(long)]
+    quiet: bool,
+    /// Check every mesh invariant after each remesh edit (debug mode; slow).
+    #[arg(long)]
+    check_invariants: bool,
+    /// Start from the saved state of an earlier run (its state.json)
+    /// instead of the scene's membrane.
+    #[arg(long, value_name = "STATE.json")]
+    from: Option<PathBuf>,
+}
+
+fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
+    use crate::run::{Progress, RunOptions, run_scene};
+    use std::io::IsTerminal;
+    let loaded = match scene_path {
+        Some(p) => Scene::load(p).map(|s| (s, p.to_path_buf())),
+        None => Scene::from_ron_str(BUNDLED_SCENE, Path::new(BUNDLED_SCENE_NAME))
+            .map(|s| (s, PathBuf::from(BUNDLED_SCENE_NAME))),
+    };
+    let (scene, path) = match loaded {
+        Ok(x) => x,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let pool = args.threads.map(|n| {
+        (
+            n,
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global(),
+        )
+    });
+    if let Some((n, Err(e))) = pool {
+        eprintln!("error: --threads {n}: {e}");
+        return ExitCode::from(2);
+    }
+    let name = scene_name(&scene, &path);
+    let out = args
+        .out
+        .unwrap_or_else(|| free_directory(Path::new("out").join(&name)));
+    let progress = if args.quiet {
+        Progress::Quiet
+    } else if std::io::stderr().is_terminal() {
+        Progress::Bar
+    } else {
+        Progress::Lines
+    };
+    let options = RunOptions {
+        out,
+        overwrite: args.overwrite,
+        seed: args.seed,
+        iterations: args.iterations,
+        frames: args.frames,
+        from: args.from,
+        progress,
+        check_invariants: args.check_invariants,
+    };
+    match run_scene(&scene, &path, &options, |_| Ok(())) {
+        Ok(summary) => {
+            if !args.quiet {
+                eprintln!(
+                    "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}, V = {:.3}, v = {:.4}",
+                    summary.last.scene,
+                    summary.iterations,
+                    summary.simulated_time,
+                    summary.wall_time_s,
+                    summary.last.total_energy,
+                    summary.last.area,
+                    summary.last.volume,
+                    summary.last.reduced_volume
+                );
+                eprintln!("outputs in {}", options.out.display());
+                let table = crate::schedule::format_timings(&summary.timings);
+                eprint!("{table}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {}: {e}", path.display());
+            ExitCode::from(e.exit_code())
+        }
+    }
+}
+
+fn compare_command(
+    first: &Path,
+    second: &Path,
+    iterations: Option<u64>,
+    out: Option<PathBuf>,
+    overwrite: bool,
+    seed: Option<u64>,
+    quiet: bool,
+) -> ExitCode {
+    use crate::compare::{ComparisonRow, chart_png, csv, table};
+    use crate::run::{Progress, RunOptions, run_scene};
+    let mut scenes = Vec::new();
+    for path in [first, second] {
+        match Scene::load(path) {
+            Ok(s) => scenes.push((s, path.to_path_buf())),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let names: Vec<String> = scenes.iter().map(|(s, p)| scene_name(s, p)).collect();
+    if names[0] == names[1] {
+        eprintln!(
+            "error: both scenes are named `{}`; give them different `name`s",
+            names[0]
+        );
+        return ExitCode::from(2);
+    }
+    let dir = out.unwrap_or_else(|| {
+        free_directory(Path::new("out").join(format!("compare-{}-{}", names[0], names[1])))
+    });
+    if dir.exists() {
+        if !overwrite {
+            eprintln!(
+                "error: {}: output directory already exists (choose another --out or pass --overwrite)",
+                dir.display()
+            );
+            return ExitCode::from(2);
+        }
+        if let Err(e) = std::fs::remove_dir_all(&dir) {
+            eprintln!("error: {}: cannot replace: {e}", dir.display());
+            return ExitCode::from(1);
+        }
+    }
+    let mut rows = Vec::new();
+    for ((scene, path), name) in scenes.iter().zip(&names) {
+        let options = RunOptions {
+            out: dir.join(name),
+            overwrite: false,
+            seed,
+            iterations,
+            frames: None,
+            from: None,
+            progress: if quiet {
+                Progress::Quiet
+            } else {
+                Progress::Lines
+            },
+            check_invariants: false,
+        };
+        match run_scene(scene, path, &options, |_| Ok(())) {
+            Ok(summary) => rows.push(ComparisonRow::from_summary(&summary)),
+            Err(e) => {
+                eprintln!("error: {}: {e}", path.display());
+                return ExitCode::from(e.exit_code());
+            }
+        }
+    }
+    let rows: [ComparisonRow; 2] = [rows[0].clone(), rows[1].clone()];
+    let written = crate::atomic_write(&dir.join("comparison.csv"), csv(&rows).as_bytes())
+        .and_then(|_| crate::atomic_write(&dir.join("comparison.png"), &chart_png(&rows)));
+    if let Err(e) = written {
+        eprintln!("error: {}: cannot write the comparison: {e}", dir.display());
+        return ExitCode::from(1);
+    }
+    print!("{}", table(&rows));
+    if !quiet {
+        eprintln!("comparison in {}", dir.display());
+    }
+    ExitCode::SUCCESS
+}
+
+/// `base`, or `base.1`, `base.2`, … whichever does not exist yet, so a new
+/// run never mixes with an earlier one.
+fn free_directory(base: PathBuf) -> PathBuf {
+    if !base.exists() {
+        return base;
+    }
+    (1..)
+        .map(|k| {
+            let mut p = base.clone().into_os_string();
+            p.push(format!(".{k}"));
+            PathBuf::from(p)
+        })
+        .find(|p| !p.exists())
+        .unwrap_or(base)
+}
+
+fn run(command: Command) -> Result<(), String> {
+    match command {
+        Command::Run { .. }
+        | Command::Compare { .. }
+        | Command::Sweep { .. }
+        | Command::Collect { .. } => unreachable!("handled in main"),
+        Command::Check { scene } => check(&scene),
+        Command::Energy {
+            scene,
+            json,
+            forces,
+        } => energy(&scene, json, forces.as_deref()),
+    }
+}
+
+fn load(path: &Path) -> Result<(Scene, crate::simulation::Simulation), String> {
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let sim = scene.build(path).map_err(|e| e.to_string())?;
+    Ok((scene, sim))
+}
+
+fn scene_name(scene: &Scene, path: &Path) -> String {
+    if scene.name.is_empty() {
+        path.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    } else {
+        scene.name.clone()
+    }
+}
+
+fn check(path: &Path) -> Result<(), String> {
+    let (scene, mut sim) = load(path)?;
+    let initial = *sim.resource::<crate::simulation::InitialState>();
+    let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
+    println!("{}: ok", path.display());
+    println!("  name         {}", scene_name(&scene, path));
+    println!("  seed         {}", scene.seed);
+    println!("  membrane     {:?}", scene.membrane);
+    println!(
+        "  mesh         {} vertices, {} edges, {} faces",
+        t.vertex_count(),
+        t.edges.len(),
+        t.faces.len()
+    );
+    println!(
+        "  valence      {}..={}",
+        scene.valence.min, scene.valence.max
+    );
+    println!(
+        "  lipid        {}",
+        if scene.lipid_density {
+            "per-vertex density"
+        } else {
+            "none"
+        }
+    );
+    println!(
+        "  initial      area {:.4} l̄², volume {:.4} l̄³",
+        initial.area, initial.volume
+    );
+    println!("  energy terms {}", scene.energy.len());
+    for term in &scene.energy {
+        println!("    {term:?}");
+    }
+    println!("  penalty smoothing passes {}", scene.penalty_smoothing);
+    println!("  control points {}", scene.control_points.len());
+    Ok(())
+}
+
+fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {
+    let (scene, mut sim) = load(path)?;
+    sim.evaluate_forces().map_err(|e| e.to_string())?;
+    let report = EnergyReport::new(&scene_name(&scene, path), &sim);
+    if let Some(bad) = report.energies.iter().find(|e| !e.energy.is_finite()) {
+        return Err(format!(
+            "{}: energy term `{}` is not finite ({})",
+            path.display(),
+            bad.term,
+            bad.energy
+        ));
+    }
+    if let Some(out) = forces {
+        crate::atomic_write(out, forces_csv(&sim).as_bytes())
+            .map_err(|e| format!("{}: cannot write forces: {e}", out.display()))?;
+    }
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
+        );
+    } else {
+        print!("{}", report.to_text());
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sweep_command(
+    sweep_path: &Path,
+    out: Option<PathBuf>,
+    jobs: Option<usize>,
+    shard: Option<String>,
+    iterations: Option<u64>,
+    emit_slurm: bool,
+    tasks: Option<usize>,
+    quiet: bool,
+) -> ExitCode {
+    use crate::sweep::{Sweep, SweepOptions, parse_shard, run_sweep, slurm_script};
+    let fail = |message: String| {
+        eprintln!("error: {message}");
+        ExitCode::from(2)
+    };
+    let (sweep, _) = match Sweep::load(sweep_path) {
+        Ok(s) => s,
+        Err(e) => return fail(e.to_string()),
+    };
+    let out = out.unwrap_or_else(|| PathBuf::from("out").join(&sweep.name));
+    if emit_slurm {
+        let runs = sweep.expand().len();
+        let tasks = tasks.unwrap_or(runs).clamp(1, runs.max(1));
+        // Slurm opens the tasks' log files in the output directory before
+        // the script runs: it must exist at submission.
+        if let Err(e) = std::fs::create_dir_all(&out) {
+            return fail(format!("{}: cannot create: {e}", out.display()));
+        }
+        let binary = std::env::current_exe().unwrap_or_else(|_| PathBuf::from("remembrane"));
+        let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
+        print!(
+            "{}",
+            slurm_script(&sweep.name, &binary, &abs(sweep_path), &abs(&out), tasks)
+        );
+        return ExitCode::SUCCESS;
+    }
+    let shard = match shard.as_deref().map(parse_shard).transpose() {
+        Ok(s) => s,
+        Err(e) => return fail(e),
+    };
+    let options = SweepOptions {
+        out: out.clone(),
+        jobs: jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+        shard,
+        iterations,
+        quiet,
+    };
+    match run_sweep(sweep_path, &options) {
+        Ok(report) => {
+            eprintln!(
+                "sweep {}: {} runs in all, {} in this shard: {} done now, {} already done, {} failed; results in {}",
+                sweep.name,
+                report.total,
+                report.in_shard,
+                report.completed,
+                report.skipped,
+                report.failed.len(),
+                out.display()
+            );
+            for (dir, e) in &report.failed {
+                eprintln!("  failed: {}: {e}", dir.display());
+            }
+            if report.failed.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => fail(e.to_string()),
+    }
+}
+
+fn collect_command(dir: &Path, x: String, y: String, frames: usize, partial: bool) -> ExitCode {
+    use crate::collect::{CollectOptions, collect};
+    let options = CollectOptions {
+        x,
+        y,
+        frames,
+        ..Default::default()
+    };
+    match collect(dir, &options) {
+        Ok(report) => {
+            println!(
+                "{} of {} runs collected{}",
+                report.runs.len(),
+                report.expected,
+                if report.missing.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} missing", report.missing.len())
+                }
+            );
+            println!("condition,point,runs,mean,sd");
+            for g in &report.groups {
+                let point: Vec<String> = g.point.iter().map(|(a, v)| format!("{a}={v}")).collect();
+                println!(
+                    "{},{},{},{:.4},{:.4}",
+                    g.condition,
+                    point.join(" "),
+                    g.n,
+                    g.mean,
+                    g.sd
+                );
+            }
+            for m in &report.missing {
+                eprintln!("  missing: {}", m.display());
+            }
+            if report.missing.is_empty() || partial {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
