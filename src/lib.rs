@@ -38,6 +38,7 @@ pub mod params;
 pub mod plot;
 pub mod plugin_decl;
 pub mod quality;
+pub mod recorder;
 pub mod registry;
 pub mod relax;
 pub mod remesh;

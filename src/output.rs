@@ -6,16 +6,18 @@
 //! ends (completed or stopped by a blow-up, which `summary.json` records),
 //! so a killed run never leaves a directory that looks like a result. Every
 //! file is written atomically (temporary file + rename).
+//!
+//! Frames are written by [`FrameWriter`], an Observe-stage system, from what
+//! the registered recorders produce (see [`crate::recorder`]).
 
 use crate::atomic_write;
-use crate::force::ForceBuffers;
-use crate::geometry::curvature_vectors;
+use crate::membrane::Membrane;
 use crate::mesh::SurfaceMesh;
 use crate::mesh::io::{VertexScalar, write_ply_to};
-use crate::remesh::RemeshStats;
-use crate::simulation::{DenseLipid, DensePositions, Simulation};
-use crate::systems::barrier_check::AbnormalEdges;
-use crate::timestep::TimeStepChoice;
+use crate::recorder::{FrameData, PointArray, Recorder};
+use crate::resources::{Access, CheckedResources};
+use crate::schedule::DynamicSystem;
+use crate::simulation::{Clock, DensePositions, SimError};
 use std::path::{Path, PathBuf};
 use vtkio::model::{
     Attribute, Attributes, ByteOrder, DataSet, IOBuffer, Piece, PolyDataPiece, Version,
@@ -64,8 +66,6 @@ pub struct RunOutput {
     pub frames: Vec<FrameRecord>,
     series_header: Option<String>,
     series: String,
-    probes: Vec<crate::tube_radius::TubeProbe>,
-    first_radius: Vec<Option<f64>>,
 }
 
 impl RunOutput {
@@ -91,16 +91,12 @@ impl RunOutput {
             frames: Vec::new(),
             series_header: None,
             series: String::new(),
-            probes: Vec::new(),
-            first_radius: Vec::new(),
         })
     }
 
-    /// Tubes whose radius every frame measures; `_norm` columns divide by
-    /// the first frame's radius.
-    pub fn set_tube_probes(&mut self, probes: Vec<crate::tube_radius::TubeProbe>) {
-        self.first_radius = vec![None; probes.len()];
-        self.probes = probes;
+    /// Removes the staging directory of a run that never started.
+    pub fn discard(self) {
+        let _ = std::fs::remove_dir_all(&self.staging);
     }
 
     /// The final run directory.
@@ -113,25 +109,21 @@ impl RunOutput {
         atomic_write(&path, bytes).map_err(|e| write_err(&path, e))
     }
 
-    /// Writes the state as frame `frames/frame_NNNNNN.vtp`, adds it to the
-    /// `.pvd` collection and appends a row to `series.csv`. Point data:
-    /// `force` (total, Ē/l̄), `mean_curvature` |K| (1/l̄) and `density` when
-    /// the scene has lipid density.
-    pub fn write_frame(&mut self, name: &str, sim: &Simulation) -> Result<(), OutputError> {
-        let membrane = sim.membrane();
-        let t = membrane.cached_topology();
-        let clock = sim.clock();
-        let positions = sim.resource::<DensePositions>();
-        let lipid = sim.resource::<DenseLipid>();
+    /// Writes a frame `frames/frame_NNNNNN.vtp` of the mesh with the
+    /// recorders' point data, adds it to the `.pvd` collection and appends
+    /// the recorders' columns as a row of `series.csv` (the first frame's
+    /// columns are the header).
+    pub fn write_frame(
+        &mut self,
+        title: &str,
+        positions: &[glam::DVec3],
+        faces: &[[u32; 3]],
+        clock: Clock,
+        data: &FrameData,
+    ) -> Result<(), OutputError> {
         let file = format!("frames/frame_{:06}.vtp", clock.iteration);
-        let bytes = frame_vtp(
-            name,
-            &positions.0,
-            &t.faces,
-            &sim.resource::<ForceBuffers>().evaluation.total,
-            &lipid.0,
-        )
-        .map_err(|e| write_err(&self.staging.join(&file), e))?;
+        let bytes = frame_vtp(title, positions, faces, &data.point_data)
+            .map_err(|e| write_err(&self.staging.join(&file), e))?;
         self.write(&file, &bytes)?;
         self.frames.push(FrameRecord {
             iteration: clock.iteration,
@@ -139,24 +131,14 @@ impl RunOutput {
             file,
         });
         self.write("run.pvd", pvd(&self.frames).as_bytes())?;
-        let (mut header, mut row) = series_row(sim);
-        for (probe, first) in self.probes.iter().zip(&mut self.first_radius) {
-            let r = probe.measure(&positions.0, &t.edges).map(|(r, _)| r);
-            if first.is_none() {
-                *first = r;
-            }
-            let norm = match (r, *first) {
-                (Some(r), Some(r0)) => r / r0,
-                _ => f64::NAN,
-            };
-            header += &format!(",radius_{0},radius_{0}_norm", probe.name);
-            row += &format!(",{:e},{norm:e}", r.unwrap_or(f64::NAN));
-        }
+        let names: Vec<&str> = data.columns.iter().map(|(n, _)| n.as_str()).collect();
+        let header = names.join(",");
+        let row: Vec<&str> = data.columns.iter().map(|(_, v)| v.as_str()).collect();
         if self.series_header.is_none() {
             self.series = header.clone() + "\n";
             self.series_header = Some(header);
         }
-        self.series += &row;
+        self.series += &row.join(",");
         self.series.push('\n');
         self.write("series.csv", self.series.as_bytes())
     }
@@ -253,28 +235,25 @@ pub fn frame_vtp(
     title: &str,
     positions: &[glam::DVec3],
     faces: &[[u32; 3]],
-    force: &[glam::DVec3],
-    density: &[f64],
+    point_data: &[PointArray],
 ) -> Result<Vec<u8>, vtkio::Error> {
     let points: Vec<f64> = positions.iter().flat_map(|p| p.to_array()).collect();
     let connectivity: Vec<u64> = faces.iter().flat_map(|f| f.map(u64::from)).collect();
     let offsets: Vec<u64> = (1..=faces.len() as u64).map(|i| 3 * i).collect();
-    let curvature: Vec<f64> = curvature_vectors(positions, faces)
+    let point = point_data
         .iter()
-        .map(|k| k.length())
+        .map(|a| match a {
+            PointArray::Vectors { name, values } => Attribute::vectors(name.as_str()).with_data(
+                values
+                    .iter()
+                    .flat_map(|f| f.to_array())
+                    .collect::<Vec<f64>>(),
+            ),
+            PointArray::Scalars { name, values } => {
+                Attribute::scalars(name.as_str(), 1).with_data(values.clone())
+            }
+        })
         .collect();
-    let mut point = vec![
-        Attribute::vectors("force").with_data(
-            force
-                .iter()
-                .flat_map(|f| f.to_array())
-                .collect::<Vec<f64>>(),
-        ),
-        Attribute::scalars("mean_curvature", 1).with_data(curvature),
-    ];
-    if !density.is_empty() {
-        point.push(Attribute::scalars("density", 1).with_data(density.to_vec()));
-    }
     let vtk = Vtk {
         version: Version { major: 1, minor: 0 },
         title: title.to_string(),
@@ -318,50 +297,125 @@ fn pvd(frames: &[FrameRecord]) -> String {
     s
 }
 
-/// The `series.csv` header and the row for the current state.
-pub fn series_row(sim: &Simulation) -> (String, String) {
-    let membrane = sim.membrane();
-    let t = membrane.cached_topology();
-    let positions = sim.resource::<DensePositions>();
-    let p = &positions.0;
-    let area = crate::geometry::total_area(p, &t.faces);
-    let volume = crate::geometry::enclosed_volume(p, &t.faces, p[0]);
-    let (mut lmin, mut lmax) = (f64::INFINITY, 0.0f64);
-    for &[a, b] in &t.edges {
-        let l = p[a as usize].distance(p[b as usize]);
-        lmin = lmin.min(l);
-        lmax = lmax.max(l);
+/// When frames are due: every `interval` iterations, or each time the
+/// simulated time crosses a multiple of `frame_time`, plus the first and the
+/// last state of the run.
+#[derive(Clone, Debug)]
+pub struct FrameSchedule {
+    interval: u64,
+    frame_time: Option<f64>,
+    next_frame_time: f64,
+    iterations: u64,
+    duration: f64,
+}
+
+impl FrameSchedule {
+    /// Frames for a run of `iterations` (and at most `duration` s): `frames`
+    /// evenly spaced, or one per `frame_time` of simulated time if given.
+    pub fn new(iterations: u64, frames: u32, frame_time: Option<f64>, duration: f64) -> Self {
+        let interval = if frames == 0 {
+            u64::MAX
+        } else {
+            iterations.div_ceil(frames as u64).max(1)
+        };
+        Self {
+            interval,
+            frame_time,
+            next_frame_time: frame_time.unwrap_or(f64::INFINITY),
+            iterations,
+            duration,
+        }
     }
-    let buffers = sim.resource::<ForceBuffers>();
-    let mut header = String::from("iteration,time,dt,vertices");
-    let c = sim.clock();
-    let mut row = format!(
-        "{},{:e},{:e},{}",
-        c.iteration,
-        c.time,
-        sim.resource::<TimeStepChoice>().dt,
-        t.vertex_count()
-    );
-    for (term, e) in buffers.terms().iter().zip(&buffers.evaluation.energies) {
-        header += &format!(",energy_{}", term.name);
-        row += &format!(",{e:e}");
+
+    /// Whether the state after `iteration` iterations at `time` gets a frame.
+    pub fn due(&mut self, iteration: u64, time: f64) -> bool {
+        if iteration == 0 {
+            return true;
+        }
+        let last = iteration >= self.iterations || time >= self.duration;
+        let due = match self.frame_time {
+            Some(step) if time >= self.next_frame_time => {
+                while self.next_frame_time <= time {
+                    self.next_frame_time += step;
+                }
+                true
+            }
+            Some(_) => false,
+            None => iteration.is_multiple_of(self.interval),
+        };
+        due || last
     }
-    let stats = sim.resources().get::<RemeshStats>().ok();
-    let none = RemeshStats::default();
-    let stats = stats.as_deref().unwrap_or(&none);
-    header += ",energy_total,area,volume,reduced_volume,edge_min,edge_max,abnormal_edges,splits,merges,remesh_spread";
-    row += &format!(
-        ",{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e}",
-        buffers.evaluation.total_energy(),
-        area,
-        volume,
-        crate::geometry::reduced_volume(volume, area),
-        lmin,
-        lmax,
-        sim.resource::<AbnormalEdges>().0.len(),
-        stats.split.success,
-        stats.merge.success,
-        stats.position_spread()
-    );
-    (header, row)
+}
+
+/// The run's frame writer: in the Observe stage, when a frame is due, calls
+/// every recorder and writes the frame and its series row into the
+/// [`RunOutput`] resource.
+///
+/// Stage: Observe. Reads: [`Clock`], [`Membrane`], [`DensePositions`] and
+/// whatever the recorders declare. Writes: [`RunOutput`].
+pub struct FrameWriter {
+    title: String,
+    schedule: FrameSchedule,
+    recorders: Vec<Box<dyn Recorder>>,
+    access: Access,
+}
+
+/// Name of the frame-writing system.
+pub const FRAMES: &str = "frames";
+
+impl FrameWriter {
+    /// A writer of frames titled `title`, due by `schedule`, with
+    /// `recorders` (in order).
+    pub fn new(title: &str, schedule: FrameSchedule, recorders: Vec<Box<dyn Recorder>>) -> Self {
+        let mut access = Access::default()
+            .read::<Clock>()
+            .read::<Membrane>()
+            .read::<DensePositions>()
+            .write::<RunOutput>();
+        for r in &recorders {
+            access.merge(&r.access());
+        }
+        Self {
+            title: title.to_string(),
+            schedule,
+            recorders,
+            access,
+        }
+    }
+}
+
+impl DynamicSystem for FrameWriter {
+    fn name(&self) -> &str {
+        FRAMES
+    }
+
+    fn access(&self) -> Access {
+        self.access.clone()
+    }
+
+    fn run(&mut self, s: &CheckedResources<'_>) -> Result<(), SimError> {
+        let err = |source| SimError::Resource {
+            system: FRAMES.into(),
+            source,
+        };
+        let clock = *s.get::<Clock>().map_err(err)?;
+        if !self.schedule.due(clock.iteration, clock.time) {
+            return Ok(());
+        }
+        let mut data = FrameData::default();
+        for r in &mut self.recorders {
+            r.record(s, &mut data)?;
+        }
+        let membrane = s.get::<Membrane>().map_err(err)?;
+        let positions = s.get::<DensePositions>().map_err(err)?;
+        let mut out = s.get_mut::<RunOutput>().map_err(err)?;
+        out.write_frame(
+            &self.title,
+            &positions.0,
+            &membrane.cached_topology().faces,
+            clock,
+            &data,
+        )
+        .map_err(|e| SimError::Output(e.to_string()))
+    }
 }

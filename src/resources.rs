@@ -77,6 +77,28 @@ impl Access {
         self
     }
 
+    /// Declares a read of `T` that may be absent.
+    pub fn read_optional<T: Resource>(mut self) -> Self {
+        self.reads.push(ResourceId::of::<T>());
+        self.optional.push(ResourceId::of::<T>());
+        self
+    }
+
+    /// Adds every declaration of `other`.
+    pub fn merge(&mut self, other: &Access) {
+        for (mine, theirs) in [
+            (&mut self.reads, &other.reads),
+            (&mut self.writes, &other.writes),
+            (&mut self.optional, &other.optional),
+        ] {
+            for id in theirs {
+                if !mine.contains(id) {
+                    mine.push(*id);
+                }
+            }
+        }
+    }
+
     /// Declares a write of `T`.
     pub fn write<T: Resource>(mut self) -> Self {
         self.writes.push(ResourceId::of::<T>());

@@ -1,12 +1,14 @@
 //! Running a scene to completion with outputs: the driver behind
 //! `remembrane run`.
 
-use crate::output::{OutputError, RunOutput};
+use crate::output::{FrameSchedule, FrameWriter, OutputError, RunOutput};
+use crate::recorder::Recorders;
 use crate::remesh::RemeshStats;
 use crate::report::EnergyReport;
 use crate::scene::{Scene, SceneError};
+use crate::schedule::Stage;
 use crate::schedule::SystemTiming;
-use crate::simulation::{CheckInvariants, Clock, DenseLipid, DensePositions, SimError, Simulation};
+use crate::simulation::{CheckInvariants, DenseLipid, DensePositions, SimError, Simulation};
 use crate::systems::barrier_check::AbnormalEdges;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -184,52 +186,38 @@ pub fn run_scene(
     let mut sim = scene.build(scene_path)?;
     sim.resource_mut::<CheckInvariants>().0 |= options.check_invariants;
     customize(&mut sim)?;
-    sim.start()?;
-    let mut out = RunOutput::create(&options.out, options.overwrite)?;
-    out.set_tube_probes(scene.tube_radius.clone());
-
     let iterations = scene.dynamics.iterations;
-    let interval = if scene.dynamics.frames == 0 {
-        u64::MAX
-    } else {
-        iterations.div_ceil(scene.dynamics.frames as u64).max(1)
-    };
-    sim.evaluate_forces()?;
-    out.write_frame(&name, &sim)?;
-
     let duration = scene.dynamics.duration.unwrap_or(f64::INFINITY);
-    let frame_time = scene.dynamics.frame_time;
-    let mut next_frame_time = frame_time.unwrap_or(f64::INFINITY);
+    let frames = FrameSchedule::new(
+        iterations,
+        scene.dynamics.frames,
+        scene.dynamics.frame_time,
+        duration,
+    );
+    let recorders = sim
+        .remove_resource::<Recorders>()
+        .map(|r| r.0)
+        .unwrap_or_default();
+    sim.add_dynamic_system(Stage::Observe, FrameWriter::new(&name, frames, recorders))?;
+    sim.insert_resource(RunOutput::create(&options.out, options.overwrite)?)?;
+    if let Err(e) = sim.start() {
+        if let Some(out) = sim.remove_resource::<RunOutput>() {
+            out.discard();
+        }
+        return Err(e.into());
+    }
+
     let bar = progress_bar(options.progress, iterations);
     let mut stop: Option<SimError> = None;
     let mut next_line = iterations / 10;
     while sim.clock().iteration < iterations && sim.clock().time < duration {
+        // Each tick's Observe stage writes the frame of the state before it
+        // (with the forces the step applies) when one is due.
         if let Err(e) = sim.tick() {
             stop = Some(e);
             break;
         }
-        let Clock {
-            iteration: it,
-            time,
-        } = sim.clock();
-        let last = it == iterations || time >= duration;
-        let due = match frame_time {
-            Some(step) if time >= next_frame_time => {
-                while next_frame_time <= time {
-                    next_frame_time += step;
-                }
-                true
-            }
-            Some(_) => false,
-            None => it % interval == 0,
-        };
-        if due || last {
-            if let Err(e) = sim.evaluate_forces() {
-                stop = Some(e);
-                break;
-            }
-            out.write_frame(&name, &sim)?;
-        }
+        let it = sim.clock().iteration;
         if let Some(b) = &bar {
             b.set_position(it);
         } else if options.progress == Progress::Lines && it >= next_line && iterations >= 10 {
@@ -243,14 +231,20 @@ pub fn run_scene(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    // Final state: a fresh evaluation at the last good positions.
+    // Final state: its forces and its frame.
     if stop.is_none() {
-        sim.evaluate_forces()?;
+        if let Err(e) = sim.observe() {
+            stop = Some(e);
+            regather(&mut sim)?;
+        }
     } else {
         // Positions in the world are the last good ones (integration checks
         // before writing back); re-gather without the failing forces.
         regather(&mut sim)?;
     }
+    let out = sim
+        .remove_resource::<RunOutput>()
+        .expect("the run's output stays a resource");
     let summary = summarize(
         &name,
         &scene,

@@ -619,6 +619,8 @@ impl Scene {
                 penalty_smoothing: self.penalty_smoothing,
                 remesh: self.remesh,
             }))
+            .map_err(build_err)?
+            .add_plugin(plugins::recorders(self.tube_radius.clone()))
             .map_err(build_err)?;
         let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
         let mut spring_stiffness = SpringParams::default().stiffness;

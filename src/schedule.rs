@@ -30,6 +30,9 @@ pub enum Stage {
     Gather,
     /// Accumulate forces (systems here may write only the force buffers).
     Forces,
+    /// Record the state of the last completed iteration with the forces the
+    /// next step applies (frames, series, observables); nothing moves yet.
+    Observe,
     /// Choose the time step.
     TimeStep,
     /// Move the vertices.
@@ -40,8 +43,6 @@ pub enum Stage {
     Remesh,
     /// Lipid diffusion.
     Diffuse,
-    /// Record observables.
-    Observe,
 }
 
 impl Stage {
@@ -50,12 +51,12 @@ impl Stage {
         Stage::Prepare,
         Stage::Gather,
         Stage::Forces,
+        Stage::Observe,
         Stage::TimeStep,
         Stage::Integrate,
         Stage::BarrierCheck,
         Stage::Remesh,
         Stage::Diffuse,
-        Stage::Observe,
     ];
 
     /// The stage's name as written in scenes (`systems: [Custom(stage: ..)]`)
@@ -65,12 +66,12 @@ impl Stage {
             Stage::Prepare => "Prepare",
             Stage::Gather => "Gather",
             Stage::Forces => "Forces",
+            Stage::Observe => "Observe",
             Stage::TimeStep => "TimeStep",
             Stage::Integrate => "Integrate",
             Stage::BarrierCheck => "BarrierCheck",
             Stage::Remesh => "Remesh",
             Stage::Diffuse => "Diffuse",
-            Stage::Observe => "Observe",
         }
     }
 

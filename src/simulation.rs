@@ -240,6 +240,12 @@ impl SimBuilder {
         register_force_term(&mut self.resources, &mut self.schedule, term)
     }
 
+    /// Adds a recorder: its columns and point data go into every frame.
+    pub fn add_recorder(&mut self, recorder: impl crate::recorder::Recorder) -> &mut Self {
+        push_recorder(&mut self.resources, Box::new(recorder));
+        self
+    }
+
     /// The simulation (its schedule is validated by [`Simulation::start`]
     /// or the first tick).
     pub fn build(self) -> Simulation {
@@ -248,6 +254,15 @@ impl SimBuilder {
             builder: Some(self.schedule),
             schedule: None,
         }
+    }
+}
+
+fn push_recorder(resources: &mut Resources, recorder: Box<dyn crate::recorder::Recorder>) {
+    if !resources.contains::<crate::recorder::Recorders>() {
+        resources.insert(crate::recorder::Recorders::default());
+    }
+    if let Some(r) = resources.value_mut::<crate::recorder::Recorders>() {
+        r.0.push(recorder);
     }
 }
 
@@ -326,6 +341,35 @@ impl Simulation {
             .as_mut()
             .ok_or(SimError::AlreadyStarted(name))?;
         Ok(register_force_term(&mut self.resources, builder, term)?)
+    }
+
+    /// Adds a recorder before the run's frame writer takes the recorders
+    /// (see [`crate::recorder`]).
+    pub fn add_recorder(
+        &mut self,
+        recorder: impl crate::recorder::Recorder,
+    ) -> Result<(), SimError> {
+        if self.schedule.is_some() {
+            return Err(SimError::AlreadyStarted(recorder.name().to_string()));
+        }
+        push_recorder(&mut self.resources, Box::new(recorder));
+        Ok(())
+    }
+
+    /// Removes and returns resource `T`.
+    pub fn remove_resource<T: Resource>(&mut self) -> Option<T> {
+        self.resources.remove::<T>()
+    }
+
+    /// Runs the Gather, Forces and Observe systems once: the current state
+    /// with its forces is recorded (the final frame of a run).
+    pub fn observe(&mut self) -> Result<(), SimError> {
+        self.start()?;
+        let schedule = self.schedule.as_mut().expect("started");
+        schedule.run_stages(
+            &[Stage::Gather, Stage::Forces, Stage::Observe],
+            &self.resources,
+        )
     }
 
     /// Inserts (or replaces) a resource before the run starts.

@@ -18,6 +18,7 @@ pub mod langevin_integration;
 pub mod lipid_diffusion;
 pub mod local_tension_forces;
 pub mod plugins;
+pub mod recorders;
 pub mod remesh;
 pub mod spring_forces;
 pub mod vin_forces;

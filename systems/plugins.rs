@@ -11,6 +11,7 @@
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
+//! | [`recorders`] | `Recorders` | — (the run's `frames` system, Observe, calls them) |
 
 use crate::components::ControlPoint;
 use crate::energy::vin::{Segmentation, VinParams};
@@ -181,6 +182,22 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
             .insert_resource(RemeshStats::default())
             .insert_resource(RemeshTriggered::default());
         b.add_system(Stage::Remesh, Remesh::default());
+        Ok(())
+    }
+}
+
+/// The built-in recorders (state columns, force, mean curvature, lipid
+/// density) and one tube-radius recorder per probe.
+pub fn recorders(probes: Vec<crate::tube_radius::TubeProbe>) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::systems::recorders::*;
+        b.add_recorder(StateColumns)
+            .add_recorder(ForceField)
+            .add_recorder(MeanCurvatureField)
+            .add_recorder(LipidDensityField);
+        for probe in probes {
+            b.add_recorder(TubeRadius::new(probe));
+        }
         Ok(())
     }
 }

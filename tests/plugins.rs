@@ -188,8 +188,9 @@ impl System for CountTicks {
         "count_ticks"
     }
     fn run(&mut self, (clock, mut count): Self::Data<'_>) -> Result<(), SimError> {
-        count.0 += 1;
+        // Observe sees the state before the tick's step.
         assert_eq!(count.0, clock.iteration);
+        count.0 += 1;
         Ok(())
     }
 }
@@ -415,4 +416,91 @@ fn main_with_runs_a_scene_declaring_a_plugin_and_rejects_unknown_ones() {
     assert!(!out_bad.exists());
     let check = ["my_membranes".as_ref(), "check".as_ref(), bad.as_os_str()];
     assert_eq!(main_with_args(registry(), check), ExitCode::from(2));
+}
+
+/// Counts its evaluations (zero force) and records a column and a field.
+struct Counting(std::sync::Arc<std::sync::atomic::AtomicU64>);
+
+impl ForceTerm for Counting {
+    fn name(&self) -> &str {
+        "counting"
+    }
+    fn energy(&mut self, _: &ForceContext<'_>) -> f64 {
+        0.0
+    }
+    fn accumulate(&mut self, _: &ForceContext<'_>, _: &mut [DVec3]) -> f64 {
+        self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        0.0
+    }
+}
+
+/// A column `height` (max z) and a point array `height_field` (z).
+struct Height;
+
+impl remembrane::recorder::Recorder for Height {
+    fn name(&self) -> &str {
+        "height"
+    }
+    fn access(&self) -> remembrane::resources::Access {
+        remembrane::resources::Access::default().read::<DensePositions>()
+    }
+    fn record(
+        &mut self,
+        s: &CheckedResources<'_>,
+        frame: &mut remembrane::recorder::FrameData,
+    ) -> Result<(), SimError> {
+        let p = s
+            .get::<DensePositions>()
+            .map_err(remembrane::recorder::read_error("height"))?;
+        let z: Vec<f64> = p.0.iter().map(|p| p.z).collect();
+        frame.column("height", z.iter().copied().fold(f64::MIN, f64::max));
+        frame.scalars("height_field", z);
+        Ok(())
+    }
+}
+
+#[test]
+fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
+    use remembrane::run::{Progress, RunOptions, run_scene};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("field.ron");
+    std::fs::write(&path, SCENE).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let out = dir.path().join("run");
+    let options = RunOptions {
+        out: out.clone(),
+        overwrite: false,
+        seed: None,
+        iterations: Some(100),
+        frames: Some(10),
+        from: None,
+        progress: Progress::Quiet,
+        check_invariants: false,
+    };
+    let calls = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let counter = calls.clone();
+    let summary = run_scene(&scene, &path, &options, move |sim| {
+        sim.add_force_term(Counting(counter))?;
+        sim.add_recorder(Height)
+    })
+    .unwrap();
+    assert_eq!(summary.frames.len(), 11);
+    // One evaluation per tick plus the final state's: frames add none.
+    assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), 100 + 1);
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
+    assert_eq!(header.last(), Some(&"height"));
+    assert!(header.contains(&"energy_counting"));
+    assert_eq!(series.lines().count(), 1 + 11);
+    let frame = std::fs::read_to_string(out.join(&summary.frames[3].file)).unwrap();
+    assert!(
+        frame.contains("Name=\"height_field\""),
+        "no height_field array"
+    );
+    assert!(
+        summary
+            .timings
+            .iter()
+            .any(|t| t.system == "frames" && t.stage == "Observe")
+    );
 }

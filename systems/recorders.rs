@@ -1,0 +1,198 @@
+//! The built-in recorders: what every frame holds (see [`crate::recorder`]).
+//!
+//! - [`StateColumns`]: `iteration,time,dt,vertices`, `energy_<term>` per
+//!   term, `energy_total,area,volume,reduced_volume,edge_min,edge_max,
+//!   abnormal_edges,splits,merges,remesh_spread`.
+//! - [`ForceField`]: point data `force` (the total force the next step
+//!   applies, Ē/l̄).
+//! - [`MeanCurvatureField`]: point data `mean_curvature` |K| (1/l̄).
+//! - [`LipidDensityField`]: point data `density` (only with lipid density).
+//! - [`TubeRadius`]: `radius_<name>` and `radius_<name>_norm` (divided by
+//!   the first frame's radius) of one tube probe.
+
+use crate::force::ForceBuffers;
+use crate::membrane::Membrane;
+use crate::recorder::{FrameData, Recorder, read_error};
+use crate::remesh::RemeshStats;
+use crate::resources::{Access, CheckedResources, FetchError};
+use crate::simulation::{Clock, DenseLipid, DensePositions, SimError};
+use crate::systems::barrier_check::AbnormalEdges;
+use crate::timestep::TimeStepChoice;
+use crate::tube_radius::TubeProbe;
+
+/// The state columns of `series.csv`.
+pub struct StateColumns;
+
+impl Recorder for StateColumns {
+    fn name(&self) -> &str {
+        "state_columns"
+    }
+
+    fn access(&self) -> Access {
+        Access::default()
+            .read::<Membrane>()
+            .read::<DensePositions>()
+            .read::<ForceBuffers>()
+            .read::<TimeStepChoice>()
+            .read::<Clock>()
+            .read::<AbnormalEdges>()
+            .read_optional::<RemeshStats>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let err = read_error("state_columns");
+        let membrane = s.get::<Membrane>().map_err(&err)?;
+        let t = membrane.cached_topology();
+        let positions = s.get::<DensePositions>().map_err(&err)?;
+        let p = &positions.0;
+        let area = crate::geometry::total_area(p, &t.faces);
+        let volume = crate::geometry::enclosed_volume(p, &t.faces, p[0]);
+        let (mut lmin, mut lmax) = (f64::INFINITY, 0.0f64);
+        for &[a, b] in &t.edges {
+            let l = p[a as usize].distance(p[b as usize]);
+            lmin = lmin.min(l);
+            lmax = lmax.max(l);
+        }
+        let clock = *s.get::<Clock>().map_err(&err)?;
+        frame.count("iteration", clock.iteration);
+        frame.column("time", clock.time);
+        frame.column("dt", s.get::<TimeStepChoice>().map_err(&err)?.dt);
+        frame.count("vertices", t.vertex_count() as u64);
+        let buffers = s.get::<ForceBuffers>().map_err(&err)?;
+        for (term, e) in buffers.terms().iter().zip(&buffers.evaluation.energies) {
+            frame.column(format!("energy_{}", term.name), *e);
+        }
+        frame.column("energy_total", buffers.evaluation.total_energy());
+        frame.column("area", area);
+        frame.column("volume", volume);
+        frame.column(
+            "reduced_volume",
+            crate::geometry::reduced_volume(volume, area),
+        );
+        frame.column("edge_min", lmin);
+        frame.column("edge_max", lmax);
+        let abnormal = s.get::<AbnormalEdges>().map_err(&err)?.0.len();
+        frame.count("abnormal_edges", abnormal as u64);
+        let stats = match s.get::<RemeshStats>() {
+            Ok(stats) => Some(stats),
+            Err(FetchError::Missing(_)) => None,
+            Err(e) => return Err(err(e)),
+        };
+        let none = RemeshStats::default();
+        let stats = stats.as_deref().unwrap_or(&none);
+        frame.count("splits", stats.split.success);
+        frame.count("merges", stats.merge.success);
+        frame.column("remesh_spread", stats.position_spread());
+        Ok(())
+    }
+}
+
+/// The total force as point data `force`.
+pub struct ForceField;
+
+impl Recorder for ForceField {
+    fn name(&self) -> &str {
+        "force"
+    }
+
+    fn access(&self) -> Access {
+        Access::default().read::<ForceBuffers>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let buffers = s.get::<ForceBuffers>().map_err(read_error("force"))?;
+        frame.vectors("force", buffers.evaluation.total.clone());
+        Ok(())
+    }
+}
+
+/// |K| of the discrete mean-curvature vector as point data `mean_curvature`.
+pub struct MeanCurvatureField;
+
+impl Recorder for MeanCurvatureField {
+    fn name(&self) -> &str {
+        "mean_curvature"
+    }
+
+    fn access(&self) -> Access {
+        Access::default()
+            .read::<Membrane>()
+            .read::<DensePositions>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let err = read_error("mean_curvature");
+        let membrane = s.get::<Membrane>().map_err(&err)?;
+        let positions = s.get::<DensePositions>().map_err(&err)?;
+        let k = crate::geometry::curvature_vectors(&positions.0, &membrane.cached_topology().faces);
+        frame.scalars("mean_curvature", k.iter().map(|k| k.length()).collect());
+        Ok(())
+    }
+}
+
+/// Lipid density as point data `density` (nothing without lipid density).
+pub struct LipidDensityField;
+
+impl Recorder for LipidDensityField {
+    fn name(&self) -> &str {
+        "density"
+    }
+
+    fn access(&self) -> Access {
+        Access::default().read::<DenseLipid>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let lipid = s.get::<DenseLipid>().map_err(read_error("density"))?;
+        if !lipid.0.is_empty() {
+            frame.scalars("density", lipid.0.clone());
+        }
+        Ok(())
+    }
+}
+
+/// The radius of one tube by circle fits on its planes.
+pub struct TubeRadius {
+    probe: TubeProbe,
+    first: Option<f64>,
+}
+
+impl TubeRadius {
+    /// A recorder measuring `probe`.
+    pub fn new(probe: TubeProbe) -> Self {
+        Self { probe, first: None }
+    }
+}
+
+impl Recorder for TubeRadius {
+    fn name(&self) -> &str {
+        &self.probe.name
+    }
+
+    fn access(&self) -> Access {
+        Access::default()
+            .read::<Membrane>()
+            .read::<DensePositions>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let err = read_error(&self.probe.name);
+        let membrane = s.get::<Membrane>().map_err(&err)?;
+        let positions = s.get::<DensePositions>().map_err(&err)?;
+        let r = self
+            .probe
+            .measure(&positions.0, &membrane.cached_topology().edges)
+            .map(|(r, _)| r);
+        if self.first.is_none() {
+            self.first = r;
+        }
+        let norm = match (r, self.first) {
+            (Some(r), Some(r0)) => r / r0,
+            _ => f64::NAN,
+        };
+        let name = &self.probe.name;
+        frame.column(format!("radius_{name}"), r.unwrap_or(f64::NAN));
+        frame.column(format!("radius_{name}_norm"), norm);
+        Ok(())
+    }
+}
