@@ -19,7 +19,7 @@
 //! A patch that would break any of these is rejected with an [`EditError`]
 //! and the world is unchanged.
 
-use crate::components::{Edge, Face, Force, LipidDensity, Position};
+use crate::components::{Edge, Face, Force, Position};
 use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
 use glam::DVec3;
@@ -33,8 +33,9 @@ pub struct PatchEdit {
     pub remove_faces: Vec<Entity>,
     /// Faces to add, as vertex entities counter-clockwise from outside.
     pub add_faces: Vec<[Entity; 3]>,
-    /// New vertices: reserved entity, position, lipid density (if stored).
-    pub add_vertices: Vec<(Entity, DVec3, f64)>,
+    /// New vertices: reserved entity and position (they get every
+    /// registered per-vertex field; see [`crate::vertex_field`]).
+    pub add_vertices: Vec<(Entity, DVec3)>,
     /// Vertex entities to remove.
     pub remove_vertices: Vec<Entity>,
     /// Existing vertices moved by the edit (e.g. a merge's midpoint).
@@ -199,7 +200,7 @@ impl Membrane {
             if let Some(&(_, p)) = edit.move_vertices.iter().find(|(e, _)| *e == v) {
                 return p;
             }
-            if let Some(&(_, p, _)) = edit.add_vertices.iter().find(|(e, _, _)| *e == v) {
+            if let Some(&(_, p)) = edit.add_vertices.iter().find(|(e, _)| *e == v) {
                 return p;
             }
             self.world
@@ -404,14 +405,15 @@ impl Membrane {
         for &f in &edit.remove_faces {
             let _ = self.world.despawn(f);
         }
-        let lipid = self.has_lipid();
-        for &(v, p, rho) in &edit.add_vertices {
-            if lipid {
-                self.world
-                    .spawn_at(v, (Position(p), Force::default(), LipidDensity(rho)));
-            } else {
-                self.world.spawn_at(v, (Position(p), Force::default()));
+        for &(v, p) in &edit.add_vertices {
+            // Every registered per-vertex field's component, in one spawn
+            // (values are set by the fields' transfer policies afterwards).
+            let mut vertex = hecs::EntityBuilder::new();
+            vertex.add(Position(p)).add(Force::default());
+            for field in self.fields() {
+                field.add_to(&mut vertex);
             }
+            self.world.spawn_at(v, vertex.build());
         }
         let mut outcome = EditOutcome {
             faces: new_face_entities.clone(),

@@ -58,6 +58,7 @@ pub mod systems;
 pub mod timestep;
 pub mod tube_radius;
 pub mod validate;
+pub mod vertex_field;
 
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

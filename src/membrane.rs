@@ -4,9 +4,11 @@
 use crate::components::{ControlPoint, Edge, Face, Force, LipidDensity, Position};
 use crate::mesh::SurfaceMesh;
 use crate::topology::{Topology, TopologyError};
+use crate::vertex_field::{FieldTransfer, ScalarComponent, ScalarField, TransferPolicy};
 use glam::DVec3;
 use hecs::{Entity, World};
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// The membrane: a hecs [`World`] (the source of truth) plus derived caches.
 ///
@@ -19,6 +21,7 @@ pub struct Membrane {
     epoch: u64,
     topology: Topology,
     has_lipid: bool,
+    fields: Vec<Arc<dyn FieldTransfer>>,
 }
 
 impl Membrane {
@@ -92,12 +95,64 @@ impl Membrane {
             world.spawn_at(e, (edge,));
         }
         let topology = Topology::build(&world, 0)?;
+        let mut fields: Vec<Arc<dyn FieldTransfer>> = Vec::new();
+        if lipid_density {
+            fields.push(Arc::new(ScalarField::<LipidDensity>::new(
+                "lipid_density",
+                TransferPolicy::Conserve,
+            )));
+        }
         Ok(Self {
             world,
             epoch: 0,
             topology,
             has_lipid: lipid_density,
+            fields,
         })
+    }
+
+    /// Registers a per-vertex field: vertices created by remeshing get its
+    /// component and its values follow its transfer policy. The component
+    /// must already be on every vertex (see [`Membrane::add_vertex_field`]).
+    pub fn register_field(&mut self, field: impl FieldTransfer) {
+        self.fields.push(Arc::new(field));
+    }
+
+    /// Adds component `C` to every vertex with the value `initial(slot,
+    /// position)` and registers its transfer policy. A structural change:
+    /// the topology cache is rebuilt before the next use.
+    pub fn add_vertex_field<C: ScalarComponent>(
+        &mut self,
+        name: &str,
+        policy: TransferPolicy,
+        initial: impl Fn(usize, DVec3) -> f64,
+    ) -> Result<(), TopologyError> {
+        self.topology()?;
+        let t = &self.topology;
+        let values: Vec<(Entity, C)> = t
+            .vertex_entities
+            .iter()
+            .enumerate()
+            .map(|(slot, &e)| {
+                let p = self
+                    .world
+                    .get::<&Position>(e)
+                    .map(|p| p.0)
+                    .unwrap_or(DVec3::NAN);
+                (e, C::from_value(initial(slot, p)))
+            })
+            .collect();
+        for (e, c) in values {
+            let _ = self.world.insert_one(e, c);
+        }
+        self.register_field(ScalarField::<C>::new(name, policy));
+        self.mark_structure_changed();
+        Ok(())
+    }
+
+    /// The registered per-vertex fields, in registration order.
+    pub fn fields(&self) -> &[Arc<dyn FieldTransfer>] {
+        &self.fields
     }
 
     /// Whether vertices carry [`LipidDensity`].

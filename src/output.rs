@@ -148,7 +148,7 @@ impl RunOutput {
     pub fn write_events(&self, events: &[crate::remesh::RemeshEvent]) -> Result<(), OutputError> {
         let mut csv = String::from("iteration,kind,x,y,z\n");
         for e in events {
-            let kind = if e.split { "split" } else { "merge" };
+            let kind = e.op.name();
             let [x, y, z] = e.position;
             csv += &format!("{},{kind},{x:e},{y:e},{z:e}\n", e.iteration);
         }
@@ -175,7 +175,7 @@ impl RunOutput {
                             Attribute::scalars("split", 1).with_data(
                                 events
                                     .iter()
-                                    .map(|e| u8::from(e.split))
+                                    .map(|e| u8::from(e.op == crate::remesh::EdgeOp::Split))
                                     .collect::<Vec<u8>>(),
                             ),
                             Attribute::scalars("iteration", 1).with_data(

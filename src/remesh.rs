@@ -12,13 +12,15 @@
 //! with the least valence variance over the affected vertices wins, ties
 //! broken by the most uniform lengths of the quadrilaterals' diagonals.
 //!
-//! Lipid density is conserved: split ρ_i1, ρ_i2 ×= 2/3 and ρ_n = (ρ_i1 + ρ_i2)/3;
-//! merge ρ_i = ρ_i1 + ρ_i2.
+//! Every per-vertex field follows its transfer policy
+//! ([`crate::vertex_field`]); lipid density is conserved: split ρ_i1, ρ_i2
+//! ×= 2/3 and ρ_n = (ρ_i1 + ρ_i2)/3; merge ρ_i = ρ_i1 + ρ_i2.
 
-use crate::components::{LipidDensity, Position};
+use crate::components::Position;
 use crate::edit::{EditError, PatchEdit};
 use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
+use crate::vertex_field::EdgeValues;
 use glam::DVec3;
 use hecs::Entity;
 
@@ -145,9 +147,8 @@ fn triangulate(quads: &[Quad], bits: u32, mut edit: PatchEdit) -> Candidate {
     }
 }
 
-/// The 16 split candidates for region `r` with new vertex `n` at `position`
-/// (lipid density `rho_n`).
-pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3, rho_n: f64) -> Vec<Candidate> {
+/// The 16 split candidates for region `r` with new vertex `n` at `position`.
+pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3) -> Vec<Candidate> {
     let [i1, i2] = r.i;
     let [j1, j2] = r.j;
     let [k1, k2, k3, k4] = r.k;
@@ -181,7 +182,7 @@ pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3, rho_n: f64) 
     ];
     let base = PatchEdit {
         remove_faces: [r.central.as_slice(), r.outer.as_slice()].concat(),
-        add_vertices: vec![(n, position, rho_n)],
+        add_vertices: vec![(n, position)],
         ..Default::default()
     };
     (0..16)
@@ -293,27 +294,84 @@ fn position(m: &Membrane, v: Entity) -> DVec3 {
         .unwrap_or(DVec3::NAN)
 }
 
-fn density(m: &Membrane, v: Entity) -> f64 {
-    m.world.get::<&LipidDensity>(v).map(|p| p.0).unwrap_or(1.0)
+/// A remeshing operation on one edge. Each has a feasibility check and an
+/// edit ([`EdgeOp::check_feasible`], [`EdgeOp::apply`]); statistics, events
+/// and the remesh system are keyed by it, so an edge flip would be one more
+/// variant with its own pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EdgeOp {
+    /// Insert a vertex at the midpoint of a too-long edge.
+    Split,
+    /// Collapse a too-short edge into its midpoint.
+    Merge,
 }
 
-/// Whether edge slot `edge` can be split (`split`) or merged at all: at
+impl EdgeOp {
+    /// Every operation.
+    pub const ALL: [EdgeOp; 2] = [EdgeOp::Split, EdgeOp::Merge];
+
+    /// The name in outputs (`events.csv`).
+    pub fn name(self) -> &'static str {
+        match self {
+            EdgeOp::Split => "split",
+            EdgeOp::Merge => "merge",
+        }
+    }
+
+    /// The operation an edge of length `l` calls for: none inside
+    /// [`shorter_than`, `longer_than`], a split above, a merge otherwise.
+    pub fn for_length(l: f64, shorter_than: f64, longer_than: f64) -> Option<EdgeOp> {
+        if (shorter_than..=longer_than).contains(&l) {
+            None
+        } else if l > longer_than {
+            Some(EdgeOp::Split)
+        } else {
+            Some(EdgeOp::Merge)
+        }
+    }
+
+    /// Whether the operation is topologically possible on edge slot `edge`.
+    pub fn check_feasible(
+        self,
+        m: &Membrane,
+        edge: u32,
+        valence: ValenceRange,
+    ) -> Result<(), RemeshError> {
+        check_feasible(m, edge, self, valence)
+    }
+
+    /// Applies the operation to edge slot `edge` (the world is unchanged on
+    /// error).
+    pub fn apply(
+        self,
+        m: &mut Membrane,
+        edge: u32,
+        valence: ValenceRange,
+    ) -> Result<RemeshOutcome, RemeshError> {
+        match self {
+            EdgeOp::Split => split_edge(m, edge, valence),
+            EdgeOp::Merge => merge_edge(m, edge, valence),
+        }
+    }
+}
+
+/// Whether `op` can be applied to edge slot `edge` at all: at
 /// least one of its re-triangulations is valid with valences in range,
 /// wherever the vertices are (the reference's `split.can`, checked before
 /// any relaxation). Geometric validity is checked again by the edit itself.
 pub fn check_feasible(
     m: &Membrane,
     edge: u32,
-    split: bool,
+    op: EdgeOp,
     valence: ValenceRange,
 ) -> Result<(), RemeshError> {
     let r = edge_region(m, edge)?;
     // Positions do not matter to the topological check; the new vertex of a
     // split is not spawned, so a placeholder entity stands for it.
-    let candidates = if split {
-        split_candidates(&r, Entity::DANGLING, DVec3::ZERO, 0.0)
-    } else {
-        merge_candidates(m, &r, DVec3::ZERO)
+    let candidates = match op {
+        EdgeOp::Split => split_candidates(&r, Entity::DANGLING, DVec3::ZERO),
+        EdgeOp::Merge => merge_candidates(m, &r, DVec3::ZERO),
     };
     let mut last_error = EditError::BrokenFan(Entity::DANGLING);
     for c in &candidates {
@@ -346,20 +404,14 @@ pub fn split_edge(
     let r = edge_region(m, edge)?;
     let [i1, i2] = r.i;
     let mid = 0.5 * (position(m, i1) + position(m, i2));
-    let (rho1, rho2) = (density(m, i1), density(m, i2));
+    let values = EdgeValues::read(m, [i1, i2]);
     let n = m.reserve_vertex();
-    let candidates = split_candidates(&r, n, mid, (rho1 + rho2) / 3.0);
+    let candidates = split_candidates(&r, n, mid);
     let pos = |v: Entity| if v == n { mid } else { position(m, v) };
     let best = choose(m, &candidates, valence, pos)?;
     m.apply_patch(&candidates[best].edit, valence)
         .map_err(RemeshError::NoValidOption)?;
-    if m.has_lipid() {
-        for (v, rho) in [(i1, rho1), (i2, rho2)] {
-            if let Ok(mut d) = m.world.get::<&mut LipidDensity>(v) {
-                d.0 = rho * 2.0 / 3.0;
-            }
-        }
-    }
+    values.apply_split(m, [i1, i2], n);
     Ok(RemeshOutcome {
         vertex: n,
         position: mid,
@@ -377,15 +429,13 @@ pub fn merge_edge(
     let r = edge_region(m, edge)?;
     let [i1, i2] = r.i;
     let mid = 0.5 * (position(m, i1) + position(m, i2));
-    let (rho1, rho2) = (density(m, i1), density(m, i2));
+    let values = EdgeValues::read(m, [i1, i2]);
     let candidates = merge_candidates(m, &r, mid);
     let pos = |v: Entity| if v == i1 { mid } else { position(m, v) };
     let best = choose(m, &candidates, valence, pos)?;
     m.apply_patch(&candidates[best].edit, valence)
         .map_err(RemeshError::NoValidOption)?;
-    if let (true, Ok(mut d)) = (m.has_lipid(), m.world.get::<&mut LipidDensity>(i1)) {
-        d.0 = rho1 + rho2;
-    }
+    values.apply_merge(m, i1);
     Ok(RemeshOutcome {
         vertex: i1,
         position: mid,
@@ -410,9 +460,9 @@ pub struct OutcomeCounts {
 /// Remeshing statistics of a run.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct RemeshStats {
-    /// Split outcomes.
+    /// Split outcomes ([`RemeshStats::counts`] of [`EdgeOp::Split`]).
     pub split: OutcomeCounts,
-    /// Merge outcomes.
+    /// Merge outcomes ([`RemeshStats::counts`] of [`EdgeOp::Merge`]).
     pub merge: OutcomeCounts,
     /// Ticks that hit the per-tick event cap.
     pub overflow_ticks: u64,
@@ -447,16 +497,32 @@ pub struct RelaxIterations {
 pub struct RemeshEvent {
     /// Iteration during which it happened.
     pub iteration: u64,
-    /// `true` for a split, `false` for a merge.
-    pub split: bool,
+    /// The operation.
+    pub op: EdgeOp,
     /// Midpoint of the edge (l̄).
     pub position: [f64; 3],
 }
 
 impl RemeshStats {
-    /// Successful splits and merges.
+    /// The outcome counts of `op`.
+    pub fn counts(&self, op: EdgeOp) -> &OutcomeCounts {
+        match op {
+            EdgeOp::Split => &self.split,
+            EdgeOp::Merge => &self.merge,
+        }
+    }
+
+    /// The outcome counts of `op`, mutably.
+    pub fn counts_mut(&mut self, op: EdgeOp) -> &mut OutcomeCounts {
+        match op {
+            EdgeOp::Split => &mut self.split,
+            EdgeOp::Merge => &mut self.merge,
+        }
+    }
+
+    /// Successful events of every operation.
     pub fn successes(&self) -> u64 {
-        self.split.success + self.merge.success
+        EdgeOp::ALL.iter().map(|&op| self.counts(op).success).sum()
     }
 
     /// σ(|r|): standard deviation of the distance of the events from the

@@ -22,7 +22,7 @@ use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
 use crate::params::{DynamicsParams, RemeshParams};
 use crate::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
-use crate::remesh::{OutcomeCounts, RemeshStats, check_feasible, merge_edge, split_edge};
+use crate::remesh::{EdgeOp, RemeshStats};
 use crate::resources::{Res, ResMut};
 use crate::rng::stream_seed;
 use crate::schedule::System;
@@ -140,7 +140,7 @@ impl System for Remesh {
                 state.remesh_stats.overflow_ticks += 1;
                 break;
             }
-            let (edge, long) = candidates[rng.random_range(0..candidates.len())];
+            let (edge, op) = candidates[rng.random_range(0..candidates.len())];
             let t = state.membrane.cached_topology();
             let [a, b] = t.edges[edge as usize];
             attempted.insert(ordered(
@@ -148,7 +148,7 @@ impl System for Remesh {
                 t.vertex_entities[b as usize],
             ));
             events += 1;
-            process(state, edge, long, &seg, &settings, kicks, &mut rng)?;
+            process(state, edge, op, &seg, &settings, kicks, &mut rng)?;
         }
         let left: Vec<u32> = abnormal_edges(state, &p, &HashSet::new())
             .into_iter()
@@ -171,27 +171,28 @@ fn ordered(a: Entity, b: Entity) -> (Entity, Entity) {
     }
 }
 
-/// Abnormal edges not yet attempted this tick: (slot, too long?).
+/// Abnormal edges not yet attempted this tick, with the operation each
+/// calls for.
 fn abnormal_edges(
     state: &State<'_>,
     p: &RemeshParams,
     attempted: &HashSet<(Entity, Entity)>,
-) -> Vec<(u32, bool)> {
+) -> Vec<(u32, EdgeOp)> {
     let t = state.membrane.cached_topology();
     let pos = &state.positions;
     let mut out = Vec::new();
     for (e, &[a, b]) in t.edges.iter().enumerate() {
         let l = pos[a as usize].distance(pos[b as usize]);
-        if (p.shorter_than..=p.longer_than).contains(&l) {
+        let Some(op) = EdgeOp::for_length(l, p.shorter_than, p.longer_than) else {
             continue;
-        }
+        };
         if attempted.contains(&ordered(
             t.vertex_entities[a as usize],
             t.vertex_entities[b as usize],
         )) {
             continue;
         }
-        out.push((e as u32, l > p.longer_than));
+        out.push((e as u32, op));
     }
     out
 }
@@ -238,7 +239,7 @@ fn refresh(state: &mut State<'_>) -> Result<(), SimError> {
 fn process(
     state: &mut State<'_>,
     edge: u32,
-    long: bool,
+    op: EdgeOp,
     seg: &crate::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
@@ -249,13 +250,8 @@ fn process(
     let t = state.membrane.cached_topology();
     let [a, b] = t.edges[edge as usize];
     let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
-    let counts: &mut OutcomeCounts = if long {
-        &mut state.remesh_stats.split
-    } else {
-        &mut state.remesh_stats.merge
-    };
-    if check_feasible(state.membrane, edge, long, valence).is_err() {
-        counts.impossible += 1;
+    if op.check_feasible(state.membrane, edge, valence).is_err() {
+        state.remesh_stats.counts_mut(op).impossible += 1;
         push_back(state, a, b, seg, settings, kicks, rng);
         return Ok(());
     }
@@ -267,10 +263,9 @@ fn process(
     // all be normal at once, and never succeed (measured: a stiffened RBC
     // stuck for good with 8 long edges until this fallback). Last, the
     // 1-ring with the paper's normal range (see `ladder`).
-    let goal = if long {
-        Goal::Extend(p.split_done)
-    } else {
-        Goal::Compress(p.merge_done)
+    let goal = match op {
+        EdgeOp::Split => Goal::Extend(p.split_done),
+        EdgeOp::Merge => Goal::Compress(p.merge_done),
     };
     let (outcome, patch, slots, iterations) = relax_around_edge(
         state,
@@ -287,13 +282,9 @@ fn process(
         RelaxOutcome::Cancel => &mut spent.pre_cancel,
         RelaxOutcome::Failure => &mut spent.pre_failure,
     } += iterations;
-    let counts: &mut OutcomeCounts = if long {
-        &mut state.remesh_stats.split
-    } else {
-        &mut state.remesh_stats.merge
-    };
     match outcome {
         RelaxOutcome::Cancel | RelaxOutcome::Failure => {
+            let counts = state.remesh_stats.counts_mut(op);
             if outcome == RelaxOutcome::Cancel {
                 counts.cancel += 1;
             } else {
@@ -312,22 +303,13 @@ fn process(
         .collect();
     write_back(state, &patch, &slots);
     // The edge's slot is unchanged until the topology changes.
-    let result = if long {
-        split_edge(state.membrane, edge, valence)
-    } else {
-        merge_edge(state.membrane, edge, valence)
-    };
-    let counts: &mut OutcomeCounts = if long {
-        &mut state.remesh_stats.split
-    } else {
-        &mut state.remesh_stats.merge
-    };
+    let result = op.apply(state.membrane, edge, valence);
     match result {
         Ok(out) => {
-            counts.success += 1;
+            state.remesh_stats.counts_mut(op).success += 1;
             state.remesh_stats.events.push(crate::remesh::RemeshEvent {
                 iteration: state.iteration,
-                split: long,
+                op,
                 position: out.position.to_array(),
             });
             refresh(state)?;
@@ -352,7 +334,7 @@ fn process(
             }
         }
         Err(_) => {
-            counts.impossible += 1;
+            state.remesh_stats.counts_mut(op).impossible += 1;
             // Restore the pre-relaxation positions, then push the edge back.
             let restore = Patch {
                 positions: saved,

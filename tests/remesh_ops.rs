@@ -46,7 +46,7 @@ fn split_options_of_a_regular_neighbourhood_match_the_hand_count() {
     let e = regular_edge(&m);
     let r = edge_region(&m, e).unwrap();
     let n = m.reserve_vertex();
-    let candidates = split_candidates(&r, n, DVec3::ZERO, 1.0);
+    let candidates = split_candidates(&r, n, DVec3::ZERO);
     assert_eq!(candidates.len(), 16);
     let mut valid: Vec<u32> = candidates
         .iter()
@@ -151,5 +151,72 @@ fn random_split_merge_sequences_keep_every_invariant_and_conserve_density() {
     assert!(
         applied.0 > 300 && applied.1 > 100,
         "too few edits applied: {applied:?}"
+    );
+}
+
+/// An intensive per-vertex field (e.g. a protein coverage).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Coverage(f64);
+
+impl remembrane::vertex_field::ScalarComponent for Coverage {
+    fn value(&self) -> f64 {
+        self.0
+    }
+    fn from_value(value: f64) -> Self {
+        Self(value)
+    }
+}
+
+#[test]
+fn every_registered_field_follows_its_transfer_policy_through_splits_and_merges() {
+    use remembrane::remesh::EdgeOp;
+    use remembrane::vertex_field::TransferPolicy;
+    let mut m = membrane(3, 0.02, 4);
+    m.add_vertex_field::<Coverage>("coverage", TransferPolicy::Interpolate, |slot, p| {
+        0.5 + 0.4 * p.z.signum() + 1e-3 * slot as f64
+    })
+    .unwrap();
+    m.topology().unwrap();
+    let value = |m: &Membrane, v| m.world.get::<&Coverage>(v).unwrap().0;
+    let lipid =
+        |m: &Membrane| -> f64 { m.world.query::<&LipidDensity>().iter().map(|d| d.0).sum() };
+    let total = lipid(&m);
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(9);
+    let (mut splits, mut merges) = (0, 0);
+    for _ in 0..200 {
+        let t = m.cached_topology();
+        let e = rng.random_range(0..t.edges.len() as u32);
+        let [a, b] = t.edges[e as usize].map(|s| t.vertex_entities[s as usize]);
+        let (ca, cb) = (value(&m, a), value(&m, b));
+        let op = if rng.random_bool(0.5) {
+            EdgeOp::Split
+        } else {
+            EdgeOp::Merge
+        };
+        let Ok(out) = op.apply(&mut m, e, ValenceRange { min: 4, max: 9 }) else {
+            continue;
+        };
+        m.topology().unwrap();
+        // The new (split) or surviving (merge) vertex holds the mean; a
+        // split leaves the ends' coverage as it was.
+        assert!((value(&m, out.vertex) - 0.5 * (ca + cb)).abs() < 1e-15);
+        match op {
+            EdgeOp::Split => {
+                splits += 1;
+                assert_eq!((value(&m, a), value(&m, b)), (ca, cb));
+            }
+            EdgeOp::Merge => merges += 1,
+        }
+        assert!((lipid(&m) - total).abs() < 1e-9 * total, "Σρ kept");
+        let every_vertex_has_it = m
+            .cached_topology()
+            .vertex_entities
+            .iter()
+            .all(|&v| m.world.get::<&Coverage>(v).is_ok());
+        assert!(every_vertex_has_it);
+    }
+    assert!(
+        splits > 20 && merges > 20,
+        "{splits} splits, {merges} merges"
     );
 }

@@ -1,0 +1,140 @@
+//! Per-vertex fields and how they are carried through remeshing (after
+//! geometry-central's data transfer on mutation).
+//!
+//! A per-vertex field is a component on every vertex entity. The plugin
+//! that owns it registers a [`FieldTransfer`] on the [`Membrane`]
+//! ([`Membrane::register_field`]); every split and merge then spawns new
+//! vertices with the field's component and applies the field's
+//! [`TransferPolicy`]:
+//!
+//! | policy | split (i1, i2) → (i1, n, i2) | merge (i1, i2) → i |
+//! |---|---|---|
+//! | [`TransferPolicy::Conserve`] (an amount, e.g. lipid) | f_i1, f_i2 ×= 2/3; f_n = (f_i1 + f_i2)/3 | f_i = f_i1 + f_i2 |
+//! | [`TransferPolicy::Interpolate`] (an intensive value, e.g. coverage) | f_n = (f_i1 + f_i2)/2 | f_i = (f_i1 + f_i2)/2 |
+//!
+//! Conserve keeps Σf exactly (lipid density: SPEC §5).
+
+use crate::membrane::Membrane;
+use hecs::{Entity, EntityBuilder, World};
+use std::marker::PhantomData;
+
+/// How a field's values follow a split or merge (table in the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransferPolicy {
+    /// The field is an amount: splits share it, merges add it; Σf is kept.
+    Conserve,
+    /// The field is intensive: new values are the mean of the edge's ends.
+    Interpolate,
+}
+
+/// A per-vertex scalar stored as a hecs component.
+pub trait ScalarComponent: hecs::Component + Copy {
+    /// The value.
+    fn value(&self) -> f64;
+    /// A component holding `value`.
+    fn from_value(value: f64) -> Self;
+}
+
+impl ScalarComponent for crate::components::LipidDensity {
+    fn value(&self) -> f64 {
+        self.0
+    }
+    fn from_value(value: f64) -> Self {
+        Self(value)
+    }
+}
+
+/// One per-vertex field's transfer through topology edits.
+pub trait FieldTransfer: Send + Sync + 'static {
+    /// The field's name (for messages).
+    fn name(&self) -> &str;
+    /// Its policy.
+    fn policy(&self) -> TransferPolicy;
+    /// Adds the field's component (any value) to a vertex being spawned.
+    fn add_to(&self, vertex: &mut EntityBuilder);
+    /// The value at `vertex` (0 if it has none).
+    fn get(&self, world: &World, vertex: Entity) -> f64;
+    /// Sets the value at `vertex` (no-op if it has none).
+    fn set(&self, world: &mut World, vertex: Entity, value: f64);
+}
+
+/// The transfer of a [`ScalarComponent`] `C`.
+pub struct ScalarField<C> {
+    name: String,
+    policy: TransferPolicy,
+    component: PhantomData<fn() -> C>,
+}
+
+impl<C: ScalarComponent> ScalarField<C> {
+    /// The field of component `C` named `name`, moved by `policy`.
+    pub fn new(name: &str, policy: TransferPolicy) -> Self {
+        Self {
+            name: name.to_string(),
+            policy,
+            component: PhantomData,
+        }
+    }
+}
+
+impl<C: ScalarComponent> FieldTransfer for ScalarField<C> {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn policy(&self) -> TransferPolicy {
+        self.policy
+    }
+    fn add_to(&self, vertex: &mut EntityBuilder) {
+        vertex.add(C::from_value(0.0));
+    }
+    fn get(&self, world: &World, vertex: Entity) -> f64 {
+        world.get::<&C>(vertex).map(|c| c.value()).unwrap_or(0.0)
+    }
+    fn set(&self, world: &mut World, vertex: Entity, value: f64) {
+        if let Ok(mut c) = world.get::<&mut C>(vertex) {
+            *c = C::from_value(value);
+        }
+    }
+}
+
+/// The values of every registered field at an edge's two ends, read before
+/// the edit that changes them.
+pub struct EdgeValues(Vec<[f64; 2]>);
+
+impl EdgeValues {
+    /// Reads every field of `m` at `[i1, i2]`.
+    pub fn read(m: &Membrane, [i1, i2]: [Entity; 2]) -> Self {
+        Self(
+            m.fields()
+                .iter()
+                .map(|f| [f.get(&m.world, i1), f.get(&m.world, i2)])
+                .collect(),
+        )
+    }
+
+    /// Applies every field's split policy: (i1, i2) became (i1, n, i2).
+    pub fn apply_split(&self, m: &mut Membrane, [i1, i2]: [Entity; 2], n: Entity) {
+        let fields = m.fields().to_vec();
+        for (f, &[a, b]) in fields.iter().zip(&self.0) {
+            match f.policy() {
+                TransferPolicy::Conserve => {
+                    f.set(&mut m.world, n, (a + b) / 3.0);
+                    f.set(&mut m.world, i1, a * 2.0 / 3.0);
+                    f.set(&mut m.world, i2, b * 2.0 / 3.0);
+                }
+                TransferPolicy::Interpolate => f.set(&mut m.world, n, 0.5 * (a + b)),
+            }
+        }
+    }
+
+    /// Applies every field's merge policy: (i1, i2) became `survivor`.
+    pub fn apply_merge(&self, m: &mut Membrane, survivor: Entity) {
+        let fields = m.fields().to_vec();
+        for (f, &[a, b]) in fields.iter().zip(&self.0) {
+            let value = match f.policy() {
+                TransferPolicy::Conserve => a + b,
+                TransferPolicy::Interpolate => 0.5 * (a + b),
+            };
+            f.set(&mut m.world, survivor, value);
+        }
+    }
+}
