@@ -8,8 +8,8 @@
 //! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
 //! smoothing to penalty terms and sums the total.
 
+use crate::error::DuplicateTerm;
 use crate::geometry::{Corners, face_geometry};
-use crate::resources::{Res, ResMut};
 use crate::topology::Topology;
 use glam::DVec3;
 use hecs::World;
@@ -128,11 +128,6 @@ pub struct TermInfo {
     pub uses_face_geometry: bool,
 }
 
-/// A force term's name is already taken.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("a force term named `{0}` is already registered")]
-pub struct DuplicateTerm(pub String);
-
 /// The force buffers: one per registered term, their sum and the penalty
 /// smoothing setting. Registering a term ([`crate::simulation::SimBuilder::add_force_term`])
 /// adds its buffer here and its system to the Forces stage together.
@@ -242,59 +237,6 @@ impl ForceBuffers {
                 *t += *f;
             }
         }
-    }
-}
-
-/// The system running one force term into its own buffer, so each term is
-/// ordered and timed on its own.
-///
-/// Stage: Forces (before `force_total`). Reads: the membrane (topology, the
-/// term's own components), dense positions and lipid density, face
-/// geometry. Writes: the term's buffer and energy in [`ForceBuffers`].
-pub struct ForceTermSystem<T> {
-    index: usize,
-    name: String,
-    term: T,
-}
-
-impl<T: ForceTerm> ForceTermSystem<T> {
-    /// The system of `term`, whose buffer is `index` in [`ForceBuffers`].
-    pub fn new(index: usize, term: T) -> Self {
-        Self {
-            index,
-            name: term.name().to_string(),
-            term,
-        }
-    }
-}
-
-impl<T: ForceTerm + 'static> crate::schedule::System for ForceTermSystem<T> {
-    type Data<'a> = (
-        Res<'a, crate::membrane::Membrane>,
-        Res<'a, crate::simulation::DensePositions>,
-        Res<'a, crate::simulation::DenseLipid>,
-        Res<'a, FaceGeometry>,
-        ResMut<'a, ForceBuffers>,
-    );
-
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn run(
-        &mut self,
-        (membrane, positions, lipid, geometry, mut buffers): Self::Data<'_>,
-    ) -> Result<(), crate::simulation::SimError> {
-        let ctx = ForceContext {
-            world: &membrane.world,
-            topology: membrane.cached_topology(),
-            positions: &positions.0,
-            lipid: &lipid.0,
-            face_geometry: &geometry.0,
-        };
-        let ev = &mut buffers.evaluation;
-        ev.energies[self.index] = self.term.accumulate(&ctx, &mut ev.term_forces[self.index]);
-        Ok(())
     }
 }
 

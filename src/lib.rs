@@ -5,8 +5,10 @@ pub mod cli;
 pub mod collect;
 pub mod compare;
 pub mod components;
+pub mod core_resources;
 pub mod edit;
 pub mod energy;
+pub mod error;
 pub mod geometry;
 pub mod membrane;
 pub mod mesh;
@@ -33,6 +35,7 @@ pub fn atomic_write(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()>
 
 pub mod fd;
 pub mod force;
+pub mod force_term_system;
 pub mod params;
 
 pub mod plot;

@@ -12,8 +12,8 @@
 //! will apply, so frames reuse the tick's forces instead of evaluating them
 //! again.
 
+use crate::error::SimError;
 use crate::resources::{Access, CheckedResources};
-use crate::simulation::SimError;
 use glam::DVec3;
 
 /// One per-vertex array of a frame (by dense vertex slot).

@@ -20,7 +20,7 @@ use crate::components::Position;
 use crate::edit::{EditError, PatchEdit};
 use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
-use crate::vertex_field::EdgeValues;
+use crate::vertex_field::TransferPolicy;
 use glam::DVec3;
 use hecs::Entity;
 
@@ -538,5 +538,48 @@ impl RemeshStats {
         }
         let mean = r.iter().sum::<f64>() / r.len() as f64;
         (r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (r.len() - 1) as f64).sqrt()
+    }
+}
+
+/// The values of every registered field at an edge's two ends, read before
+/// the edit that changes them.
+struct EdgeValues(Vec<[f64; 2]>);
+
+impl EdgeValues {
+    /// Reads every field of `m` at `[i1, i2]`.
+    fn read(m: &Membrane, [i1, i2]: [Entity; 2]) -> Self {
+        Self(
+            m.fields()
+                .iter()
+                .map(|f| [f.get(&m.world, i1), f.get(&m.world, i2)])
+                .collect(),
+        )
+    }
+
+    /// Applies every field's split policy: (i1, i2) became (i1, n, i2).
+    fn apply_split(&self, m: &mut Membrane, [i1, i2]: [Entity; 2], n: Entity) {
+        let fields = m.fields().to_vec();
+        for (f, &[a, b]) in fields.iter().zip(&self.0) {
+            match f.policy() {
+                TransferPolicy::Conserve => {
+                    f.set(&mut m.world, n, (a + b) / 3.0);
+                    f.set(&mut m.world, i1, a * 2.0 / 3.0);
+                    f.set(&mut m.world, i2, b * 2.0 / 3.0);
+                }
+                TransferPolicy::Interpolate => f.set(&mut m.world, n, 0.5 * (a + b)),
+            }
+        }
+    }
+
+    /// Applies every field's merge policy: (i1, i2) became `survivor`.
+    fn apply_merge(&self, m: &mut Membrane, survivor: Entity) {
+        let fields = m.fields().to_vec();
+        for (f, &[a, b]) in fields.iter().zip(&self.0) {
+            let value = match f.policy() {
+                TransferPolicy::Conserve => a + b,
+                TransferPolicy::Interpolate => 0.5 * (a + b),
+            };
+            f.set(&mut m.world, survivor, value);
+        }
     }
 }

@@ -13,9 +13,10 @@
 //! must exist (or be optional), no system may borrow one resource twice
 //! with a write, and Forces-stage systems may write only the force buffers.
 
+pub use crate::error::ScheduleError;
+use crate::error::SimError;
 use crate::force::ForceBuffers;
 use crate::resources::{Access, CheckedResources, ResourceId, Resources, SystemData};
-use crate::simulation::SimError;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
@@ -172,69 +173,6 @@ impl<S: DynamicSystem> ErasedSystem for Dynamic<S> {
     fn run(&mut self, resources: &Resources, access: &Access) -> Result<(), SimError> {
         self.0.run(&CheckedResources::new(resources, access))
     }
-}
-
-/// A schedule that cannot run.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ScheduleError {
-    /// A stage name that does not exist.
-    #[error(
-        "unknown stage `{0}` (stages: Prepare, Forces, TimeStep, Integrate, BarrierCheck, Remesh, Diffuse, Observe)"
-    )]
-    UnknownStage(String),
-    /// Two systems share a name.
-    #[error("two systems are named `{0}`")]
-    DuplicateName(String),
-    /// A before/after constraint names a system not in the same stage.
-    #[error(
-        "system `{system}` is ordered relative to `{other}`, which is not a system of stage {stage}"
-    )]
-    UnknownOrderTarget {
-        /// The constrained system.
-        system: String,
-        /// The missing system.
-        other: String,
-        /// The stage.
-        stage: &'static str,
-    },
-    /// The before/after constraints of a stage form a cycle.
-    #[error("ordering cycle in stage {stage} among: {systems}")]
-    Cycle {
-        /// The stage.
-        stage: &'static str,
-        /// Systems on the cycle (comma separated).
-        systems: String,
-    },
-    /// A system in the Forces stage declares a write other than the force buffers.
-    #[error(
-        "force system `{system}` writes `{resource}`; systems in the Forces stage may write only the force buffers"
-    )]
-    ForceSystemWrites {
-        /// The system.
-        system: String,
-        /// The forbidden write.
-        resource: ResourceId,
-    },
-    /// A system needs a resource that no plugin inserted.
-    #[error(
-        "system `{system}` needs resource `{resource}`, which no plugin inserted (resources: {available})"
-    )]
-    MissingResource {
-        /// The system.
-        system: String,
-        /// The missing resource.
-        resource: ResourceId,
-        /// The resources that exist (comma separated).
-        available: String,
-    },
-    /// A system declares one resource twice, at least once as a write.
-    #[error("system `{system}` borrows `{resource}` twice, once for writing")]
-    ConflictingAccess {
-        /// The system.
-        system: String,
-        /// The resource.
-        resource: ResourceId,
-    },
 }
 
 pub(crate) struct Entry {

@@ -1,163 +1,18 @@
 //! [`Simulation`]: the world and typed resources of a built scene plus the
 //! schedule of systems that advances them; [`SimBuilder`] and [`Plugin`],
-//! through which built-in and user physics register alike; the core
-//! resources every simulation has (clock, dense mirrors, seed).
+//! through which built-in and user physics register alike. The core
+//! resources and the errors are re-exported here.
 
-use crate::force::{FORCE_TOTAL, ForceBuffers, ForceTerm, ForceTermSystem, TermInfo};
+pub use crate::core_resources::{
+    CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed,
+};
+pub use crate::error::{BuildError, SimError};
+use crate::force::{FORCE_TOTAL, ForceBuffers, ForceTerm, TermInfo};
+use crate::force_term_system::ForceTermSystem;
 use crate::membrane::Membrane;
 use crate::resources::{Res, Resource, Resources};
-use crate::schedule::{Registered, Schedule, ScheduleBuilder, ScheduleError, Stage, System};
-use crate::topology::TopologyError;
+use crate::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
 use glam::DVec3;
-
-/// Quantities of the initial mesh that targets are resolved against.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct InitialState {
-    /// Vertex count N_initial.
-    pub vertices: usize,
-    /// Total lipid Σρ at the start (N_initial for a fresh mesh with ρ = 1;
-    /// the saved total when starting from a state).
-    pub lipid_total: f64,
-    /// Total area (l̄²).
-    pub area: f64,
-    /// Enclosed volume (l̄³).
-    pub volume: f64,
-}
-
-/// Simulated time and iteration count.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct Clock {
-    /// Completed iterations (accepted ticks).
-    pub iteration: u64,
-    /// Simulated time (s).
-    pub time: f64,
-}
-
-/// Dense position mirror, by vertex slot (l̄). Gathered from the world's
-/// [`crate::components::Position`] every tick; written back by integration.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct DensePositions(pub Vec<DVec3>);
-
-/// Dense lipid density mirror, by vertex slot (dimensionless; empty when the
-/// scene declares no lipid density).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct DenseLipid(pub Vec<f64>);
-
-/// Seed of every random stream of the run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Seed(pub u64);
-
-/// Run the full mesh invariant check after every topology edit (always on
-/// in debug builds; `remembrane run --check-invariants` in release).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CheckInvariants(pub bool);
-
-impl Default for CheckInvariants {
-    fn default() -> Self {
-        Self(cfg!(debug_assertions))
-    }
-}
-
-/// A run cannot continue.
-#[derive(Debug, thiserror::Error)]
-pub enum SimError {
-    /// The schedule is invalid (reported before tick 0).
-    #[error("invalid schedule: {0}")]
-    Schedule(#[from] ScheduleError),
-    /// The world's mesh entities are inconsistent.
-    #[error("broken topology: {0}")]
-    Topology(#[from] TopologyError),
-    /// A non-finite value appeared.
-    #[error(
-        "blow-up at iteration {iteration}: {quantity} of {element} is not finite ({value}) in `{term}`"
-    )]
-    BlowUp {
-        /// Iteration being computed (completed iterations + 1).
-        iteration: u64,
-        /// What went non-finite: "force", "time step" or "position".
-        quantity: &'static str,
-        /// The energy term or system responsible.
-        term: String,
-        /// The vertex or edge, e.g. "vertex 12".
-        element: String,
-        /// The offending value.
-        value: String,
-    },
-    /// A face turned over within one step: the explicit step was too large
-    /// for the forces and the mesh would fold (finite but garbage).
-    #[error(
-        "mesh folded at iteration {iteration}: face {face} (vertices {vertices:?}) turned over within one step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, or add a Vin term, whose segments limit the step)"
-    )]
-    MeshFolded {
-        /// Iteration being computed (completed iterations + 1).
-        iteration: u64,
-        /// Face slot.
-        face: usize,
-        /// Its vertex slots.
-        vertices: [u32; 3],
-        /// The step (s).
-        dt: f64,
-    },
-    /// A step turned the membrane inside out (enclosed volume ≤ 0).
-    #[error(
-        "membrane turned inside out at iteration {iteration}: enclosed volume {volume:e} after a step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement)"
-    )]
-    InsideOut {
-        /// Iteration being computed (completed iterations + 1).
-        iteration: u64,
-        /// Enclosed volume after the step (l̄³).
-        volume: f64,
-        /// The step (s).
-        dt: f64,
-    },
-    /// An output could not be written.
-    #[error("{0}")]
-    Output(String),
-    /// A system was added after the schedule was fixed by the first tick.
-    #[error("system `{0}` can only be added before the first tick")]
-    AlreadyStarted(String),
-    /// A system could not be handed its resources (an undeclared access
-    /// of a dynamic system, or a resource removed after validation).
-    #[error("system `{system}`: {source}")]
-    Resource {
-        /// The system.
-        system: String,
-        /// What went wrong.
-        source: crate::resources::FetchError,
-    },
-    /// A plugin could not be registered.
-    #[error(transparent)]
-    Build(#[from] BuildError),
-}
-
-/// A plugin could not be added to a simulation.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum BuildError {
-    /// Two force terms share a name.
-    #[error(transparent)]
-    DuplicateTerm(#[from] crate::force::DuplicateTerm),
-    /// A plugin needs a resource that an earlier plugin inserts.
-    #[error("{what} needs resource `{resource}`: add {plugin} first")]
-    Requires {
-        /// What was being added.
-        what: String,
-        /// The missing resource.
-        resource: &'static str,
-        /// The plugin that provides it.
-        plugin: &'static str,
-    },
-    /// A plugin's configuration is invalid.
-    #[error("field `{field}`: {reason}")]
-    Invalid {
-        /// The field (relative to the plugin's declaration).
-        field: String,
-        /// What is wrong.
-        reason: String,
-    },
-    /// A system was added after the first tick.
-    #[error("`{0}` can only be added before the first tick")]
-    AlreadyStarted(String),
-}
 
 /// A plugin: anything that registers resources and systems on a
 /// [`SimBuilder`]. Every `FnOnce(&mut SimBuilder) -> Result<(), BuildError>`

@@ -2,8 +2,8 @@
 //! geometry-central's data transfer on mutation).
 //!
 //! A per-vertex field is a component on every vertex entity. The plugin
-//! that owns it registers a [`FieldTransfer`] on the [`Membrane`]
-//! ([`Membrane::register_field`]); every split and merge then spawns new
+//! that owns it registers a [`FieldTransfer`] on the membrane
+//! (`Membrane::register_field`); every split and merge then spawns new
 //! vertices with the field's component and applies the field's
 //! [`TransferPolicy`]:
 //!
@@ -14,7 +14,6 @@
 //!
 //! Conserve keeps Σf exactly (lipid density: SPEC §5).
 
-use crate::membrane::Membrane;
 use hecs::{Entity, EntityBuilder, World};
 use std::marker::PhantomData;
 
@@ -92,49 +91,6 @@ impl<C: ScalarComponent> FieldTransfer for ScalarField<C> {
     fn set(&self, world: &mut World, vertex: Entity, value: f64) {
         if let Ok(mut c) = world.get::<&mut C>(vertex) {
             *c = C::from_value(value);
-        }
-    }
-}
-
-/// The values of every registered field at an edge's two ends, read before
-/// the edit that changes them.
-pub struct EdgeValues(Vec<[f64; 2]>);
-
-impl EdgeValues {
-    /// Reads every field of `m` at `[i1, i2]`.
-    pub fn read(m: &Membrane, [i1, i2]: [Entity; 2]) -> Self {
-        Self(
-            m.fields()
-                .iter()
-                .map(|f| [f.get(&m.world, i1), f.get(&m.world, i2)])
-                .collect(),
-        )
-    }
-
-    /// Applies every field's split policy: (i1, i2) became (i1, n, i2).
-    pub fn apply_split(&self, m: &mut Membrane, [i1, i2]: [Entity; 2], n: Entity) {
-        let fields = m.fields().to_vec();
-        for (f, &[a, b]) in fields.iter().zip(&self.0) {
-            match f.policy() {
-                TransferPolicy::Conserve => {
-                    f.set(&mut m.world, n, (a + b) / 3.0);
-                    f.set(&mut m.world, i1, a * 2.0 / 3.0);
-                    f.set(&mut m.world, i2, b * 2.0 / 3.0);
-                }
-                TransferPolicy::Interpolate => f.set(&mut m.world, n, 0.5 * (a + b)),
-            }
-        }
-    }
-
-    /// Applies every field's merge policy: (i1, i2) became `survivor`.
-    pub fn apply_merge(&self, m: &mut Membrane, survivor: Entity) {
-        let fields = m.fields().to_vec();
-        for (f, &[a, b]) in fields.iter().zip(&self.0) {
-            let value = match f.policy() {
-                TransferPolicy::Conserve => a + b,
-                TransferPolicy::Interpolate => 0.5 * (a + b),
-            };
-            f.set(&mut m.world, survivor, value);
         }
     }
 }

@@ -34,17 +34,12 @@ pub fn bending(
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    let s = scratch;
-    let normals = if c0 == 0.0 {
-        None
-    } else {
-        Some(&mut s.normals)
-    };
-    vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, normals, n);
-    s.g_lap.resize(n, DVec3::ZERO);
-    s.g_area.resize(n, 0.0);
-    let mut energy = 0.0;
     if c0 == 0.0 {
+        let s = &mut *scratch;
+        vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, None, n);
+        s.g_lap.resize(n, DVec3::ZERO);
+        s.g_area.resize(n, 0.0);
+        let mut energy = 0.0;
         for i in 0..n {
             let (a, l) = (s.areas[i], s.laplacians[i]);
             let l2 = l.length_squared();
@@ -53,34 +48,110 @@ pub fn bending(
             s.g_lap[i] = l * (0.25 * kappa * inv_a);
             s.g_area[i] = -0.125 * kappa * l2 * inv_a * inv_a;
         }
-    } else {
-        for i in 0..n {
-            let (a, l) = (s.areas[i], s.laplacians[i]);
-            let len = l.length();
-            let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
-            let h = sign * len / (2.0 * a);
-            let dh = h - c0;
-            energy += 0.5 * kappa * a * dh * dh;
-            // |L| is not differentiable at 0: use the zero subgradient there.
-            s.g_lap[i] = if len > 0.0 {
-                l * (0.5 * kappa * dh * sign / len)
-            } else {
-                DVec3::ZERO
-            };
-            s.g_area[i] = 0.5 * kappa * dh * dh - kappa * dh * h;
+        if let Some(force) = force {
+            pull_back(faces, geometry, s, force);
         }
+        energy
+    } else {
+        bending_with(n, faces, geometry, kappa, |_| c0, scratch, force)
+    }
+}
+
+/// Bending energy (Ē) with a spontaneous curvature per vertex,
+/// H = Σ_i ½κ A_i (h_i − c0_i)² (`c0` by dense slot, 1/l̄): the energy of a
+/// membrane whose proteins set its preferred curvature locally. With
+/// `force = Some(f)`, adds −∇H to `f` (positions only; `c0` is held fixed).
+pub fn bending_varying(
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    kappa: f64,
+    c0: &[f64],
+    scratch: &mut BendingScratch,
+    force: Option<&mut [DVec3]>,
+) -> f64 {
+    bending_with(c0.len(), faces, geometry, kappa, |i| c0[i], scratch, force)
+}
+
+/// The signed curvature h_i = s_i |K_i| of every vertex (1/l̄), with the
+/// vertex areas A_i (l̄²), from the faces' geometry.
+pub fn signed_curvatures(
+    n: usize,
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    scratch: &mut BendingScratch,
+) -> (Vec<f64>, Vec<f64>) {
+    let s = scratch;
+    vertex_curvature_terms(
+        faces,
+        geometry,
+        &mut s.areas,
+        &mut s.laplacians,
+        Some(&mut s.normals),
+        n,
+    );
+    let h = (0..n)
+        .map(|i| {
+            let (a, l) = (s.areas[i], s.laplacians[i]);
+            let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
+            sign * l.length() / (2.0 * a)
+        })
+        .collect();
+    (h, s.areas.clone())
+}
+
+/// The signed-curvature form with spontaneous curvature `c0(i)` at vertex i.
+fn bending_with(
+    n: usize,
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    kappa: f64,
+    c0: impl Fn(usize) -> f64,
+    scratch: &mut BendingScratch,
+    force: Option<&mut [DVec3]>,
+) -> f64 {
+    let s = scratch;
+    vertex_curvature_terms(
+        faces,
+        geometry,
+        &mut s.areas,
+        &mut s.laplacians,
+        Some(&mut s.normals),
+        n,
+    );
+    s.g_lap.resize(n, DVec3::ZERO);
+    s.g_area.resize(n, 0.0);
+    let mut energy = 0.0;
+    for i in 0..n {
+        let (a, l) = (s.areas[i], s.laplacians[i]);
+        let len = l.length();
+        let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
+        let h = sign * len / (2.0 * a);
+        let dh = h - c0(i);
+        energy += 0.5 * kappa * a * dh * dh;
+        // |L| is not differentiable at 0: use the zero subgradient there.
+        s.g_lap[i] = if len > 0.0 {
+            l * (0.5 * kappa * dh * sign / len)
+        } else {
+            DVec3::ZERO
+        };
+        s.g_area[i] = 0.5 * kappa * dh * dh - kappa * dh * h;
     }
     if let Some(force) = force {
-        for (f, c) in faces.iter().zip(geometry) {
-            let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
-            let grad = c.backward(
-                [s.g_lap[i0], s.g_lap[i1], s.g_lap[i2]],
-                [s.g_area[i0], s.g_area[i1], s.g_area[i2]],
-            );
-            force[i0] -= grad[0];
-            force[i1] -= grad[1];
-            force[i2] -= grad[2];
-        }
+        pull_back(faces, geometry, s, force);
     }
     energy
+}
+
+/// Adds −(∂H/∂L · ∂L/∂r + ∂H/∂A · ∂A/∂r) to `force`, face by face.
+fn pull_back(faces: &[[u32; 3]], geometry: &[Corners], s: &BendingScratch, force: &mut [DVec3]) {
+    for (f, c) in faces.iter().zip(geometry) {
+        let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
+        let grad = c.backward(
+            [s.g_lap[i0], s.g_lap[i1], s.g_lap[i2]],
+            [s.g_area[i0], s.g_area[i1], s.g_area[i2]],
+        );
+        force[i0] -= grad[0];
+        force[i1] -= grad[1];
+        force[i2] -= grad[2];
+    }
 }

@@ -1,0 +1,175 @@
+//! The engine's errors: a run that cannot continue ([`SimError`]), a plugin
+//! that cannot be added ([`BuildError`]), a schedule that cannot run
+//! ([`ScheduleError`]).
+
+use crate::resources::ResourceId;
+use crate::topology::TopologyError;
+
+/// A run cannot continue.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The schedule is invalid (reported before tick 0).
+    #[error("invalid schedule: {0}")]
+    Schedule(#[from] ScheduleError),
+    /// The world's mesh entities are inconsistent.
+    #[error("broken topology: {0}")]
+    Topology(#[from] TopologyError),
+    /// A non-finite value appeared.
+    #[error(
+        "blow-up at iteration {iteration}: {quantity} of {element} is not finite ({value}) in `{term}`"
+    )]
+    BlowUp {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// What went non-finite: "force", "time step" or "position".
+        quantity: &'static str,
+        /// The energy term or system responsible.
+        term: String,
+        /// The vertex or edge, e.g. "vertex 12".
+        element: String,
+        /// The offending value.
+        value: String,
+    },
+    /// A face turned over within one step: the explicit step was too large
+    /// for the forces and the mesh would fold (finite but garbage).
+    #[error(
+        "mesh folded at iteration {iteration}: face {face} (vertices {vertices:?}) turned over within one step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, or add a Vin term, whose segments limit the step)"
+    )]
+    MeshFolded {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// Face slot.
+        face: usize,
+        /// Its vertex slots.
+        vertices: [u32; 3],
+        /// The step (s).
+        dt: f64,
+    },
+    /// A step turned the membrane inside out (enclosed volume ≤ 0).
+    #[error(
+        "membrane turned inside out at iteration {iteration}: enclosed volume {volume:e} after a step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement)"
+    )]
+    InsideOut {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// Enclosed volume after the step (l̄³).
+        volume: f64,
+        /// The step (s).
+        dt: f64,
+    },
+    /// An output could not be written.
+    #[error("{0}")]
+    Output(String),
+    /// A system was added after the schedule was fixed by the first tick.
+    #[error("system `{0}` can only be added before the first tick")]
+    AlreadyStarted(String),
+    /// A system could not be handed its resources (an undeclared access
+    /// of a dynamic system, or a resource removed after validation).
+    #[error("system `{system}`: {source}")]
+    Resource {
+        /// The system.
+        system: String,
+        /// What went wrong.
+        source: crate::resources::FetchError,
+    },
+    /// A plugin could not be registered.
+    #[error(transparent)]
+    Build(#[from] BuildError),
+}
+
+/// A plugin could not be added to a simulation.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// Two force terms share a name.
+    #[error(transparent)]
+    DuplicateTerm(#[from] DuplicateTerm),
+    /// A plugin needs a resource that an earlier plugin inserts.
+    #[error("{what} needs resource `{resource}`: add {plugin} first")]
+    Requires {
+        /// What was being added.
+        what: String,
+        /// The missing resource.
+        resource: &'static str,
+        /// The plugin that provides it.
+        plugin: &'static str,
+    },
+    /// A plugin's configuration is invalid.
+    #[error("field `{field}`: {reason}")]
+    Invalid {
+        /// The field (relative to the plugin's declaration).
+        field: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A system was added after the first tick.
+    #[error("`{0}` can only be added before the first tick")]
+    AlreadyStarted(String),
+}
+
+/// A schedule that cannot run.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ScheduleError {
+    /// A stage name that does not exist.
+    #[error(
+        "unknown stage `{0}` (stages: Prepare, Forces, TimeStep, Integrate, BarrierCheck, Remesh, Diffuse, Observe)"
+    )]
+    UnknownStage(String),
+    /// Two systems share a name.
+    #[error("two systems are named `{0}`")]
+    DuplicateName(String),
+    /// A before/after constraint names a system not in the same stage.
+    #[error(
+        "system `{system}` is ordered relative to `{other}`, which is not a system of stage {stage}"
+    )]
+    UnknownOrderTarget {
+        /// The constrained system.
+        system: String,
+        /// The missing system.
+        other: String,
+        /// The stage.
+        stage: &'static str,
+    },
+    /// The before/after constraints of a stage form a cycle.
+    #[error("ordering cycle in stage {stage} among: {systems}")]
+    Cycle {
+        /// The stage.
+        stage: &'static str,
+        /// Systems on the cycle (comma separated).
+        systems: String,
+    },
+    /// A system in the Forces stage declares a write other than the force buffers.
+    #[error(
+        "force system `{system}` writes `{resource}`; systems in the Forces stage may write only the force buffers"
+    )]
+    ForceSystemWrites {
+        /// The system.
+        system: String,
+        /// The forbidden write.
+        resource: ResourceId,
+    },
+    /// A system needs a resource that no plugin inserted.
+    #[error(
+        "system `{system}` needs resource `{resource}`, which no plugin inserted (resources: {available})"
+    )]
+    MissingResource {
+        /// The system.
+        system: String,
+        /// The missing resource.
+        resource: ResourceId,
+        /// The resources that exist (comma separated).
+        available: String,
+    },
+    /// A system declares one resource twice, at least once as a write.
+    #[error("system `{system}` borrows `{resource}` twice, once for writing")]
+    ConflictingAccess {
+        /// The system.
+        system: String,
+        /// The resource.
+        resource: ResourceId,
+    },
+}
+
+/// A force term's name is already taken.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("a force term named `{0}` is already registered")]
+pub struct DuplicateTerm(pub String);
