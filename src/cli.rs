@@ -463,6 +463,10 @@ fn check(path: &Path) -> Result<(), String> {
     for term in &scene.energy {
         println!("    {term:?}");
     }
+    println!("  systems      {}", scene.systems.len());
+    for system in &scene.systems {
+        println!("    {system:?}");
+    }
     println!("  penalty smoothing passes {}", scene.penalty_smoothing);
     println!("  control points {}", scene.control_points.len());
     Ok(())

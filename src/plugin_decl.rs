@@ -39,25 +39,38 @@ impl PartialEq for PluginDecl {
 impl std::fmt::Debug for PluginDecl {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.stage {
+            // Inside its variant's parentheses: `Custom(name: .., params: ..)`.
             Some(stage) => write!(
                 f,
-                "Custom(name: {:?}, stage: {}, params: {})",
+                "name: {:?}, stage: {}, params: {}",
                 self.name,
                 stage.name(),
                 self.params
             ),
-            None => write!(f, "Custom(name: {:?}, params: {})", self.name, self.params),
+            None => write!(f, "name: {:?}, params: {}", self.name, self.params),
         }
     }
 }
 
 /// An energy-term plugin: `Custom(name: "...", params: (...))`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, PartialEq, Serialize)]
 pub struct TermPlugin(pub PluginDecl);
 
 /// A system plugin: `Custom(name: "...", stage: Observe, params: (...))`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, PartialEq, Serialize)]
 pub struct SystemPlugin(pub PluginDecl);
+
+impl std::fmt::Debug for TermPlugin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::fmt::Debug for SystemPlugin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
 
 impl<'de> Deserialize<'de> for TermPlugin {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {

@@ -136,10 +136,31 @@ struct Slot {
     value: RefCell<Box<dyn Any + Send>>,
 }
 
+/// Hashes a `TypeId` by its own bits: they are already a hash, and a
+/// system fetches its resources on every tick.
+#[derive(Default)]
+struct TypeIdHasher(u64);
+
+impl std::hash::Hasher for TypeIdHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 ^= v;
+    }
+}
+
+type TypeMap<V> = HashMap<TypeId, V, std::hash::BuildHasherDefault<TypeIdHasher>>;
+
 /// The resource container: at most one value per type.
 #[derive(Default)]
 pub struct Resources {
-    slots: HashMap<TypeId, Slot>,
+    slots: TypeMap<Slot>,
 }
 
 impl Resources {
