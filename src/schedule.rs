@@ -109,6 +109,30 @@ impl Stage {
 ///     }
 /// }
 /// ```
+///
+/// A write that the type does not declare does not compile: a [`Res`]
+/// gives no mutable access, and there is no other way to reach a resource.
+///
+/// ```compile_fail,E0594
+/// use remembrane::resources::Res;
+/// use remembrane::schedule::System;
+/// use remembrane::simulation::{Clock, SimError};
+///
+/// struct Sneaky;
+///
+/// impl System for Sneaky {
+///     type Data<'a> = Res<'a, Clock>;
+///     fn name(&self) -> &str {
+///         "sneaky"
+///     }
+///     fn run(&mut self, mut clock: Self::Data<'_>) -> Result<(), SimError> {
+///         clock.iteration += 1; // declared as a read
+///         Ok(())
+///     }
+/// }
+/// ```
+///
+/// [`Res`]: crate::resources::Res
 pub trait System: Send + 'static {
     /// The resources the system reads ([`Res`](crate::resources::Res)) and
     /// writes ([`ResMut`](crate::resources::ResMut)).
