@@ -139,6 +139,7 @@ pub struct ForceBuffers {
     pub penalty_smoothing: u32,
     /// The current evaluation.
     pub evaluation: ForceEvaluation,
+    vertices: usize,
     scratch: Vec<DVec3>,
 }
 
@@ -180,6 +181,7 @@ impl ForceBuffers {
 
     /// Sizes and zeroes every term buffer for `n` vertices.
     pub fn begin(&mut self, n: usize) {
+        self.vertices = n;
         let out = &mut self.evaluation;
         out.energies.clear();
         out.energies.resize(self.terms.len(), 0.0);
@@ -207,7 +209,9 @@ impl ForceBuffers {
     /// and smoothed once (smoothing is linear, so this equals smoothing each).
     pub fn finish(&mut self, topology: &Topology) {
         let out = &mut self.evaluation;
-        let n = out.term_forces.first().map_or(0, Vec::len);
+        // Sized by the vertices, not the terms: with no term at all (pure
+        // diffusion) the total is zero, not empty.
+        let n = self.vertices;
         out.total.clear();
         out.total.resize(n, DVec3::ZERO);
         out.smoothed_penalty.clear();
