@@ -107,6 +107,32 @@ enum Command {
         #[arg(long)]
         partial: bool,
     },
+    /// Flicker spectrum of a fluctuating quasi-spherical vesicle run: its
+    /// frames' shapes in spherical harmonics, ⟨|u_lm|²⟩ by l after an
+    /// equilibration time, and the Helfrich fit of κ and σ with block
+    /// error bars (spectrum.csv, spectrum_fit.json, spectrum.png in DIR).
+    Spectrum {
+        /// Run directory (with summary.json and frames/).
+        dir: PathBuf,
+        /// Frames before this simulated time are discarded (s).
+        #[arg(long, default_value_t = 0.0)]
+        equilibration: f64,
+        /// Lowest l fitted.
+        #[arg(long, default_value_t = 2)]
+        l_min: usize,
+        /// Highest l fitted.
+        #[arg(long, default_value_t = 12)]
+        l_max: usize,
+        /// Blocks of consecutive frames for the error bars.
+        #[arg(long, default_value_t = 10)]
+        blocks: usize,
+        /// k_BT (Ē; default: the run's scene's temperature).
+        #[arg(long)]
+        kbt: Option<f64>,
+        /// Input κ to draw (Ē; default: the run's scene's Bending kappa).
+        #[arg(long)]
+        kappa: Option<f64>,
+    },
     /// Validate a scene and print what it declares.
     Check {
         /// Scene file (RON).
@@ -405,6 +431,15 @@ fn run(command: Command) -> Result<(), String> {
         | Command::Sweep { .. }
         | Command::Collect { .. } => unreachable!("handled in main"),
         Command::Check { scene } => check(&scene),
+        Command::Spectrum {
+            dir,
+            equilibration,
+            l_min,
+            l_max,
+            blocks,
+            kbt,
+            kappa,
+        } => spectrum_command(&dir, equilibration, l_min, l_max, blocks, kbt, kappa),
         Command::Energy {
             scene,
             json,
@@ -427,6 +462,75 @@ fn scene_name(scene: &Scene, path: &Path) -> String {
     } else {
         scene.name.clone()
     }
+}
+
+/// The scene a run directory's summary names, if it still loads.
+fn run_scene_file(dir: &Path) -> Option<Scene> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    let summary: serde_json::Value = serde_json::from_str(&text).ok()?;
+    Scene::load(Path::new(summary["scene_file"].as_str()?)).ok()
+}
+
+fn spectrum_command(
+    dir: &Path,
+    equilibration: f64,
+    l_min: usize,
+    l_max: usize,
+    blocks: usize,
+    kbt: Option<f64>,
+    kappa: Option<f64>,
+) -> Result<(), String> {
+    if !dir.join("summary.json").is_file() {
+        return Err(format!(
+            "{}: no summary.json: not a run directory",
+            dir.display()
+        ));
+    }
+    let scene = run_scene_file(dir);
+    let kbt = kbt
+        .or_else(|| scene.as_ref().map(|s| s.dynamics.temperature))
+        .ok_or_else(|| {
+            format!(
+                "{}: the run's scene cannot be read: give --kbt",
+                dir.display()
+            )
+        })?;
+    if !(kbt > 0.0 && kbt.is_finite()) {
+        return Err(format!(
+            "k_BT must be > 0 (got {kbt}): is this a run with noise?"
+        ));
+    }
+    let kappa_input = kappa.or_else(|| {
+        scene.as_ref()?.energy.iter().find_map(|t| match t {
+            crate::scene::EnergyTerm::Bending(p) => Some(p.kappa),
+            _ => None,
+        })
+    });
+    let options = crate::spectrum::SpectrumOptions {
+        equilibration,
+        l_min,
+        l_max,
+        blocks,
+        kbt,
+        kappa_input,
+    };
+    let s = crate::spectrum::analyse_run(dir, &options)?;
+    println!(
+        "{} frames, R0 = {:.4} l̄, l = {}..={}: κ = {:.4} ± {:.4} Ē, σ = {:.4e} ± {:.1e} Ē/l̄², χ²/dof = {:.2}",
+        s.frames,
+        s.mean_radius,
+        s.l_min,
+        s.l_max,
+        s.kappa,
+        s.kappa_error,
+        s.sigma,
+        s.sigma_error,
+        s.chi2_per_dof
+    );
+    if let Some(k) = kappa_input {
+        println!("input κ = {k} Ē: fitted/input = {:.3}", s.kappa / k);
+    }
+    Ok(())
 }
 
 fn check(path: &Path) -> Result<(), String> {

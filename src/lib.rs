@@ -54,6 +54,7 @@ pub mod scene;
 pub mod schedule;
 pub mod shape;
 pub mod simulation;
+pub mod spectrum;
 pub mod state;
 pub mod sweep;
 #[path = "../systems/mod.rs"]

@@ -1,0 +1,434 @@
+//! Flicker spectroscopy of a quasi-spherical vesicle: `remembrane spectrum
+//! RUN_DIR`.
+//!
+//! Each frame's shape is written r(Ω) = R0 (1 + u(Ω)) about its volume
+//! centroid, R0 the mean radius (so ∫u dΩ = 0), and projected onto real
+//! orthonormal spherical harmonics, u_lm = ∫ u Y_lm dΩ. The integral is a
+//! quadrature over the mesh's faces: a 7-point degree-5 rule on each flat
+//! triangle, the radius at each point interpolated linearly from the
+//! vertices, the direction that of the point seen from the centroid, and
+//! the weight the triangle's solid-angle density (p − c)·n / |p − c|³. The
+//! mean ⟨u_lm²⟩ over m and over the frames after an equilibration time is
+//! fitted by the Helfrich quasi-spherical spectrum
+//!
+//! ⟨|u_lm|²⟩ = k_BT / (κ (l − 1)(l + 2) [l(l + 1) + σ̄]),  σ̄ = σ R0² / κ,
+//!
+//! which is linear in (κ/k_BT, σR0²/k_BT) for 1/⟨|u_lm|²⟩: a weighted least
+//! squares fit whose weights and error bars come from block averages over
+//! the (correlated) frames. Sample frames by time (`dynamics.frame_time`):
+//! the step varies with the state, and per-iteration frames over-weight
+//! short steps (tests/thermal.rs).
+
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// Index of (l, m) in a vector of real harmonics up to some l_max:
+/// l² + l + m, m = −l..=l.
+pub fn lm_index(l: usize, m: i64) -> usize {
+    ((l * l + l) as i64 + m) as usize
+}
+
+/// The real orthonormal spherical harmonics Y_lm(θ, φ) for l ≤ `l_max` at
+/// the unit direction `d`, indexed by [`lm_index`]: Y_l0 = P̄_l^0,
+/// Y_lm = √2 P̄_l^m cos(mφ) (m > 0), Y_l,−m = √2 P̄_l^m sin(mφ), with P̄ the
+/// fully normalised associated Legendre functions (∫ Y² dΩ = 1).
+pub fn real_harmonics(l_max: usize, d: DVec3, out: &mut Vec<f64>) {
+    let n = (l_max + 1) * (l_max + 1);
+    out.clear();
+    out.resize(n, 0.0);
+    let x = d.z.clamp(-1.0, 1.0);
+    let s = (1.0 - x * x).max(0.0).sqrt();
+    let phi = d.y.atan2(d.x);
+    // p[l][m] for the current m column, by the standard stable recurrences.
+    let mut pmm = (1.0 / (4.0 * PI)).sqrt();
+    for m in 0..=l_max {
+        if m > 0 {
+            pmm *= -((2 * m + 1) as f64 / (2 * m) as f64).sqrt() * s;
+        }
+        let (cos_m, sin_m) = ((m as f64) * phi).cos_sin();
+        let mut put = |l: usize, p: f64| {
+            if m == 0 {
+                out[l * l + l] = p;
+            } else {
+                out[l * l + l + m] = std::f64::consts::SQRT_2 * p * cos_m;
+                out[l * l + l - m] = std::f64::consts::SQRT_2 * p * sin_m;
+            }
+        };
+        put(m, pmm);
+        if m == l_max {
+            break;
+        }
+        let mut p_prev = pmm;
+        let mut p = (2.0 * m as f64 + 3.0).sqrt() * x * pmm;
+        put(m + 1, p);
+        for l in m + 2..=l_max {
+            let (lf, mf) = (l as f64, m as f64);
+            let a = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
+            let lp = lf - 1.0;
+            let a_prev = ((4.0 * lp * lp - 1.0) / (lp * lp - mf * mf)).sqrt();
+            let next = a * (x * p - p_prev / a_prev);
+            p_prev = p;
+            p = next;
+            put(l, p);
+        }
+    }
+}
+
+trait CosSin {
+    fn cos_sin(self) -> (f64, f64);
+}
+
+impl CosSin for f64 {
+    fn cos_sin(self) -> (f64, f64) {
+        let (s, c) = self.sin_cos();
+        (c, s)
+    }
+}
+
+/// The 7-point degree-5 rule on a triangle (Radon): barycentric points
+/// ((9 ∓ 2√15)/21, (6 ± √15)/21, ...) and weights 9/40, (155 ± √15)/1200,
+/// summing to 1.
+const RULE: [([f64; 3], f64); 7] = {
+    const A1: f64 = 0.05971587178976981;
+    const B1: f64 = 0.47014206410511505;
+    const A2: f64 = 0.7974269853530872;
+    const B2: f64 = 0.10128650732345633;
+    const W0: f64 = 0.225;
+    const W1: f64 = 0.13239415278850616;
+    const W2: f64 = 0.12593918054482717;
+    [
+        ([1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0], W0),
+        ([A1, B1, B1], W1),
+        ([B1, A1, B1], W1),
+        ([B1, B1, A1], W1),
+        ([A2, B2, B2], W2),
+        ([B2, A2, B2], W2),
+        ([B2, B2, A2], W2),
+    ]
+};
+
+/// The shape of one frame in harmonics.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapeModes {
+    /// Mean radius R0 about the volume centroid (l̄).
+    pub mean_radius: f64,
+    /// u_lm for l ≤ l_max, by [`lm_index`] (dimensionless).
+    pub modes: Vec<f64>,
+}
+
+/// Projects a closed mesh onto real spherical harmonics up to `l_max` (see
+/// the module doc).
+pub fn project(positions: &[DVec3], faces: &[[u32; 3]], l_max: usize) -> ShapeModes {
+    // Volume centroid: Σ over tetrahedra (0, a, b, c) of volume × centroid.
+    let (mut six_v, mut moment) = (0.0, DVec3::ZERO);
+    for f in faces {
+        let [a, b, c] = f.map(|v| positions[v as usize]);
+        let v = a.dot(b.cross(c));
+        six_v += v;
+        moment += v * (a + b + c) / 4.0;
+    }
+    let centre = moment / six_v;
+    let radius: Vec<f64> = positions.iter().map(|p| p.distance(centre)).collect();
+    // Quadrature points: (direction, radius, solid-angle weight).
+    let mut points = Vec::with_capacity(faces.len() * RULE.len());
+    for f in faces {
+        let [ia, ib, ic] = f.map(|v| v as usize);
+        let [a, b, c] = [positions[ia], positions[ib], positions[ic]];
+        let cross = (b - a).cross(c - a);
+        let area = 0.5 * cross.length();
+        let normal = cross.normalize_or_zero();
+        for (w, weight) in RULE {
+            let p = w[0] * a + w[1] * b + w[2] * c;
+            let q = p - centre;
+            let dist = q.length();
+            let solid = area * weight * q.dot(normal) / (dist * dist * dist);
+            let r = w[0] * radius[ia] + w[1] * radius[ib] + w[2] * radius[ic];
+            points.push((q / dist, r, solid));
+        }
+    }
+    let total: f64 = points.iter().map(|p| p.2).sum();
+    let mean_radius = points.iter().map(|p| p.1 * p.2).sum::<f64>() / total;
+    let mut modes = vec![0.0; (l_max + 1) * (l_max + 1)];
+    let mut y = Vec::new();
+    for &(d, r, w) in &points {
+        real_harmonics(l_max, d, &mut y);
+        let u = (r - mean_radius) / mean_radius;
+        for (m, yk) in modes.iter_mut().zip(&y) {
+            *m += w * u * yk;
+        }
+    }
+    ShapeModes { mean_radius, modes }
+}
+
+/// The mean of u_lm² over m for each l ≤ l_max (index l).
+pub fn power_by_l(modes: &[f64], l_max: usize) -> Vec<f64> {
+    (0..=l_max)
+        .map(|l| {
+            let s = &modes[l * l..(l + 1) * (l + 1)];
+            s.iter().map(|u| u * u).sum::<f64>() / s.len() as f64
+        })
+        .collect()
+}
+
+/// The measured spectrum and its Helfrich fit.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Spectrum {
+    /// Frames averaged (after the equilibration time).
+    pub frames: usize,
+    /// Blocks for the error bars.
+    pub blocks: usize,
+    /// Mean radius over the frames (l̄).
+    pub mean_radius: f64,
+    /// Modes fitted: l_min..=l_max.
+    pub l_min: usize,
+    /// See `l_min`.
+    pub l_max: usize,
+    /// ⟨|u_lm|²⟩ by l (index l; 0 and 1 unused).
+    pub power: Vec<f64>,
+    /// Standard error of `power` from the block averages.
+    pub power_error: Vec<f64>,
+    /// Fitted bending modulus κ (Ē).
+    pub kappa: f64,
+    /// Its standard error (Ē).
+    pub kappa_error: f64,
+    /// Fitted tension σ (Ē/l̄²).
+    pub sigma: f64,
+    /// Its standard error (Ē/l̄²).
+    pub sigma_error: f64,
+    /// χ² per degree of freedom of the fit.
+    pub chi2_per_dof: f64,
+    /// k_BT used (Ē).
+    pub kbt: f64,
+}
+
+/// Helfrich's ⟨|u_lm|²⟩ for modulus `kappa`, tension `sigma` and radius `r`.
+pub fn helfrich_power(l: usize, kbt: f64, kappa: f64, sigma: f64, r: f64) -> f64 {
+    let lf = l as f64;
+    let sigma_bar = sigma * r * r / kappa;
+    kbt / (kappa * (lf - 1.0) * (lf + 2.0) * (lf * (lf + 1.0) + sigma_bar))
+}
+
+/// Averages the per-frame powers (`frames`: (mean radius, power by l)) in
+/// `blocks` contiguous blocks and fits κ and σ over l_min..=l_max.
+pub fn fit(
+    frames: &[(f64, Vec<f64>)],
+    blocks: usize,
+    l_min: usize,
+    l_max: usize,
+    kbt: f64,
+) -> Result<Spectrum, String> {
+    if l_min < 2 || l_max < l_min + 1 {
+        return Err(format!("need 2 <= l_min < l_max (got {l_min}..={l_max})"));
+    }
+    let blocks = blocks.max(2);
+    if frames.len() < blocks {
+        return Err(format!(
+            "{} frames after the equilibration time, fewer than the {blocks} blocks",
+            frames.len()
+        ));
+    }
+    let per_block = frames.len() / blocks;
+    let used = &frames[..per_block * blocks];
+    let mean_radius = used.iter().map(|f| f.0).sum::<f64>() / used.len() as f64;
+    let mut power = vec![0.0; l_max + 1];
+    let mut power_error = vec![0.0; l_max + 1];
+    for l in l_min..=l_max {
+        let means: Vec<f64> = used
+            .chunks(per_block)
+            .map(|c| c.iter().map(|f| f.1[l]).sum::<f64>() / c.len() as f64)
+            .collect();
+        let mean = means.iter().sum::<f64>() / blocks as f64;
+        let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (blocks - 1) as f64;
+        power[l] = mean;
+        power_error[l] = (var / blocks as f64).sqrt();
+    }
+    // 1/P_l = A x_l + B y_l, A = κ/k_BT, B = σR0²/k_BT; σ(1/P) = σ_P / P².
+    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let rows: Vec<(f64, f64, f64, f64)> = (l_min..=l_max)
+        .map(|l| {
+            let lf = l as f64;
+            let y = (lf - 1.0) * (lf + 2.0);
+            let x = y * lf * (lf + 1.0);
+            let z = 1.0 / power[l];
+            let sz = power_error[l] / (power[l] * power[l]);
+            (x, y, z, 1.0 / (sz * sz).max(f64::MIN_POSITIVE))
+        })
+        .collect();
+    for &(x, y, z, w) in &rows {
+        sxx += w * x * x;
+        sxy += w * x * y;
+        syy += w * y * y;
+        sxz += w * x * z;
+        syz += w * y * z;
+    }
+    let det = sxx * syy - sxy * sxy;
+    if !(det.is_finite() && det > 0.0) {
+        return Err("the fit is degenerate (zero or non-finite error bars?)".into());
+    }
+    let a = (syy * sxz - sxy * syz) / det;
+    let b = (sxx * syz - sxy * sxz) / det;
+    let chi2: f64 = rows
+        .iter()
+        .map(|&(x, y, z, w)| w * (z - a * x - b * y).powi(2))
+        .sum();
+    let dof = (rows.len() - 2).max(1) as f64;
+    let scale = (chi2 / dof).max(1.0);
+    let (var_a, var_b) = (syy / det * scale, sxx / det * scale);
+    Ok(Spectrum {
+        frames: used.len(),
+        blocks,
+        mean_radius,
+        l_min,
+        l_max,
+        power,
+        power_error,
+        kappa: a * kbt,
+        kappa_error: var_a.sqrt() * kbt,
+        sigma: b * kbt / (mean_radius * mean_radius),
+        sigma_error: var_b.sqrt() * kbt / (mean_radius * mean_radius),
+        chi2_per_dof: chi2 / dof,
+        kbt,
+    })
+}
+
+/// Options of `remembrane spectrum`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpectrumOptions {
+    /// Frames before this simulated time are discarded (s).
+    pub equilibration: f64,
+    /// Lowest and highest l fitted.
+    pub l_min: usize,
+    /// See `l_min`.
+    pub l_max: usize,
+    /// Blocks for the error bars.
+    pub blocks: usize,
+    /// k_BT (Ē).
+    pub kbt: f64,
+    /// The input κ (Ē), drawn for comparison if given.
+    pub kappa_input: Option<f64>,
+}
+
+/// Reads a frame file (VTK PolyData) as positions and triangles.
+pub fn read_frame(path: &std::path::Path) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), String> {
+    use vtkio::model::{DataSet, VertexNumbers};
+    let fail = |e: &dyn std::fmt::Display| format!("{}: cannot read frame: {e}", path.display());
+    let vtk = vtkio::Vtk::import(path).map_err(|e| fail(&e))?;
+    let DataSet::PolyData { pieces, .. } = vtk.data else {
+        return Err(fail(&"not PolyData"));
+    };
+    let piece = pieces
+        .first()
+        .ok_or_else(|| fail(&"no piece"))?
+        .load_piece_data(None)
+        .map_err(|e| fail(&e))?;
+    let points: Vec<f64> = piece.points.cast_into().ok_or_else(|| fail(&"no points"))?;
+    let positions = points
+        .chunks_exact(3)
+        .map(|p| DVec3::new(p[0], p[1], p[2]))
+        .collect();
+    let Some(VertexNumbers::XML { connectivity, .. }) = &piece.polys else {
+        return Err(fail(&"no triangles"));
+    };
+    let faces = connectivity
+        .chunks_exact(3)
+        .map(|f| [f[0] as u32, f[1] as u32, f[2] as u32])
+        .collect();
+    Ok((positions, faces))
+}
+
+/// Analyses the frames of the run in `dir` (its `summary.json` lists them
+/// with their times) and writes `spectrum.csv`, `spectrum_fit.json` and
+/// `spectrum.png` there.
+pub fn analyse_run(dir: &std::path::Path, options: &SpectrumOptions) -> Result<Spectrum, String> {
+    let summary_path = dir.join("summary.json");
+    let text = std::fs::read_to_string(&summary_path)
+        .map_err(|e| format!("{}: cannot read: {e}", summary_path.display()))?;
+    let summary: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| format!("{}: not a run summary: {e}", summary_path.display()))?;
+    let frames = summary["frames"]
+        .as_array()
+        .ok_or_else(|| format!("{}: no `frames` list", summary_path.display()))?;
+    let mut powers = Vec::new();
+    for f in frames {
+        let time = f["time"].as_f64().unwrap_or(f64::NAN);
+        // Frames before the equilibration time (or without a time) are skipped.
+        if time.is_nan() || time < options.equilibration {
+            continue;
+        }
+        let file = f["file"]
+            .as_str()
+            .ok_or_else(|| format!("{}: a frame without `file`", summary_path.display()))?;
+        let (positions, faces) = read_frame(&dir.join(file))?;
+        let shape = project(&positions, &faces, options.l_max);
+        powers.push((shape.mean_radius, power_by_l(&shape.modes, options.l_max)));
+    }
+    let spectrum = fit(
+        &powers,
+        options.blocks,
+        options.l_min,
+        options.l_max,
+        options.kbt,
+    )
+    .map_err(|e| format!("{}: {e}", dir.display()))?;
+    write_outputs(dir, &spectrum, options)?;
+    Ok(spectrum)
+}
+
+fn write_outputs(
+    dir: &std::path::Path,
+    s: &Spectrum,
+    options: &SpectrumOptions,
+) -> Result<(), String> {
+    let r = s.mean_radius;
+    let mut csv = String::from("l,power,power_error,fit,input_kappa\n");
+    for l in s.l_min..=s.l_max {
+        let input = options
+            .kappa_input
+            .map_or(f64::NAN, |k| helfrich_power(l, s.kbt, k, s.sigma, r));
+        csv += &format!(
+            "{l},{:e},{:e},{:e},{:e}\n",
+            s.power[l],
+            s.power_error[l],
+            helfrich_power(l, s.kbt, s.kappa, s.sigma, r),
+            input
+        );
+    }
+    let write = |name: &str, bytes: &[u8]| {
+        let path = dir.join(name);
+        crate::atomic_write(&path, bytes)
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    };
+    write("spectrum.csv", csv.as_bytes())?;
+    let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
+    write("spectrum_fit.json", json.as_bytes())?;
+    use crate::plot::{Series, line_chart};
+    let ls: Vec<usize> = (s.l_min..=s.l_max).collect();
+    let log = |v: f64| v.log10();
+    let measured = Series {
+        name: "measured".into(),
+        points: ls.iter().map(|&l| (l as f64, log(s.power[l]))).collect(),
+        errors: ls
+            .iter()
+            .map(|&l| s.power_error[l] / (s.power[l] * std::f64::consts::LN_10))
+            .collect(),
+        markers: true,
+        color: 0,
+        ..Default::default()
+    };
+    let curve = |name: String, kappa: f64, color: usize| Series {
+        name,
+        points: ls
+            .iter()
+            .map(|&l| (l as f64, log(helfrich_power(l, s.kbt, kappa, s.sigma, r))))
+            .collect(),
+        lines: true,
+        color,
+        ..Default::default()
+    };
+    let mut series = vec![measured, curve(format!("fit k={:.3}", s.kappa), s.kappa, 1)];
+    if let Some(k) = options.kappa_input {
+        series.push(curve(format!("input k={k:.3}"), k, 2));
+    }
+    let png = line_chart("flicker spectrum", "l", "log10 <|u_lm|^2>", &series);
+    write("spectrum.png", &png)
+}
