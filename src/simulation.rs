@@ -153,6 +153,14 @@ pub struct Simulation {
 }
 
 impl Simulation {
+    /// The schedule builder while the run has not started; `name` is what
+    /// the caller is adding (for the error).
+    fn pending(&mut self, name: &str) -> Result<&mut ScheduleBuilder, SimError> {
+        self.builder
+            .as_mut()
+            .ok_or_else(|| SimError::AlreadyStarted(name.to_string()))
+    }
+
     /// Adds a typed system to `stage` before the run starts; returns the
     /// builder handle for `before`/`after` constraints. Errors if the run
     /// started.
@@ -161,12 +169,7 @@ impl Simulation {
         stage: Stage,
         system: impl System,
     ) -> Result<Registered<'_>, SimError> {
-        let name = system.name().to_string();
-        let builder = self
-            .builder
-            .as_mut()
-            .ok_or(SimError::AlreadyStarted(name))?;
-        Ok(builder.add(stage, system))
+        Ok(self.pending(system.name())?.add(stage, system))
     }
 
     /// Adds a dynamic system (access checked at every borrow) to `stage`
@@ -176,12 +179,7 @@ impl Simulation {
         stage: Stage,
         system: impl crate::schedule::DynamicSystem,
     ) -> Result<Registered<'_>, SimError> {
-        let name = system.name().to_string();
-        let builder = self
-            .builder
-            .as_mut()
-            .ok_or(SimError::AlreadyStarted(name))?;
-        Ok(builder.add_dynamic(stage, system))
+        Ok(self.pending(system.name())?.add_dynamic(stage, system))
     }
 
     /// Registers a force term (buffer and system together) before the run
@@ -190,11 +188,10 @@ impl Simulation {
         &mut self,
         term: impl ForceTerm + 'static,
     ) -> Result<Registered<'_>, SimError> {
-        let name = term.name().to_string();
         let builder = self
             .builder
             .as_mut()
-            .ok_or(SimError::AlreadyStarted(name))?;
+            .ok_or_else(|| SimError::AlreadyStarted(term.name().to_string()))?;
         Ok(register_force_term(&mut self.resources, builder, term)?)
     }
 

@@ -81,6 +81,18 @@ pub fn signed_curvatures(
     scratch: &mut BendingScratch,
 ) -> (Vec<f64>, Vec<f64>) {
     let s = scratch;
+    signed_terms(n, faces, geometry, s);
+    let h = (0..n)
+        .map(|i| {
+            let (a, l) = (s.areas[i], s.laplacians[i]);
+            sign(l, s.normals[i]) * l.length() / (2.0 * a)
+        })
+        .collect();
+    (h, s.areas.clone())
+}
+
+/// Fills the scratch's areas, Laplacians and vertex normals.
+fn signed_terms(n: usize, faces: &[[u32; 3]], geometry: &[Corners], s: &mut BendingScratch) {
     vertex_curvature_terms(
         faces,
         geometry,
@@ -89,14 +101,16 @@ pub fn signed_curvatures(
         Some(&mut s.normals),
         n,
     );
-    let h = (0..n)
-        .map(|i| {
-            let (a, l) = (s.areas[i], s.laplacians[i]);
-            let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
-            sign * l.length() / (2.0 * a)
-        })
-        .collect();
-    (h, s.areas.clone())
+}
+
+/// s_i = sign(K_i · N_i): +1 where the membrane curves like a sphere seen
+/// from outside.
+fn sign(laplacian: DVec3, normal: DVec3) -> f64 {
+    if laplacian.dot(normal) < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
 }
 
 /// The signed-curvature form with spontaneous curvature `c0(i)` at vertex i.
@@ -110,21 +124,14 @@ fn bending_with(
     force: Option<&mut [DVec3]>,
 ) -> f64 {
     let s = scratch;
-    vertex_curvature_terms(
-        faces,
-        geometry,
-        &mut s.areas,
-        &mut s.laplacians,
-        Some(&mut s.normals),
-        n,
-    );
+    signed_terms(n, faces, geometry, s);
     s.g_lap.resize(n, DVec3::ZERO);
     s.g_area.resize(n, 0.0);
     let mut energy = 0.0;
     for i in 0..n {
         let (a, l) = (s.areas[i], s.laplacians[i]);
         let len = l.length();
-        let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
+        let sign = sign(l, s.normals[i]);
         let h = sign * len / (2.0 * a);
         let dh = h - c0(i);
         energy += 0.5 * kappa * a * dh * dh;
