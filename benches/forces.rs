@@ -58,6 +58,7 @@ fn terms(initial: &InitialState) -> Vec<Box<dyn ForceTerm>> {
             initial.area / initial.vertices as f64,
         )),
         Box::new(SpringForces::default()),
+        Box::new(SelfAvoidanceForces::new(Default::default())),
     ]
 }
 

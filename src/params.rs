@@ -122,6 +122,32 @@ pub struct LocalTensionParams {
     pub target_area: Target,
 }
 
+/// Self-avoidance: a repulsion k(d0 − r)³/(3 d0) between vertices that are
+/// not 1-ring neighbours and closer than d0.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SelfAvoidanceParams {
+    /// k, stiffness of the repulsion (Ē/l̄²; default 500: at an overlap of
+    /// 0.1 l̄ the pair energy is 0.28 Ē and the force 8.3 Ē/l̄; two vertices
+    /// on top of each other cost 60 Ē).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub k: f64,
+    /// d0, range of the repulsion (l̄; default 0.6: below the shortest edge
+    /// the remesher lets live, 0.7, so no healthy mesh feels it between
+    /// non-neighbours of its own patch).
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub distance: f64,
+}
+
+impl Default for SelfAvoidanceParams {
+    fn default() -> Self {
+        Self {
+            k: 500.0,
+            distance: 0.6,
+        }
+    }
+}
+
 /// External springs from control points to their nearest vertex and 1-ring.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

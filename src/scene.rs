@@ -149,6 +149,8 @@ pub enum EnergyTerm {
     LocalTension(LocalTensionParams),
     /// Springs from the control points.
     Springs(SpringParams),
+    /// Repulsion between non-neighbouring vertices closer than a range.
+    SelfAvoidance(crate::params::SelfAvoidanceParams),
     /// A plugin term from the registry: `Custom(name: "...", params: (...))`.
     Custom(crate::plugin_decl::TermPlugin),
 }
@@ -171,6 +173,7 @@ impl EnergyTerm {
             EnergyTerm::Area(_) => "Area",
             EnergyTerm::LocalTension(_) => "LocalTension",
             EnergyTerm::Springs(_) => "Springs",
+            EnergyTerm::SelfAvoidance(_) => "SelfAvoidance",
             EnergyTerm::Custom(_) => "Custom",
         }
     }
@@ -637,6 +640,7 @@ impl Scene {
                     spring_stiffness = p.stiffness;
                     builder.add_plugin(plugins::springs(p.coupling))
                 }
+                EnergyTerm::SelfAvoidance(p) => builder.add_plugin(plugins::self_avoidance(*p)),
                 EnergyTerm::Custom(c) => add_declared(&c.0, &mut builder),
             };
             added.map_err(|e| invalid_at(format!("energy[{i}]"), e))?;

@@ -7,7 +7,7 @@
 //! |---|---|---|
 //! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), `barrier_check` (BarrierCheck) |
 //! | [`vin`] | `VinSegmentation` | term `vin` (Forces) unless force-free |
-//! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`] | — | their term (Forces) |
+//! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
@@ -140,6 +140,14 @@ pub fn local_tension(params: LocalTensionParams) -> impl Plugin {
         let init = initial(b, "LocalTension")?;
         let a0 = params.target_area.resolve(init.area) / init.lipid_total;
         b.add_force_term(LocalTensionForces::new(params.k, a0))?;
+        Ok(())
+    }
+}
+
+/// Self-avoidance between non-neighbouring vertices.
+pub fn self_avoidance(params: crate::params::SelfAvoidanceParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.add_force_term(crate::systems::SelfAvoidanceForces::new(params))?;
         Ok(())
     }
 }

@@ -195,3 +195,17 @@ fn spring_force_matches_finite_differences() {
         }
     }
 }
+
+#[test]
+fn self_avoidance_force_matches_finite_differences() {
+    // A range of 1.9 l̄ reaches the 2-ring of a unit-edge mesh, so many
+    // pairs repel on the perturbed sphere.
+    for (level, seed) in [(2, 61), (3, 62)] {
+        let mesh = perturbed(level, seed);
+        let mut term = SelfAvoidanceForces::new(remembrane::params::SelfAvoidanceParams {
+            k: 20.0,
+            distance: 1.9,
+        });
+        check("self_avoidance", &mesh, &mut term, false, opts(1e-9));
+    }
+}

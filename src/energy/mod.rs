@@ -3,5 +3,6 @@
 
 pub mod bending;
 pub mod penalty;
+pub mod self_avoidance;
 pub mod springs;
 pub mod vin;
