@@ -33,7 +33,7 @@ pub enum SimError {
     /// A face turned over within one step: the explicit step was too large
     /// for the forces and the mesh would fold (finite but garbage).
     #[error(
-        "mesh folded at iteration {iteration}: face {face} (vertices {vertices:?}) turned over within one step of Δt = {dt:e} s; the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, or add a Vin term, whose segments limit the step)"
+        "mesh folded at iteration {iteration}: face {face} (vertices {vertices:?}, shortest edge {shortest_edge:.3} l̄) turned over within one step of Δt = {dt:e} s (largest drift μ|F|Δt of its corners {drift:.3e} l̄, thermal noise {noise:.3e} l̄ per component); {cause}"
     )]
     MeshFolded {
         /// Iteration being computed (completed iterations + 1).
@@ -44,6 +44,14 @@ pub enum SimError {
         vertices: [u32; 3],
         /// The step (s).
         dt: f64,
+        /// Its shortest edge before the step (l̄).
+        shortest_edge: f64,
+        /// The largest deterministic move μ|F|Δt of its corners (l̄).
+        drift: f64,
+        /// The noise amplitude sqrt(2 μ k_BT Δt) per component (l̄).
+        noise: f64,
+        /// Which of the two moved it, with the fix.
+        cause: FoldCause,
     },
     /// A step turned the membrane inside out (enclosed volume ≤ 0).
     #[error(
@@ -75,6 +83,49 @@ pub enum SimError {
     /// A plugin could not be registered.
     #[error(transparent)]
     Build(#[from] BuildError),
+}
+
+/// What turned a face over within one step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FoldCause {
+    /// The forces' deterministic move was too large.
+    Drift,
+    /// The thermal noise (its step exceeded twice the drift).
+    Noise,
+    /// Both, within a factor of two of each other.
+    Both,
+}
+
+impl FoldCause {
+    /// The cause of a fold whose corners drifted by at most `drift` with a
+    /// noise of `noise` per component (l̄): the noise's 3-D step √3·noise
+    /// against the drift.
+    pub fn of(drift: f64, noise: f64) -> Self {
+        let ratio = 3f64.sqrt() * noise / drift;
+        if ratio > 2.0 {
+            FoldCause::Noise
+        } else if ratio < 0.5 {
+            FoldCause::Drift
+        } else {
+            FoldCause::Both
+        }
+    }
+}
+
+impl std::fmt::Display for FoldCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            FoldCause::Drift => {
+                "the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, or add a Vin term, whose segments limit the step)"
+            }
+            FoldCause::Noise => {
+                "the thermal noise turned a face over (the step rule bounds the drift, not the noise): lower dynamics.dt_max (the noise step scales as √Δt), stiffen Vin (a larger v0 keeps edges from collapsing) or lower dynamics.temperature"
+            }
+            FoldCause::Both => {
+                "the drift and the thermal noise together turned a face over: lower dynamics.dt_max, stiffen Vin (a larger v0 keeps edges from collapsing) or lower dynamics.temperature"
+            }
+        })
+    }
 }
 
 /// A plugin could not be added to a simulation.

@@ -118,6 +118,16 @@ impl System for LangevinIntegration {
         let (turned, volume) = check_step(faces, &self.previous, positions);
         if let Some(f) = turned {
             let vertices = faces[f];
+            let corner = vertices.map(|v| v as usize);
+            let before = corner.map(|v| self.previous[v]);
+            let shortest_edge = (0..3)
+                .map(|k| before[k].distance(before[(k + 1) % 3]))
+                .fold(f64::INFINITY, f64::min);
+            let drift = corner
+                .iter()
+                .map(|&v| step * total[v].length())
+                .fold(0.0, f64::max);
+            let noise = (2.0 * mu * kbt * dt).sqrt();
             // Keep the last good positions (the world is not written yet).
             positions.copy_from_slice(&self.previous);
             return Err(SimError::MeshFolded {
@@ -125,6 +135,10 @@ impl System for LangevinIntegration {
                 face: f,
                 vertices,
                 dt,
+                shortest_edge,
+                drift,
+                noise,
+                cause: crate::error::FoldCause::of(drift, noise),
             });
         }
         // A point reflection (a penalty overshooting through zero size) keeps

@@ -1,0 +1,24 @@
+//! Helpers shared by the integration tests.
+
+use std::path::Path;
+
+/// Whether every point and every point-data value of a frame is finite
+/// (the arrays are base64 binary: read them, do not grep them).
+pub fn frame_is_finite(path: &Path) -> bool {
+    use vtkio::model::{Attribute, DataSet};
+    let vtk = vtkio::Vtk::import(path).unwrap();
+    let DataSet::PolyData { pieces, .. } = vtk.data else {
+        return false;
+    };
+    let piece = pieces[0].load_piece_data(None).unwrap();
+    let points: Vec<f64> = piece.points.cast_into().unwrap();
+    let arrays_finite = piece.data.point.iter().all(|a| match a {
+        Attribute::DataArray(d) => d
+            .data
+            .clone()
+            .cast_into::<f64>()
+            .is_some_and(|v| v.iter().all(|x| x.is_finite())),
+        Attribute::Field { .. } => true,
+    });
+    points.iter().all(|x| x.is_finite()) && arrays_finite
+}
