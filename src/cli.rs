@@ -18,6 +18,37 @@ use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+/// Writes a line to standard output; a closed pipe (`remembrane ... | head`)
+/// ends the process quietly instead of panicking.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            stdout_failed(e);
+        }
+    }};
+}
+
+/// [`say!`] without the newline.
+macro_rules! say_raw {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = write!(std::io::stdout(), $($arg)*) {
+            stdout_failed(e);
+        }
+    }};
+}
+
+/// Standard output could not be written: a closed pipe is a normal end (the
+/// reader has what it wanted); anything else is reported.
+fn stdout_failed(e: std::io::Error) {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        std::process::exit(0);
+    }
+    eprintln!("error: cannot write to standard output: {e}");
+    std::process::exit(1);
+}
+
 /// Membrane simulation with free-energy-controlled remeshing.
 #[derive(Parser)]
 #[command(version, about)]
@@ -401,7 +432,7 @@ fn compare_command(
         eprintln!("error: {}: cannot write the comparison: {e}", dir.display());
         return ExitCode::from(1);
     }
-    print!("{}", table(&rows));
+    say_raw!("{}", table(&rows));
     if !quiet {
         eprintln!("comparison in {}", dir.display());
     }
@@ -515,7 +546,7 @@ fn spectrum_command(
         kappa_input,
     };
     let s = crate::spectrum::analyse_run(dir, &options)?;
-    println!(
+    say!(
         "{} frames, R0 = {:.4} l̄, l = {}..={}: κ = {:.4} ± {:.4} Ē, σ = {:.4e} ± {:.1e} Ē/l̄², χ²/dof = {:.2}",
         s.frames,
         s.mean_radius,
@@ -528,7 +559,7 @@ fn spectrum_command(
         s.chi2_per_dof
     );
     if let Some(k) = kappa_input {
-        println!("input κ = {k} Ē: fitted/input = {:.3}", s.kappa / k);
+        say!("input κ = {k} Ē: fitted/input = {:.3}", s.kappa / k);
     }
     Ok(())
 }
@@ -537,21 +568,22 @@ fn check(path: &Path) -> Result<(), String> {
     let (scene, mut sim) = load(path)?;
     let initial = *sim.resource::<crate::simulation::InitialState>();
     let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
-    println!("{}: ok", path.display());
-    println!("  name         {}", scene_name(&scene, path));
-    println!("  seed         {}", scene.seed);
-    println!("  membrane     {:?}", scene.membrane);
-    println!(
+    say!("{}: ok", path.display());
+    say!("  name         {}", scene_name(&scene, path));
+    say!("  seed         {}", scene.seed);
+    say!("  membrane     {:?}", scene.membrane);
+    say!(
         "  mesh         {} vertices, {} edges, {} faces",
         t.vertex_count(),
         t.edges.len(),
         t.faces.len()
     );
-    println!(
+    say!(
         "  valence      {}..={}",
-        scene.valence.min, scene.valence.max
+        scene.valence.min,
+        scene.valence.max
     );
-    println!(
+    say!(
         "  lipid        {}",
         if scene.lipid_density {
             "per-vertex density"
@@ -559,20 +591,21 @@ fn check(path: &Path) -> Result<(), String> {
             "none"
         }
     );
-    println!(
+    say!(
         "  initial      area {:.4} l̄², volume {:.4} l̄³",
-        initial.area, initial.volume
+        initial.area,
+        initial.volume
     );
-    println!("  energy terms {}", scene.energy.len());
+    say!("  energy terms {}", scene.energy.len());
     for term in &scene.energy {
-        println!("    {term:?}");
+        say!("    {term:?}");
     }
-    println!("  systems      {}", scene.systems.len());
+    say!("  systems      {}", scene.systems.len());
     for system in &scene.systems {
-        println!("    {system:?}");
+        say!("    {system:?}");
     }
-    println!("  penalty smoothing passes {}", scene.penalty_smoothing);
-    println!("  control points {}", scene.control_points.len());
+    say!("  penalty smoothing passes {}", scene.penalty_smoothing);
+    say!("  control points {}", scene.control_points.len());
     Ok(())
 }
 
@@ -593,12 +626,12 @@ fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> 
             .map_err(|e| format!("{}: cannot write forces: {e}", out.display()))?;
     }
     if json {
-        println!(
+        say!(
             "{}",
             serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
         );
     } else {
-        print!("{}", report.to_text());
+        say_raw!("{}", report.to_text());
     }
     Ok(())
 }
@@ -634,7 +667,7 @@ fn sweep_command(
         }
         let binary = std::env::current_exe().unwrap_or_else(|_| PathBuf::from("remembrane"));
         let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
-        print!(
+        say_raw!(
             "{}",
             slurm_script(&sweep.name, &binary, &abs(sweep_path), &abs(&out), tasks)
         );
@@ -686,7 +719,7 @@ fn collect_command(dir: &Path, x: String, y: String, frames: usize, partial: boo
     };
     match collect(dir, &options) {
         Ok(report) => {
-            println!(
+            say!(
                 "{} of {} runs collected{}",
                 report.runs.len(),
                 report.expected,
@@ -696,10 +729,10 @@ fn collect_command(dir: &Path, x: String, y: String, frames: usize, partial: boo
                     format!(", {} missing", report.missing.len())
                 }
             );
-            println!("condition,point,runs,mean,sd");
+            say!("condition,point,runs,mean,sd");
             for g in &report.groups {
                 let point: Vec<String> = g.point.iter().map(|(a, v)| format!("{a}={v}")).collect();
-                println!(
+                say!(
                     "{},{},{},{:.4},{:.4}",
                     g.condition,
                     point.join(" "),

@@ -138,3 +138,43 @@ fn valences_limited_to_5_to_7_stay_in_range_through_remeshing() {
     let s = completes_healthy("narrow_valence");
     assert!(s["remesh"]["merge"]["success"].as_u64().unwrap() > 50);
 }
+
+#[test]
+fn a_sudden_deflation_to_v_0_4_completes_with_a_healthy_mesh() {
+    let s = completes_healthy("sudden_deflation");
+    let v = s["reduced_volume"].as_f64().unwrap();
+    assert!(v < 0.5, "deflated: v = {v}");
+}
+
+#[test]
+fn bending_without_a_step_limit_stops_naming_the_drift_and_its_fixes() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard/bending_no_cap.ron");
+    let scene = Scene::load(&path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let message = err.to_string();
+    assert!(
+        matches!(
+            err,
+            RunError::Stopped {
+                source: SimError::MeshFolded {
+                    cause: FoldCause::Drift,
+                    noise: 0.0,
+                    ..
+                },
+                ..
+            }
+        ),
+        "{message}"
+    );
+    assert!(message.contains("dynamics.max_displacement") && message.contains("Vin"));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "blew_up");
+    for f in summary["frames"].as_array().unwrap() {
+        assert!(frame_is_finite(&out.join(f["file"].as_str().unwrap())));
+    }
+    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    assert!(remembrane::mesh::check_mesh(&mesh.positions, &mesh.faces, None).is_ok());
+}
