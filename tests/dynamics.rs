@@ -8,7 +8,7 @@ use remembrane::membrane::Membrane;
 use remembrane::mesh::icosphere;
 use remembrane::params::DynamicsParams;
 use remembrane::resources::{ResMut, ResourceId, Resources};
-use remembrane::run::{Progress, RunOptions, run_scene};
+use remembrane::run::{RunOptions, run_scene};
 use remembrane::scene::Scene;
 use remembrane::schedule::{ScheduleBuilder, ScheduleError, Stage, System};
 use remembrane::simulation::{Clock, DensePositions, Seed, SimError, Simulation};
@@ -366,14 +366,8 @@ fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
 
 fn options(out: &Path) -> RunOptions {
     RunOptions {
-        out: out.to_path_buf(),
-        overwrite: false,
-        seed: None,
-        iterations: None,
-        frames: None,
-        from: None,
-        progress: Progress::Quiet,
         check_invariants: true,
+        ..common::quiet_options(out)
     }
 }
 

@@ -3,33 +3,57 @@
 //! never writing a bad frame.
 
 use remembrane::error::{FoldCause, SimError};
-use remembrane::run::{Progress, RunError, RunOptions, run_scene};
+use remembrane::run::{RunError, RunSummary, run_scene};
 use remembrane::scene::Scene;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 mod common;
-use common::frame_is_finite;
+use common::{frame_is_finite, quiet_options};
 
-fn options(out: &Path) -> RunOptions {
-    RunOptions {
-        out: out.to_owned(),
-        overwrite: false,
-        seed: None,
-        iterations: None,
-        frames: None,
-        from: None,
-        progress: Progress::Quiet,
-        check_invariants: false,
+/// Runs `scenes/hard/NAME.ron` (for `iterations` if given, 3 frames then)
+/// into a temporary directory; returns the outcome, the scene and the run
+/// directory (alive while the returned `TempDir` is).
+fn run_hard(
+    name: &str,
+    iterations: Option<u64>,
+) -> (
+    Result<RunSummary, RunError>,
+    Scene,
+    tempfile::TempDir,
+    PathBuf,
+) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/hard")
+        .join(format!("{name}.ron"));
+    let scene = Scene::load(&path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let mut opts = quiet_options(&out);
+    if iterations.is_some() {
+        opts.iterations = iterations;
+        opts.frames = Some(3);
     }
+    let outcome = run_scene(&scene, &path, &opts, |_| Ok(()));
+    (outcome, scene, dir, out)
+}
+
+/// The run's summary.json, after checking that every frame it lists is
+/// finite and that the final mesh is valid.
+fn checked_summary(out: &Path) -> serde_json::Value {
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for f in summary["frames"].as_array().unwrap() {
+        assert!(frame_is_finite(&out.join(f["file"].as_str().unwrap())));
+    }
+    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    assert!(remembrane::mesh::check_mesh(&mesh.positions, &mesh.faces, None).is_ok());
+    summary
 }
 
 #[test]
 fn thermal_noise_on_the_as_run_vin_stops_naming_the_noise_and_its_fixes() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard/thermal_noise.ron");
-    let scene = Scene::load(&path).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let (outcome, _, _dir, out) = run_hard("thermal_noise", None);
+    let err = outcome.unwrap_err();
     let message = err.to_string();
     println!("{message}");
     let RunError::Stopped {
@@ -61,14 +85,7 @@ fn thermal_noise_on_the_as_run_vin_stops_naming_the_noise_and_its_fixes() {
         1
     );
     // Every written frame is finite; the summary says how it ended.
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["status"], "blew_up");
-    for f in summary["frames"].as_array().unwrap() {
-        assert!(frame_is_finite(&out.join(f["file"].as_str().unwrap())));
-    }
-    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
-    assert!(remembrane::mesh::check_mesh(&mesh.positions, &mesh.faces, None).is_ok());
+    assert_eq!(checked_summary(&out)["status"], "blew_up");
 }
 
 /// Runs `scenes/hard/NAME.ron` for 3000 iterations; it must complete with
@@ -76,19 +93,9 @@ fn thermal_noise_on_the_as_run_vin_stops_naming_the_noise_and_its_fixes() {
 /// triggers (or the leftover reported as an unresolved tick) and no angle
 /// below `MIN_ANGLE_DEG`.
 fn completes_healthy(name: &str) -> serde_json::Value {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes/hard")
-        .join(format!("{name}.ron"));
-    let scene = Scene::load(&path).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let mut opts = options(&out);
-    opts.iterations = Some(3000);
-    opts.frames = Some(3);
-    let summary = run_scene(&scene, &path, &opts, |_| Ok(()));
-    assert!(summary.is_ok(), "{name}: {}", summary.err().unwrap());
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let (outcome, scene, _dir, out) = run_hard(name, Some(3000));
+    assert!(outcome.is_ok(), "{name}: {}", outcome.err().unwrap());
+    let s = checked_summary(&out);
     let q = &s["quality"];
     println!("{name}: {q}");
     let unresolved = s["remesh"]["unresolved_ticks"].as_u64().unwrap();
@@ -108,9 +115,6 @@ fn completes_healthy(name: &str) -> serde_json::Value {
             (scene.valence.min..=scene.valence.max).contains(&v),
             "{name}: valence {v}"
         );
-    }
-    for f in s["frames"].as_array().unwrap() {
-        assert!(frame_is_finite(&out.join(f["file"].as_str().unwrap())));
     }
     s
 }
@@ -148,11 +152,8 @@ fn a_sudden_deflation_to_v_0_4_completes_with_a_healthy_mesh() {
 
 #[test]
 fn bending_without_a_step_limit_stops_naming_the_drift_and_its_fixes() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard/bending_no_cap.ron");
-    let scene = Scene::load(&path).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let err = run_scene(&scene, &path, &options(&out), |_| Ok(())).unwrap_err();
+    let (outcome, _, _dir, out) = run_hard("bending_no_cap", None);
+    let err = outcome.unwrap_err();
     let message = err.to_string();
     assert!(
         matches!(
@@ -169,12 +170,5 @@ fn bending_without_a_step_limit_stops_naming_the_drift_and_its_fixes() {
         "{message}"
     );
     assert!(message.contains("dynamics.max_displacement") && message.contains("Vin"));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["status"], "blew_up");
-    for f in summary["frames"].as_array().unwrap() {
-        assert!(frame_is_finite(&out.join(f["file"].as_str().unwrap())));
-    }
-    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
-    assert!(remembrane::mesh::check_mesh(&mesh.positions, &mesh.faces, None).is_ok());
+    assert_eq!(checked_summary(&out)["status"], "blew_up");
 }

@@ -9,6 +9,8 @@ use remembrane::mesh::icosphere;
 use remembrane::scene::Scene;
 use std::path::Path;
 
+mod common;
+
 #[test]
 fn the_cell_list_sums_the_same_pairs_as_a_brute_force_search() {
     // A sphere squashed to 3 % of its height: top and bottom sheets overlap.
@@ -91,17 +93,8 @@ fn deflate(self_avoidance: bool, dir: &Path) -> f64 {
     std::fs::write(&path, text).unwrap();
     let scene = Scene::load(&path).unwrap();
     let out = dir.join(format!("run_{self_avoidance}"));
-    let options = remembrane::run::RunOptions {
-        out: out.clone(),
-        overwrite: false,
-        seed: None,
-        iterations: None,
-        frames: None,
-        from: None,
-        progress: remembrane::run::Progress::Quiet,
-        check_invariants: false,
-    };
-    let summary = remembrane::run::run_scene(&scene, &path, &options, |_| Ok(()));
+    let summary =
+        remembrane::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| Ok(()));
     assert!(summary.is_ok(), "{:?}", summary.err());
     closest_non_neighbours(&out)
 }

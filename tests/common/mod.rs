@@ -1,9 +1,27 @@
 //! Helpers shared by the integration tests.
 
+use remembrane::run::{Progress, RunOptions};
 use std::path::Path;
+
+/// Run options writing into `out`: the scene's iterations and frames, no
+/// progress output, no extra invariant checks.
+#[allow(dead_code)] // each test binary uses its own subset of helpers
+pub fn quiet_options(out: &Path) -> RunOptions {
+    RunOptions {
+        out: out.to_path_buf(),
+        overwrite: false,
+        seed: None,
+        iterations: None,
+        frames: None,
+        from: None,
+        progress: Progress::Quiet,
+        check_invariants: false,
+    }
+}
 
 /// Whether every point and every point-data value of a frame is finite
 /// (the arrays are base64 binary: read them, do not grep them).
+#[allow(dead_code)]
 pub fn frame_is_finite(path: &Path) -> bool {
     use vtkio::model::{Attribute, DataSet};
     let vtk = vtkio::Vtk::import(path).unwrap();
