@@ -162,3 +162,17 @@ pub fn check_force_term(
     }
     report
 }
+
+/// Perturbation amplitude of [`perturbed_icosphere`] (l̄): large enough that
+/// no symmetry hides an error, small enough that the mesh stays acute.
+pub const TEST_PERTURBATION: f64 = 0.05;
+
+/// The test mesh every built-in term is checked on: an icosphere of
+/// `level` (mean edge 1 l̄) whose coordinates are shifted by a seeded
+/// uniform jitter in ±[`TEST_PERTURBATION`].
+pub fn perturbed_icosphere(level: u32, seed: u64) -> crate::mesh::SurfaceMesh {
+    let mut mesh = crate::mesh::icosphere(level, 1.0);
+    mesh.jitter(2.0 * TEST_PERTURBATION, seed);
+    mesh.translate(DVec3::splat(-TEST_PERTURBATION));
+    mesh
+}

@@ -9,22 +9,17 @@ use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
 use remembrane::fd::{FdOptions, Stencil, check_force_term};
 use remembrane::force::ForceTerm;
 use remembrane::membrane::Membrane;
-use remembrane::mesh::{SurfaceMesh, icosphere};
+use remembrane::mesh::SurfaceMesh;
 use remembrane::params::{BendingParams, SpringCoupling};
 use remembrane::systems::*;
 use std::sync::Arc;
 
-/// Perturbation amplitude of the test meshes (l̄): large enough that no
-/// symmetry hides an error, small enough that the mesh stays acute.
-const PERTURBATION: f64 = 0.05;
 /// Relative tolerance on the per-vertex force vector.
 const REL_TOL: f64 = 1e-6;
 
+/// The perturbed icosphere every term is checked on.
 fn perturbed(level: u32, seed: u64) -> SurfaceMesh {
-    let mut mesh = icosphere(level, 1.0);
-    mesh.jitter(2.0 * PERTURBATION, seed);
-    mesh.translate(DVec3::splat(-PERTURBATION));
-    mesh
+    remembrane::fd::perturbed_icosphere(level, seed)
 }
 
 fn check(

@@ -7,21 +7,17 @@ use glam::DVec3;
 use remembrane::fd::{FdOptions, check_force_term};
 use remembrane::force::{ForceContext, ForceTerm};
 use remembrane::membrane::Membrane;
-use remembrane::mesh::{SurfaceMesh, icosphere};
+use remembrane::mesh::SurfaceMesh;
 use remembrane::params::BendingParams;
 use remembrane::systems::BendingForces;
 use remembrane::vertex_field::TransferPolicy;
 
-/// Perturbation amplitude of the test meshes (l̄), as for the built-in terms.
-const PERTURBATION: f64 = 0.05;
 /// Relative tolerance on the per-vertex force vector, as for the built-ins.
 const REL_TOL: f64 = 1e-6;
 
+/// The perturbed icosphere every term is checked on.
 fn perturbed(level: u32, seed: u64) -> SurfaceMesh {
-    let mut mesh = icosphere(level, 1.0);
-    mesh.jitter(2.0 * PERTURBATION, seed);
-    mesh.translate(DVec3::splat(-PERTURBATION));
-    mesh
+    remembrane::fd::perturbed_icosphere(level, seed)
 }
 
 /// A membrane whose coverage varies from vertex to vertex.
