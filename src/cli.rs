@@ -329,7 +329,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         progress,
         check_invariants: args.check_invariants,
     };
-    match run_scene(&scene, &path, &options, |_| Ok(())) {
+    match crate::parallel::on_pool(|| run_scene(&scene, &path, &options, |_| Ok(()))) {
         Ok(summary) => {
             if !args.quiet {
                 eprintln!(

@@ -3,8 +3,8 @@
 //! A [`ForceTerm`] reads dense positions (and lipid density, topology, and
 //! its own components in the world) from a [`ForceContext`] and *adds* −∇E
 //! into the force buffer it is given. [`ForceSet`] evaluates every term into
-//! its own buffer (so forces can be reported and checked per term): each
-//! registered term is a [`ForceTermSystem`] writing its slot of
+//! its own buffer (so forces can be reported and checked per term): the
+//! [`ForceTermsSystem`](crate::force_term_system::ForceTermsSystem) evaluates every registered term into its slot of
 //! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
 //! smoothing to penalty terms and sums the total.
 
@@ -130,7 +130,7 @@ pub struct TermInfo {
 
 /// The force buffers: one per registered term, their sum and the penalty
 /// smoothing setting. Registering a term ([`crate::simulation::SimBuilder::add_force_term`])
-/// adds its buffer here and its system to the Forces stage together.
+/// adds its buffer here and hands the term to the `force_terms` system.
 #[derive(Debug, Default)]
 pub struct ForceBuffers {
     terms: Vec<TermInfo>,
@@ -141,6 +141,19 @@ pub struct ForceBuffers {
     pub evaluation: ForceEvaluation,
     vertices: usize,
     scratch: Vec<DVec3>,
+    pending: PendingTerms,
+}
+
+/// Terms registered but not yet taken by the `force_terms` system.
+#[derive(Default)]
+struct PendingTerms(Vec<Box<dyn ForceTerm>>);
+
+impl std::fmt::Debug for PendingTerms {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list()
+            .entries(self.0.iter().map(|t| t.name()))
+            .finish()
+    }
 }
 
 /// Name of the system that sums the term buffers (every term runs before it).
@@ -162,6 +175,17 @@ impl ForceBuffers {
         }
         self.terms.push(term);
         Ok(self.terms.len() - 1)
+    }
+
+    /// Hands a registered term to the system that evaluates it (see
+    /// [`crate::force_term_system::ForceTermsSystem`]).
+    pub fn push_pending_term(&mut self, term: Box<dyn ForceTerm>) {
+        self.pending.0.push(term);
+    }
+
+    /// The terms registered since the last call, in registration order.
+    pub fn take_pending_terms(&mut self) -> Vec<Box<dyn ForceTerm>> {
+        std::mem::take(&mut self.pending.0)
     }
 
     /// The registered terms, in evaluation order.
@@ -196,6 +220,19 @@ impl ForceBuffers {
     /// the energy).
     pub fn first_non_finite(&self) -> Option<(&str, Option<usize>)> {
         let ev = &self.evaluation;
+        if crate::parallel::splits(self.vertices) {
+            // One parallel pass over all buffers; the serial search below
+            // only runs to name the culprit.
+            let forces = &ev.term_forces;
+            let bad = crate::parallel::position_first(self.vertices, |v| {
+                forces
+                    .iter()
+                    .any(|buf| buf.get(v).is_some_and(|f| !f.is_finite()))
+            });
+            if bad.is_none() && ev.energies.iter().all(|e| e.is_finite()) {
+                return None;
+            }
+        }
         self.terms
             .iter()
             .zip(ev.term_forces.iter().zip(&ev.energies))
@@ -219,15 +256,29 @@ impl ForceBuffers {
         if has_penalty {
             out.smoothed_penalty.resize(n, DVec3::ZERO);
         }
-        for (term, buf) in self.terms.iter().zip(&out.term_forces) {
-            let sum = if term.kind == ForceKind::Penalty {
-                &mut out.smoothed_penalty
-            } else {
-                &mut out.total
+        if crate::parallel::splits(n) {
+            // Per vertex, the same additions in the same term order.
+            let (terms, forces) = (&self.terms, &out.term_forces);
+            let sum_into = |penalty: bool, sum: &mut Vec<DVec3>| {
+                crate::parallel::for_each_mut(sum, |v, s| {
+                    for (term, buf) in terms.iter().zip(forces) {
+                        if (term.kind == ForceKind::Penalty) == penalty {
+                            *s += buf[v];
+                        }
+                    }
+                })
             };
-            for (t, f) in sum.iter_mut().zip(buf) {
-                *t += *f;
+            sum_into(false, &mut out.total);
+            if has_penalty {
+                sum_into(true, &mut out.smoothed_penalty);
             }
+        } else {
+            Self::sum_terms(
+                &self.terms,
+                &out.term_forces,
+                &mut out.total,
+                &mut out.smoothed_penalty,
+            );
         }
         if has_penalty {
             crate::energy::penalty::smooth_over_rings(
@@ -237,7 +288,26 @@ impl ForceBuffers {
                 self.penalty_smoothing,
                 &mut self.scratch,
             );
-            for (t, f) in out.total.iter_mut().zip(&out.smoothed_penalty) {
+            let smoothed = &out.smoothed_penalty;
+            crate::parallel::for_each_mut(&mut out.total, |v, t| *t += smoothed[v]);
+        }
+    }
+
+    /// Adds every term's buffer into `total` or, for penalty terms,
+    /// `penalty`, term by term (one thread).
+    fn sum_terms(
+        terms: &[TermInfo],
+        forces: &[Vec<DVec3>],
+        total: &mut [DVec3],
+        penalty: &mut [DVec3],
+    ) {
+        for (term, buf) in terms.iter().zip(forces) {
+            let sum = if term.kind == ForceKind::Penalty {
+                &mut *penalty
+            } else {
+                &mut *total
+            };
+            for (t, f) in sum.iter_mut().zip(buf) {
                 *t += *f;
             }
         }

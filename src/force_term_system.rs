@@ -1,4 +1,4 @@
-//! The system that runs one registered force term (see
+//! The system that runs every registered force term (see
 //! [`crate::simulation::SimBuilder::add_force_term`]).
 
 use crate::core_resources::{DenseLipid, DensePositions};
@@ -7,31 +7,39 @@ use crate::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
 use crate::membrane::Membrane;
 use crate::resources::{Res, ResMut};
 use crate::schedule::System;
+use std::time::{Duration, Instant};
 
-/// The system running one force term into its own buffer, so each term is
-/// ordered and timed on its own.
+/// Name of the system that evaluates the force terms.
+pub const FORCE_TERMS: &str = "force_terms";
+
+/// The system evaluating every force term into its own buffer.
+///
+/// Terms are independent (each writes only its own buffer and energy), so
+/// on a large mesh with more than one thread they run concurrently as rayon
+/// tasks, and a term's own loops may split further; results are the same
+/// bits for any thread count. Each term is timed on its own and reported
+/// under its name ([`System::sub_timings`]); concurrently running terms
+/// overlap in wall time.
 ///
 /// Stage: Forces (before `force_total`). Reads: the membrane (topology, the
-/// term's own components), dense positions and lipid density, face
-/// geometry. Writes: the term's buffer and energy in [`ForceBuffers`].
-pub struct ForceTermSystem<T> {
-    index: usize,
-    name: String,
-    term: T,
+/// terms' own components), dense positions and lipid density, face
+/// geometry. Writes: the terms' buffers and energies in [`ForceBuffers`],
+/// and takes newly registered terms from it.
+#[derive(Default)]
+pub struct ForceTermsSystem {
+    terms: Vec<Box<dyn ForceTerm>>,
+    timings: Vec<Duration>,
 }
 
-impl<T: ForceTerm> ForceTermSystem<T> {
-    /// The system of `term`, whose buffer is `index` in [`ForceBuffers`].
-    pub fn new(index: usize, term: T) -> Self {
-        Self {
-            index,
-            name: term.name().to_string(),
-            term,
-        }
-    }
+/// One term's evaluation: where its force, energy and time go.
+struct Job<'a> {
+    term: &'a mut Box<dyn ForceTerm>,
+    force: &'a mut Vec<glam::DVec3>,
+    energy: &'a mut f64,
+    time: &'a mut Duration,
 }
 
-impl<T: ForceTerm + 'static> System for ForceTermSystem<T> {
+impl System for ForceTermsSystem {
     type Data<'a> = (
         Res<'a, Membrane>,
         Res<'a, DensePositions>,
@@ -41,13 +49,15 @@ impl<T: ForceTerm + 'static> System for ForceTermSystem<T> {
     );
 
     fn name(&self) -> &str {
-        &self.name
+        FORCE_TERMS
     }
 
     fn run(
         &mut self,
         (membrane, positions, lipid, geometry, mut buffers): Self::Data<'_>,
     ) -> Result<(), SimError> {
+        self.terms.extend(buffers.take_pending_terms());
+        self.timings.resize(self.terms.len(), Duration::ZERO);
         let ctx = ForceContext {
             world: &membrane.world,
             topology: membrane.cached_topology(),
@@ -55,8 +65,43 @@ impl<T: ForceTerm + 'static> System for ForceTermSystem<T> {
             lipid: &lipid.0,
             face_geometry: &geometry.0,
         };
+        let concurrent = self.terms.len() > 1 && crate::parallel::splits(positions.0.len());
         let ev = &mut buffers.evaluation;
-        ev.energies[self.index] = self.term.accumulate(&ctx, &mut ev.term_forces[self.index]);
+        // One job per term: the term, its buffer, energy and time.
+        let jobs: Vec<Job<'_>> = self
+            .terms
+            .iter_mut()
+            .zip(ev.term_forces.iter_mut())
+            .zip(ev.energies.iter_mut().zip(self.timings.iter_mut()))
+            .map(|((term, force), (energy, time))| Job {
+                term,
+                force,
+                energy,
+                time,
+            })
+            .collect();
+        let evaluate = |job: Job<'_>| {
+            let start = Instant::now();
+            *job.energy = job.term.accumulate(&ctx, job.force);
+            *job.time += start.elapsed();
+        };
+        if concurrent {
+            rayon::scope(|s| {
+                for job in jobs {
+                    s.spawn(move |_| evaluate(job));
+                }
+            });
+        } else {
+            jobs.into_iter().for_each(evaluate);
+        }
         Ok(())
+    }
+
+    fn sub_timings(&self) -> Vec<(String, Duration)> {
+        self.terms
+            .iter()
+            .zip(&self.timings)
+            .map(|(t, d)| (t.name().to_string(), *d))
+            .collect()
     }
 }

@@ -209,13 +209,13 @@ pub fn reduced_volume(volume: f64, area: f64) -> f64 {
     6.0 * std::f64::consts::PI.sqrt() * volume / area.powf(1.5)
 }
 
-/// Computes the [`Corners`] of every face into `out` (resized).
+/// Computes the [`Corners`] of every face into `out` (resized), in
+/// parallel.
 pub fn face_geometry(positions: &[DVec3], faces: &[[u32; 3]], out: &mut Vec<Corners>) {
-    out.clear();
-    out.extend(faces.iter().map(|f| {
-        let (p0, p1, p2) = corners(positions, f);
+    crate::parallel::fill_vec(out, faces.len(), |k| {
+        let (p0, p1, p2) = corners(positions, &faces[k]);
         Corners::new(p0, p1, p2)
-    }));
+    });
 }
 
 /// Per-vertex mixed Voronoi areas A_i and cotangent Laplacians L_i, and,

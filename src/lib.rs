@@ -13,6 +13,7 @@ pub mod geometry;
 pub mod membrane;
 pub mod mesh;
 pub mod output;
+pub mod parallel;
 pub mod topology;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,

@@ -141,6 +141,12 @@ pub trait System: Send + 'static {
     fn name(&self) -> &str;
     /// Runs the system.
     fn run(&mut self, data: Self::Data<'_>) -> Result<(), SimError>;
+    /// For a system that runs several named parts (the force terms): each
+    /// part's own accumulated time, reported in the timing table in place
+    /// of the system's. Empty (the default): the system is timed as a whole.
+    fn sub_timings(&self) -> Vec<(String, Duration)> {
+        Vec::new()
+    }
 }
 
 /// A system whose access is known only at run time (a scripted term, a
@@ -161,6 +167,9 @@ pub(crate) trait ErasedSystem: Send {
     fn name(&self) -> &str;
     fn access(&self) -> Access;
     fn run(&mut self, resources: &Resources, access: &Access) -> Result<(), SimError>;
+    fn sub_timings(&self) -> Vec<(String, Duration)> {
+        Vec::new()
+    }
 }
 
 pub(crate) struct Typed<S>(pub S);
@@ -168,6 +177,9 @@ pub(crate) struct Typed<S>(pub S);
 impl<S: System> ErasedSystem for Typed<S> {
     fn name(&self) -> &str {
         self.0.name()
+    }
+    fn sub_timings(&self) -> Vec<(String, Duration)> {
+        self.0.sub_timings()
     }
     fn access(&self) -> Access {
         let mut access = Access::default();
@@ -461,24 +473,35 @@ impl Schedule {
     }
 
     /// Per-system timing table.
+    ///
+    /// A system with named parts ([`System::sub_timings`], the force terms)
+    /// is listed part by part. Shares are of the wall time of all systems;
+    /// parts that ran concurrently overlap, so theirs may add up to more
+    /// than their system's.
     pub fn timings(&self) -> Vec<SystemTiming> {
         let total: f64 = self.timings.iter().map(Duration::as_secs_f64).sum();
         let ticks = self.ticks.max(1) as f64;
-        self.entries
-            .iter()
-            .zip(&self.timings)
-            .map(|(e, t)| SystemTiming {
-                system: e.system.name().to_string(),
-                stage: e.stage.name(),
-                total_s: t.as_secs_f64(),
-                per_tick_us: t.as_secs_f64() / ticks * 1e6,
-                share: if total > 0.0 {
-                    t.as_secs_f64() / total
-                } else {
-                    0.0
-                },
-            })
-            .collect()
+        let row = |system: String, stage: Stage, t: &Duration| SystemTiming {
+            system,
+            stage: stage.name(),
+            total_s: t.as_secs_f64(),
+            per_tick_us: t.as_secs_f64() / ticks * 1e6,
+            share: if total > 0.0 {
+                t.as_secs_f64() / total
+            } else {
+                0.0
+            },
+        };
+        let mut rows = Vec::new();
+        for (e, t) in self.entries.iter().zip(&self.timings) {
+            let parts = e.system.sub_timings();
+            if parts.is_empty() {
+                rows.push(row(e.system.name().to_string(), e.stage, t));
+            } else {
+                rows.extend(parts.iter().map(|(name, d)| row(name.clone(), e.stage, d)));
+            }
+        }
+        rows
     }
 
     /// The timing table as aligned text.

@@ -7,8 +7,7 @@ pub use crate::core_resources::{
     CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed,
 };
 pub use crate::error::{BuildError, SimError};
-use crate::force::{FORCE_TOTAL, ForceBuffers, ForceTerm, TermInfo};
-use crate::force_term_system::ForceTermSystem;
+use crate::force::{ForceBuffers, ForceTerm, TermInfo};
 use crate::membrane::Membrane;
 use crate::resources::{Res, Resource, Resources};
 use crate::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
@@ -85,14 +84,12 @@ impl SimBuilder {
         self.schedule.add_dynamic(stage, system)
     }
 
-    /// Registers a force term: its buffer in [`ForceBuffers`] and its system
-    /// in the Forces stage (before `force_total`), together. Needs the core
-    /// plugin (which inserts the buffers).
-    pub fn add_force_term(
-        &mut self,
-        term: impl ForceTerm + 'static,
-    ) -> Result<Registered<'_>, BuildError> {
-        register_force_term(&mut self.resources, &mut self.schedule, term)
+    /// Registers a force term: its buffer in [`ForceBuffers`], evaluated by
+    /// the core plugin's `force_terms` system in the Forces stage, in
+    /// registration order of the buffers. Needs the core plugin (which
+    /// inserts the buffers). Returns the term's buffer index.
+    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, BuildError> {
+        register_force_term(&mut self.resources, term)
     }
 
     /// Adds a recorder: its columns and point data go into every frame.
@@ -121,11 +118,10 @@ fn push_recorder(resources: &mut Resources, recorder: Box<dyn crate::recorder::R
     }
 }
 
-fn register_force_term<'a>(
+fn register_force_term(
     resources: &mut Resources,
-    schedule: &'a mut ScheduleBuilder,
     term: impl ForceTerm + 'static,
-) -> Result<Registered<'a>, BuildError> {
+) -> Result<usize, BuildError> {
     let name = term.name().to_string();
     let buffers = resources
         .value_mut::<ForceBuffers>()
@@ -139,9 +135,8 @@ fn register_force_term<'a>(
         kind: term.kind(),
         uses_face_geometry: term.uses_face_geometry(),
     })?;
-    Ok(schedule
-        .add(Stage::Forces, ForceTermSystem::new(index, term))
-        .before(FORCE_TOTAL))
+    buffers.push_pending_term(Box::new(term));
+    Ok(index)
 }
 
 /// A simulation: the world and resources, plus the schedule of systems
@@ -182,17 +177,13 @@ impl Simulation {
         Ok(self.pending(system.name())?.add_dynamic(stage, system))
     }
 
-    /// Registers a force term (buffer and system together) before the run
-    /// starts: it acts on the dynamics exactly like a scene's terms.
-    pub fn add_force_term(
-        &mut self,
-        term: impl ForceTerm + 'static,
-    ) -> Result<Registered<'_>, SimError> {
-        let builder = self
-            .builder
-            .as_mut()
-            .ok_or_else(|| SimError::AlreadyStarted(term.name().to_string()))?;
-        Ok(register_force_term(&mut self.resources, builder, term)?)
+    /// Registers a force term (see [`SimBuilder::add_force_term`]) before the
+    /// run starts: it acts on the dynamics exactly like a scene's terms.
+    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, SimError> {
+        if self.builder.is_none() {
+            return Err(SimError::AlreadyStarted(term.name().to_string()));
+        }
+        Ok(register_force_term(&mut self.resources, term)?)
     }
 
     /// Adds a recorder before the run's frame writer takes the recorders

@@ -64,7 +64,20 @@ pub fn choose_time_step(
         dt: dt_max,
         limiter: Limiter::Cap,
     };
-    if let Some(seg) = segmentation {
+    if let Some(seg) = segmentation.filter(|_| crate::parallel::splits(edges.len())) {
+        let edge_dt = |e: usize| {
+            let [a, b] = edges[e].map(|i| i as usize);
+            let d = positions[b] - positions[a];
+            let rate = 2.0 * mobility * d.dot(forces[b] - forces[a]);
+            edge_time_step(seg, d.length(), rate)
+        };
+        if let Some((e, dt)) = crate::parallel::first_min(edges.len(), choice.dt, edge_dt) {
+            choice = TimeStepChoice {
+                dt,
+                limiter: Limiter::Edge(e as u32),
+            };
+        }
+    } else if let Some(seg) = segmentation {
         for (e, &[a, b]) in edges.iter().enumerate() {
             let (a, b) = (a as usize, b as usize);
             let d = positions[b] - positions[a];
@@ -78,15 +91,20 @@ pub fn choose_time_step(
             }
         }
     }
-    let mut max_force = 0.0f64;
-    let mut argmax = 0;
-    for (i, f) in forces.iter().enumerate() {
-        let m = f.length_squared();
-        if m > max_force {
-            max_force = m;
-            argmax = i;
+    let (argmax, max_force) = if crate::parallel::splits(forces.len()) {
+        crate::parallel::first_max(forces.len(), 0.0, |i| forces[i].length_squared())
+            .unwrap_or((0, 0.0))
+    } else {
+        let (mut argmax, mut max_force) = (0, 0.0f64);
+        for (i, f) in forces.iter().enumerate() {
+            let m = f.length_squared();
+            if m > max_force {
+                max_force = m;
+                argmax = i;
+            }
         }
-    }
+        (argmax, max_force)
+    };
     let speed = mobility * max_force.sqrt();
     if speed > 0.0 && max_displacement / speed < choice.dt {
         choice = TimeStepChoice {

@@ -36,9 +36,18 @@ impl System for BarrierCheck {
     ) -> Result<(), SimError> {
         let (short, long) = (remesh.shorter_than, remesh.longer_than);
         let (short2, long2) = (short * short, long * long);
-        abnormal.0.clear();
         let p = &positions.0;
-        for (e, &[a, b]) in membrane.cached_topology().edges.iter().enumerate() {
+        let edges = &membrane.cached_topology().edges;
+        if crate::parallel::splits(edges.len()) {
+            crate::parallel::filter_indices(edges.len(), &mut abnormal.0, |e| {
+                let [a, b] = edges[e];
+                let l2 = p[a as usize].distance_squared(p[b as usize]);
+                !(short2..=long2).contains(&l2)
+            });
+            return Ok(());
+        }
+        abnormal.0.clear();
+        for (e, &[a, b]) in edges.iter().enumerate() {
             let l2 = p[a as usize].distance_squared(p[b as usize]);
             if !(short2..=long2).contains(&l2) {
                 abnormal.0.push(e as u32);

@@ -31,6 +31,8 @@ const NOISE_STREAM: u64 = 0x6e6f_6973_6500_0001;
 #[derive(Default)]
 pub struct LangevinIntegration {
     previous: Vec<glam::DVec3>,
+    /// Per-face (signed volume term, turned) of the parallel fold check.
+    per_face: Vec<(f64, bool)>,
 }
 
 /// Checks a step: the first face (slot) whose orientation reverses between
@@ -42,6 +44,33 @@ pub fn check_step(
     before: &[glam::DVec3],
     after: &[glam::DVec3],
 ) -> (Option<usize>, f64) {
+    check_step_with(faces, before, after, &mut Vec::new())
+}
+
+/// [`check_step`] with a reusable per-face buffer for the parallel form:
+/// each face's signed volume term and whether it turned in parallel, the
+/// volume summed in face order.
+fn check_step_with(
+    faces: &[[u32; 3]],
+    before: &[glam::DVec3],
+    after: &[glam::DVec3],
+    per_face: &mut Vec<(f64, bool)>,
+) -> (Option<usize>, f64) {
+    let face_check = |k: usize| {
+        let [a0, b0, c0] = faces[k].map(|v| before[v as usize]);
+        let [a, b, c] = faces[k].map(|v| after[v as usize]);
+        let n = (b - a).cross(c - a);
+        (a.dot(n), (b0 - a0).cross(c0 - a0).dot(n) < 0.0)
+    };
+    if crate::parallel::splits(faces.len()) {
+        crate::parallel::fill_vec(per_face, faces.len(), face_check);
+        let turned = crate::parallel::position_first(faces.len(), |k| per_face[k].1);
+        let mut six_volume = 0.0;
+        for (v, _) in per_face.iter() {
+            six_volume += v;
+        }
+        return (turned, six_volume / 6.0);
+    }
     let mut turned = None;
     let mut six_volume = 0.0;
     for (k, f) in faces.iter().enumerate() {
@@ -84,8 +113,12 @@ impl System for LangevinIntegration {
         let positions = &mut positions.0;
         self.previous.clear();
         self.previous.extend_from_slice(positions);
-        for (p, f) in positions.iter_mut().zip(total) {
-            *p += step * *f;
+        if crate::parallel::splits(positions.len()) {
+            crate::parallel::for_each_mut(positions, |v, p| *p += step * total[v]);
+        } else {
+            for (p, f) in positions.iter_mut().zip(total) {
+                *p += step * *f;
+            }
         }
         let kbt = dynamics.temperature;
         if kbt > 0.0 {
@@ -105,7 +138,12 @@ impl System for LangevinIntegration {
                 *p += amplitude * e;
             }
         }
-        if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
+        let non_finite = if crate::parallel::splits(positions.len()) {
+            crate::parallel::position_first(positions.len(), |v| !positions[v].is_finite())
+        } else {
+            positions.iter().position(|p| !p.is_finite())
+        };
+        if let Some(v) = non_finite {
             return Err(SimError::BlowUp {
                 iteration: clock.iteration + 1,
                 quantity: "position",
@@ -115,7 +153,8 @@ impl System for LangevinIntegration {
             });
         }
         let faces = &membrane.cached_topology().faces;
-        let (turned, volume) = check_step(faces, &self.previous, positions);
+        let (turned, volume) =
+            check_step_with(faces, &self.previous, positions, &mut self.per_face);
         if let Some(f) = turned {
             let vertices = faces[f];
             let corner = vertices.map(|v| v as usize);

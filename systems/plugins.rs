@@ -70,6 +70,11 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
         b.add_system(Stage::Gather, gather_state::GatherState);
         b.add_system(Stage::Gather, face_geometry::FaceGeometrySystem)
             .after("gather_state");
+        b.add_system(
+            Stage::Forces,
+            crate::force_term_system::ForceTermsSystem::default(),
+        )
+        .before(crate::force::FORCE_TOTAL);
         b.add_system(Stage::Forces, force_total::ForceTotal);
         b.add_system(Stage::TimeStep, adaptive_time_step::AdaptiveTimeStep);
         b.add_system(

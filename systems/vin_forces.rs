@@ -19,12 +19,18 @@ pub struct VinSegmentation(pub Arc<Segmentation>);
 pub struct VinForces {
     segmentation: Arc<Segmentation>,
     form: VinForm,
+    /// Per-edge (energy, end forces) of the parallel form.
+    per_edge: Vec<(f64, [DVec3; 2])>,
 }
 
 impl VinForces {
     /// A V_in system evaluating `form` on a shared segmentation.
     pub fn new(segmentation: Arc<Segmentation>, form: VinForm) -> Self {
-        Self { segmentation, form }
+        Self {
+            segmentation,
+            form,
+            per_edge: Vec::new(),
+        }
     }
 
     /// The segmentation this system uses.
@@ -38,9 +44,30 @@ impl VinForces {
 fn edge_loop(
     edges: &[[u32; 2]],
     p: &[DVec3],
+    per_edge: &mut Vec<(f64, [DVec3; 2])>,
     mut force: Option<&mut [DVec3]>,
-    v: impl Fn(f64) -> (f64, f64),
+    v: impl Fn(f64) -> (f64, f64) + Sync + Send,
 ) -> f64 {
+    if let Some(force) = force
+        .as_deref_mut()
+        .filter(|_| crate::parallel::splits(edges.len()))
+    {
+        // Per-edge work in parallel, added in edge order.
+        return crate::parallel::accumulate(
+            edges,
+            force,
+            per_edge,
+            |e| {
+                let [a, b] = edges[e].map(|i| i as usize);
+                let d = p[b] - p[a];
+                let l = d.length();
+                let (value, slope) = v(l);
+                let f = d * (slope / l);
+                (value, [f, -f])
+            },
+            |f, c| *f += c,
+        );
+    }
     let mut energy = 0.0;
     for &[a, b] in edges {
         let (a, b) = (a as usize, b as usize);
@@ -58,11 +85,12 @@ fn edge_loop(
 }
 
 impl VinForces {
-    fn run(&self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+    fn run(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let (edges, p, seg) = (&ctx.topology.edges, ctx.positions, &*self.segmentation);
+        let per_edge = &mut self.per_edge;
         match self.form {
-            VinForm::PiecewiseLinear => edge_loop(edges, p, force, |l| seg.linear(l)),
-            VinForm::Exact => edge_loop(edges, p, force, |l| {
+            VinForm::PiecewiseLinear => edge_loop(edges, p, per_edge, force, |l| seg.linear(l)),
+            VinForm::Exact => edge_loop(edges, p, per_edge, force, |l| {
                 (seg.exact(l), seg.params().derivative(l))
             }),
         }

@@ -152,13 +152,20 @@ pub fn smooth_over_rings(
         if pass > 0 {
             previous.copy_from_slice(force);
         }
-        for i in 0..n {
+        let average = |i: usize| {
             let (lo, hi) = (ring_offsets[i] as usize, ring_offsets[i + 1] as usize);
             let mut sum = previous[i];
             for &j in &ring[lo..hi] {
                 sum += previous[j as usize];
             }
-            force[i] = sum * inverse_counts[i];
+            sum * inverse_counts[i]
+        };
+        if crate::parallel::splits(n) {
+            crate::parallel::fill(force, average);
+        } else {
+            for (i, f) in force.iter_mut().enumerate() {
+                *f = average(i);
+            }
         }
     }
 }

@@ -1,0 +1,312 @@
+//! Data-parallel loops whose results do not depend on the thread count.
+//!
+//! Every kernel here computes each output element from its inputs alone
+//! (a map, or a gather in a fixed order), so the bits are the same whether
+//! rayon runs it on one thread or many. Reductions either pick an element by
+//! a total order with ties broken by index (`first_min`, `first_max`,
+//! `position_first`), or are left to the caller as a serial sum over a
+//! per-element buffer, in element order, so a sum has the same rounding as
+//! the single-threaded loop it replaces.
+//!
+//! Loops shorter than [`MIN_PARALLEL_LEN`] run on the calling thread: at
+//! that size waking the pool costs more than it saves.
+
+use rayon::prelude::*;
+
+/// Elements per rayon task, and the length below which a loop stays on the
+/// calling thread. At 2048 a bending pass over faces is ≈ 60 µs of work per
+/// task, well above the ≈ 1-3 µs it costs to hand a task to another thread.
+pub const MIN_PARALLEL_LEN: usize = 2048;
+
+/// Runs `f` on a worker thread of the current rayon pool and waits for it.
+///
+/// A parallel loop started from a thread outside the pool hands its work
+/// to the pool and sleeps until it is done: two thread wake-ups, ≈ 15-20 µs
+/// on the 2-core test VM, per loop. Started from a worker, the loop splits
+/// by work stealing and costs ≈ 1-4 µs. A whole run therefore goes through
+/// here once.
+/// On a one-thread pool `f` runs on the calling thread.
+pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_num_threads() > 1 {
+        rayon::scope(|_| f())
+    } else {
+        f()
+    }
+}
+
+/// Whether a loop of `len` elements is split across threads (false on a
+/// one-thread pool and below [`MIN_PARALLEL_LEN`] per task).
+#[inline]
+pub fn splits(len: usize) -> bool {
+    len >= 2 * MIN_PARALLEL_LEN && rayon::current_num_threads() > 1
+}
+
+// Every helper hands the caller's closure a whole chunk (or the whole range
+// on one thread), so the per-element loop is compiled inside one closure
+// body and the element code inlines into it; a per-element closure called
+// from both a serial and a parallel loop stays out of line and costs ~2×.
+
+/// Calls `body(start, chunk)` on consecutive chunks of `out` (`start` is
+/// the chunk's first index).
+pub fn for_chunks<T: Send>(out: &mut [T], body: impl Fn(usize, &mut [T]) + Sync + Send) {
+    if splits(out.len()) {
+        out.par_chunks_mut(MIN_PARALLEL_LEN)
+            .enumerate()
+            .for_each(|(c, chunk)| body(c * MIN_PARALLEL_LEN, chunk));
+    } else {
+        body(0, out);
+    }
+}
+
+/// Calls `body(start, a_chunk, b_chunk)` on matching chunks of two equally
+/// long slices.
+pub fn for_chunks2<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    body: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send,
+) {
+    assert_eq!(a.len(), b.len(), "for_chunks2 needs equal lengths");
+    if splits(a.len()) {
+        a.par_chunks_mut(MIN_PARALLEL_LEN)
+            .zip(b.par_chunks_mut(MIN_PARALLEL_LEN))
+            .enumerate()
+            .for_each(|(c, (x, y))| body(c * MIN_PARALLEL_LEN, x, y));
+    } else {
+        body(0, a, b);
+    }
+}
+
+/// `map(range)` on consecutive index ranges covering `0..len`, combined in
+/// any grouping by `combine`: the result is thread-count independent when
+/// `combine` is associative and commutative on the values `map` returns.
+pub fn reduce_ranges<R: Send>(
+    len: usize,
+    identity: impl Fn() -> R + Sync + Send,
+    map: impl Fn(std::ops::Range<usize>) -> R + Sync + Send,
+    combine: impl Fn(R, R) -> R + Sync + Send,
+) -> R {
+    if splits(len) {
+        (0..len.div_ceil(MIN_PARALLEL_LEN))
+            .into_par_iter()
+            .map(|c| map(c * MIN_PARALLEL_LEN..((c + 1) * MIN_PARALLEL_LEN).min(len)))
+            .reduce(identity, combine)
+    } else {
+        map(0..len)
+    }
+}
+
+/// Resizes `out` to `len` (writing defaults only when the length changes;
+/// every element is then overwritten) and sets `out[i] = f(i)`.
+pub fn fill_vec<T: Send + Default + Clone>(
+    out: &mut Vec<T>,
+    len: usize,
+    f: impl Fn(usize) -> T + Sync + Send,
+) {
+    if out.len() != len {
+        out.clear();
+        out.resize(len, T::default());
+    }
+    fill(out, f);
+}
+
+/// Sets `out[i] = f(i)` for every index.
+pub fn fill<T: Send>(out: &mut [T], f: impl Fn(usize) -> T + Sync + Send) {
+    for_chunks(out, |start, chunk| {
+        for (j, x) in chunk.iter_mut().enumerate() {
+            *x = f(start + j);
+        }
+    });
+}
+
+/// Calls `f(i, &mut out[i])` for every index.
+pub fn for_each_mut<T: Send>(out: &mut [T], f: impl Fn(usize, &mut T) + Sync + Send) {
+    for_chunks(out, |start, chunk| {
+        for (j, x) in chunk.iter_mut().enumerate() {
+            f(start + j, x);
+        }
+    });
+}
+
+/// Calls `f(i, &mut a[i], &mut b[i])` for every index of two equally long
+/// slices.
+pub fn for_each_mut2<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    f: impl Fn(usize, &mut A, &mut B) + Sync + Send,
+) {
+    for_chunks2(a, b, |start, xs, ys| {
+        for (j, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
+            f(start + j, x, y);
+        }
+    });
+}
+
+/// The smallest index `i < len` with `pred(i)`, if any.
+pub fn position_first(len: usize, pred: impl Fn(usize) -> bool + Sync + Send) -> Option<usize> {
+    reduce_ranges(
+        len,
+        || None,
+        |range| range.into_iter().find(|&i| pred(i)),
+        |a, b| match (a, b) {
+            (Some(i), Some(j)) => Some(i.min(j)),
+            (a, b) => a.or(b),
+        },
+    )
+}
+
+/// The first index whose `key(i)` is strictly smaller than every earlier
+/// key and than `bound`: what a serial scan `if key < best { best = key }`
+/// starting from `bound` ends with. NaN keys never win. `None` when no key
+/// is below `bound`.
+pub fn first_min(
+    len: usize,
+    bound: f64,
+    key: impl Fn(usize) -> f64 + Sync + Send,
+) -> Option<(usize, f64)> {
+    reduce_ranges(
+        len,
+        || None,
+        |range| {
+            let (mut best, mut value) = (None, bound);
+            for i in range {
+                let k = key(i);
+                if k < value {
+                    value = k;
+                    best = Some(i);
+                }
+            }
+            best.map(|i| (i, value))
+        },
+        |a, b| match (a, b) {
+            // Values below the bound are never NaN: a total order, ties to
+            // the lower index.
+            (Some((i, x)), Some((j, y))) => Some(if y < x || (y == x && j < i) {
+                (j, y)
+            } else {
+                (i, x)
+            }),
+            (a, b) => a.or(b),
+        },
+    )
+}
+
+/// The first index whose `key(i)` is strictly larger than every earlier key
+/// and than `bound` (see [`first_min`]).
+pub fn first_max(
+    len: usize,
+    bound: f64,
+    key: impl Fn(usize) -> f64 + Sync + Send,
+) -> Option<(usize, f64)> {
+    first_min(len, -bound, |i| -key(i)).map(|(i, k)| (i, -k))
+}
+
+/// The indices `i < len` with `pred(i)`, ascending, into `out`.
+pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bool + Sync + Send) {
+    out.clear();
+    let pick = |range: std::ops::Range<usize>, out: &mut Vec<u32>| {
+        out.extend(range.filter(|&i| pred(i)).map(|i| i as u32));
+    };
+    if splits(len) {
+        let parts: Vec<Vec<u32>> = (0..len.div_ceil(MIN_PARALLEL_LEN))
+            .into_par_iter()
+            .map(|c| {
+                let mut part = Vec::new();
+                pick(
+                    c * MIN_PARALLEL_LEN..((c + 1) * MIN_PARALLEL_LEN).min(len),
+                    &mut part,
+                );
+                part
+            })
+            .collect();
+        out.extend(parts.into_iter().flatten());
+    } else {
+        pick(0..len, out);
+    }
+}
+
+/// Adds each item's per-vertex contributions into its vertices with
+/// `add(&mut out[v], c)` and returns Σ of the items' values, where an item
+/// is a face (`K = 3`) or an edge (`K = 2`) and `contribution(item) =
+/// (value, [c_0 … c_K−1])` for its vertices `items[item]`. The
+/// contributions are computed in parallel into `per_item`, then added in
+/// one serial, sequential pass in item order: the rounding of the serial
+/// loop it replaces. It pays where an item's contribution costs much more
+/// than its additions (a bending pull-back, a V_in edge).
+pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O>(
+    items: &[[u32; K]],
+    out: &mut [O],
+    per_item: &mut Vec<(f64, [T; K])>,
+    contribution: impl Fn(usize) -> (f64, [T; K]) + Sync + Send,
+    add: impl Fn(&mut O, T),
+) -> f64 {
+    if per_item.len() != items.len() {
+        per_item.clear();
+        per_item.resize(items.len(), (0.0, [T::default(); K]));
+    }
+    fill(per_item, contribution);
+    let mut sum = 0.0;
+    for (vertices, (value, c)) in items.iter().zip(per_item.iter()) {
+        sum += value;
+        for (j, &v) in vertices.iter().enumerate() {
+            add(&mut out[v as usize], c[j]);
+        }
+    }
+    sum
+}
+
+/// Σ values in index order: the same rounding as a serial `+=` loop from 0.
+#[inline]
+pub fn ordered_sum(values: &[f64]) -> f64 {
+    let mut sum = 0.0;
+    for v in values {
+        sum += v;
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pool(threads: usize) -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    }
+
+    #[test]
+    fn reductions_match_the_serial_scan_for_any_thread_count() {
+        let n = 5 * MIN_PARALLEL_LEN + 17;
+        // Repeated minima: the first one must win.
+        let key = |i: usize| ((i * 7919) % 1013) as f64;
+        let serial = {
+            let (mut best, mut at) = (f64::INFINITY, None);
+            for i in 0..n {
+                if key(i) < best {
+                    best = key(i);
+                    at = Some(i);
+                }
+            }
+            at.map(|i| (i, best))
+        };
+        for threads in [1, 2, 3] {
+            let got = pool(threads).install(|| first_min(n, f64::INFINITY, key));
+            assert_eq!(got, serial, "{threads} threads");
+            let max = pool(threads).install(|| first_max(n, f64::NEG_INFINITY, key));
+            assert_eq!(max.map(|m| m.1), Some(1012.0));
+            let pos = pool(threads).install(|| position_first(n, |i| key(i) == 5.0));
+            assert_eq!(pos, (0..n).position(|i| key(i) == 5.0));
+            let mut idx = Vec::new();
+            pool(threads).install(|| filter_indices(n, &mut idx, |i| i % 3 == 0));
+            assert_eq!(idx.len(), n.div_ceil(3));
+            assert!(idx.windows(2).all(|w| w[0] < w[1]));
+        }
+        assert_eq!(
+            first_min(10, 0.0, |i| i as f64),
+            None,
+            "nothing below the bound"
+        );
+        assert_eq!(first_min(3, 1.0, |_| f64::NAN), None, "NaN never wins");
+    }
+}
