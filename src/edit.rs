@@ -17,14 +17,17 @@
 //!   replaces.
 //!
 //! A patch that would break any of these is rejected with an [`EditError`]
-//! and the world is unchanged.
+//! and the world is unchanged. A successful edit updates the topology
+//! cache for its patch only ([`crate::topology_update`]).
 
 use crate::components::{Edge, Face, Force, Position};
 use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
+use crate::topology_update::WorldChange;
 use glam::DVec3;
 use hecs::Entity;
-use std::collections::{HashMap, HashSet};
+// Entity keys are not attacker-controlled: a fast non-cryptographic hash.
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 /// A proposed topology change (see the module contract).
 #[derive(Clone, Debug, Default)]
@@ -119,11 +122,7 @@ impl Membrane {
         else {
             return Vec::new();
         };
-        let (lo, hi) = (
-            t.ring_offsets[slot as usize] as usize,
-            t.ring_offsets[slot as usize + 1] as usize,
-        );
-        t.ring_faces[lo..hi]
+        t.ring_faces_of(slot as usize)
             .iter()
             .map(|&f| {
                 (
@@ -179,7 +178,7 @@ impl Membrane {
             }
         }
         let mut affected: Vec<Entity> = Vec::new();
-        let mut seen = HashSet::new();
+        let mut seen = HashSet::default();
         let removed_triples: Vec<[Entity; 3]> = edit
             .remove_faces
             .iter()
@@ -246,7 +245,7 @@ impl Membrane {
         }
         let removing: HashSet<Entity> = edit.remove_vertices.iter().copied().collect();
         // Faces around each affected vertex after the edit.
-        let mut after: HashMap<Entity, Vec<[Entity; 3]>> = HashMap::new();
+        let mut after: HashMap<Entity, Vec<[Entity; 3]>> = HashMap::default();
         for &v in &affected {
             let mut faces: Vec<[Entity; 3]> = self
                 .faces_around(v)
@@ -257,7 +256,7 @@ impl Membrane {
             faces.extend(edit.add_faces.iter().filter(|f| f.contains(&v)).copied());
             after.insert(v, faces);
         }
-        let mut valences = HashMap::new();
+        let mut valences = HashMap::default();
         for &v in &affected {
             let faces = &after[&v];
             if removing.contains(&v) {
@@ -267,7 +266,8 @@ impl Membrane {
                 continue;
             }
             // Link of v: for face (v, a, b) the step a → b; one closed cycle.
-            let mut next: HashMap<Entity, Entity> = HashMap::with_capacity(faces.len());
+            let mut next: HashMap<Entity, Entity> =
+                HashMap::with_capacity_and_hasher(faces.len(), Default::default());
             for f in faces {
                 let k = f.iter().position(|&x| x == v).expect("face contains v");
                 if next.insert(f[(k + 1) % 3], f[(k + 2) % 3]).is_some() {
@@ -346,7 +346,7 @@ impl Membrane {
                 (b, a)
             }
         };
-        let mut edge_entity: HashMap<(Entity, Entity), Entity> = HashMap::new();
+        let mut edge_entity: HashMap<(Entity, Entity), Entity> = HashMap::default();
         let mut keys: Vec<(Entity, Entity)> = Vec::new();
         let note = |a: Entity, b: Entity, keys: &mut Vec<(Entity, Entity)>| {
             let k = key(a, b);
@@ -386,7 +386,7 @@ impl Membrane {
             .iter()
             .map(|_| self.world.reserve_entity())
             .collect();
-        let mut faces_of: HashMap<(Entity, Entity), Vec<FaceRef>> = HashMap::new();
+        let mut faces_of: HashMap<(Entity, Entity), Vec<FaceRef>> = HashMap::default();
         for &(a, b) in &keys {
             let mut list: Vec<FaceRef> = self
                 .faces_around(a)
@@ -401,9 +401,12 @@ impl Membrane {
             faces_of.insert((a, b), list);
         }
 
-        // Act.
+        // Act, recording each change for the topology update.
+        let mut changes = Vec::new();
         for &f in &edit.remove_faces {
-            let _ = self.world.despawn(f);
+            if self.world.despawn(f).is_ok() {
+                changes.push(WorldChange::DespawnFace(f));
+            }
         }
         for &(v, p) in &edit.add_vertices {
             // Every registered per-vertex field's component, in one spawn
@@ -414,18 +417,21 @@ impl Membrane {
                 field.add_to(&mut vertex);
             }
             self.world.spawn_at(v, vertex.build());
+            changes.push(WorldChange::SpawnVertex(v));
         }
         let mut outcome = EditOutcome {
             faces: new_face_entities.clone(),
             ..Default::default()
         };
-        let mut final_edge: HashMap<(Entity, Entity), Entity> = HashMap::new();
+        let mut final_edge: HashMap<(Entity, Entity), Entity> = HashMap::default();
         for &(a, b) in &keys {
             let list = &faces_of[&(a, b)];
             let existing = edge_entity.get(&(a, b)).copied();
             if list.is_empty() {
-                if let Some(e) = existing {
-                    let _ = self.world.despawn(e);
+                if let Some(e) = existing
+                    && self.world.despawn(e).is_ok()
+                {
+                    changes.push(WorldChange::DespawnEdge(e));
                     outcome.edges_removed += 1;
                 }
                 continue;
@@ -448,11 +454,14 @@ impl Membrane {
                     if let Ok(mut c) = self.world.get::<&mut Edge>(e) {
                         *c = edge;
                     }
+                    changes.push(WorldChange::UpdateEdge(e));
                     e
                 }
                 None => {
                     outcome.edges_created += 1;
-                    self.world.spawn((edge,))
+                    let e = self.world.spawn((edge,));
+                    changes.push(WorldChange::SpawnEdge(e));
+                    e
                 }
             };
             final_edge.insert((a, b), e);
@@ -466,17 +475,19 @@ impl Membrane {
                     edges,
                 },),
             );
+            changes.push(WorldChange::SpawnFace(new_face_entities[i]));
         }
         for &v in &edit.remove_vertices {
-            let _ = self.world.despawn(v);
+            if self.world.despawn(v).is_ok() {
+                changes.push(WorldChange::DespawnVertex(v));
+            }
         }
         for &(v, p) in &edit.move_vertices {
             if let Ok(mut pos) = self.world.get::<&mut Position>(v) {
                 pos.0 = p;
             }
         }
-        self.mark_structure_changed();
-        self.topology()
+        self.update_topology(&changes)
             .expect("a checked edit keeps the topology valid");
         Ok(outcome)
     }

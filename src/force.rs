@@ -283,8 +283,7 @@ impl ForceBuffers {
         if has_penalty {
             crate::energy::penalty::smooth_over_rings(
                 &mut out.smoothed_penalty,
-                &topology.ring_offsets,
-                &topology.ring,
+                topology,
                 self.penalty_smoothing,
                 &mut self.scratch,
             );

@@ -1,6 +1,7 @@
 //! remembrane: closed triangulated membranes moved by overdamped Langevin
 //! dynamics under their free energy, with free-energy-controlled remeshing.
 
+pub mod cell_list;
 pub mod cli;
 pub mod collect;
 pub mod compare;
@@ -15,6 +16,7 @@ pub mod mesh;
 pub mod output;
 pub mod parallel;
 pub mod topology;
+pub mod topology_update;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
 /// then a rename, so readers never see a partial file.

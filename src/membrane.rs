@@ -178,6 +178,41 @@ impl Membrane {
         Ok(&self.topology)
     }
 
+    /// Brings the topology cache up to date after an edit that made
+    /// `changes` (in order), in O(patch) when the cache was current before
+    /// it, by a full rebuild otherwise (or when a ring block overflows). In
+    /// debug builds (and so in tests) the result is checked against a full
+    /// rebuild.
+    pub(crate) fn update_topology(
+        &mut self,
+        changes: &[crate::topology_update::WorldChange],
+    ) -> Result<&Topology, TopologyError> {
+        let current = self.topology.epoch == self.epoch;
+        self.epoch += 1;
+        let updated = current
+            && match self.topology.apply_edit(&self.world, changes, self.epoch) {
+                Ok(()) => true,
+                // A ring block outgrown is expected (rarely); anything else
+                // is a bug in the update, which debug builds report.
+                Err(crate::topology_update::UpdateError::RingOverflow(_)) => false,
+                Err(e) => {
+                    debug_assert!(false, "incremental topology update failed: {e}");
+                    false
+                }
+            };
+        if !updated {
+            self.topology = Topology::build(&self.world, self.epoch)?;
+        }
+        if cfg!(debug_assertions) {
+            let full = Topology::build(&self.world, self.epoch)?;
+            assert!(
+                self.topology.same_as(&full),
+                "the incremental topology update differs from a full rebuild"
+            );
+        }
+        Ok(&self.topology)
+    }
+
     /// The topology cache as last built (may be stale if the structure
     /// changed without a call to [`Membrane::topology`]).
     pub fn cached_topology(&self) -> &Topology {

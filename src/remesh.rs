@@ -78,13 +78,10 @@ pub fn edge_region(m: &Membrane, edge: u32) -> Result<EdgeRegion, RemeshError> {
     };
     // Face across the directed edge x → y (the one traversing y → x).
     let across = |x: u32, y: u32| -> Option<(u32, u32)> {
-        let (lo, hi) = (
-            t.ring_offsets[y as usize] as usize,
-            t.ring_offsets[y as usize + 1] as usize,
-        );
-        (lo..hi).find(|&k| t.ring[k] == x).map(|k| {
-            // ring_faces[k] is (y, x, next): it traverses y → x.
-            let f = t.ring_faces[k];
+        let k = t.neighbours(y as usize).iter().position(|&w| w == x);
+        k.map(|k| {
+            // Ring face k of y is (y, x, next): it traverses y → x.
+            let f = t.ring_faces_of(y as usize)[k];
             (f, apex(f, y, x).unwrap_or(u32::MAX))
         })
     };
@@ -199,10 +196,9 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candida
     let t = m.cached_topology();
     let patch: Vec<Entity> = [r.central.as_slice(), r.outer.as_slice()].concat();
     let s2 = t.slot(i2).expect("live vertex") as usize;
-    let (lo, hi) = (t.ring_offsets[s2] as usize, t.ring_offsets[s2 + 1] as usize);
     let mut relabelled_remove = Vec::new();
     let mut relabelled_add = Vec::new();
-    for &f in &t.ring_faces[lo..hi] {
+    for &f in t.ring_faces_of(s2) {
         let fe = t.face_entities[f as usize];
         if patch.contains(&fe) {
             continue;
@@ -238,7 +234,7 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candida
 }
 
 /// A candidate's score: (valence variance, std of the diagonal lengths).
-fn score(valences: &std::collections::HashMap<Entity, usize>, lengths: &[f64]) -> (f64, f64) {
+fn score(valences: &rustc_hash::FxHashMap<Entity, usize>, lengths: &[f64]) -> (f64, f64) {
     let n = valences.len().max(1) as f64;
     let mean = valences.values().sum::<usize>() as f64 / n;
     let var = valences

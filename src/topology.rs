@@ -1,8 +1,13 @@
 //! The topology cache: dense index arrays derived from the hecs world.
 //!
-//! Rebuilt only when the membrane's structure epoch changes (a split, merge
-//! or any spawn/despawn of mesh entities). Hot loops index these arrays and
-//! never touch the world.
+//! Built from the world once, then updated edit by edit in O(patch)
+//! ([`Topology::apply_edit`], `src/topology_update.rs`); rebuilt in full only
+//! when the structure changes outside the edit layer. Hot loops index these
+//! arrays and never touch the world.
+//!
+//! Each vertex's ordered 1-ring lives in a fixed-size block of the ring
+//! arrays (`ring_stride` entries, `valence` of them used), so an edit that
+//! changes a valence rewrites that block alone.
 
 use crate::components::{Edge, Face, Position};
 use hecs::{Entity, World};
@@ -31,14 +36,24 @@ pub struct Topology {
     pub faces: Vec<[u32; 3]>,
     /// Face edges (slots): `face_edges[f][k]` joins corners k and k+1.
     pub face_edges: Vec<[u32; 3]>,
-    /// CSR offsets into the ring arrays, length `vertex_count + 1`.
-    pub ring_offsets: Vec<u32>,
-    /// Ordered 1-ring of each vertex, counter-clockwise about the outward normal.
-    pub ring: Vec<u32>,
-    /// `ring_edges[k]` is the edge to `ring[k]`.
-    pub ring_edges: Vec<u32>,
-    /// `ring_faces[k]` is the face (v, ring[k], ring[k+1]).
-    pub ring_faces: Vec<u32>,
+    /// Entries per vertex block in the ring arrays (≥ every valence).
+    pub(crate) ring_stride: usize,
+    /// Valence of each vertex: the used length of its block.
+    pub(crate) ring_len: Vec<u32>,
+    /// Ordered 1-ring of each vertex, counter-clockwise about the outward
+    /// normal (block `v`: entries `v·stride .. v·stride + valence`).
+    pub(crate) ring: Vec<u32>,
+    /// Entry `k` of a block: the edge to the ring's vertex `k`.
+    pub(crate) ring_edges: Vec<u32>,
+    /// Entry `k` of a block: the face (v, ring[k], ring[k+1]).
+    pub(crate) ring_faces: Vec<u32>,
+}
+
+/// Ring block size for a largest valence `max_valence`: room for four
+/// more neighbours than any vertex has, so valence changes by edits rarely
+/// outgrow it (an edit that would falls back to a full rebuild).
+fn ring_stride_for(max_valence: usize) -> usize {
+    (max_valence + 4).max(10)
 }
 
 /// The world's mesh entities do not form a valid closed triangulation.
@@ -79,13 +94,35 @@ impl Topology {
     /// Valence (1-ring size) of vertex slot `v`.
     #[inline]
     pub fn valence(&self, v: usize) -> usize {
-        (self.ring_offsets[v + 1] - self.ring_offsets[v]) as usize
+        self.ring_len[v] as usize
     }
 
-    /// Ordered 1-ring neighbours of vertex slot `v`.
+    /// Where vertex `v`'s ring lives in the ring arrays.
+    #[inline]
+    fn ring_range(&self, v: usize) -> std::ops::Range<usize> {
+        let lo = v * self.ring_stride;
+        lo..lo + self.ring_len[v] as usize
+    }
+
+    /// Ordered 1-ring neighbours of vertex slot `v` (counter-clockwise about
+    /// the outward normal).
     #[inline]
     pub fn neighbours(&self, v: usize) -> &[u32] {
-        &self.ring[self.ring_offsets[v] as usize..self.ring_offsets[v + 1] as usize]
+        &self.ring[self.ring_range(v)]
+    }
+
+    /// The edges from vertex `v` to its [`Topology::neighbours`], in ring
+    /// order.
+    #[inline]
+    pub fn ring_edges_of(&self, v: usize) -> &[u32] {
+        &self.ring_edges[self.ring_range(v)]
+    }
+
+    /// The faces around vertex `v` in ring order: entry `k` is the face
+    /// (v, ring[k], ring[k+1]).
+    #[inline]
+    pub fn ring_faces_of(&self, v: usize) -> &[u32] {
+        &self.ring_faces[self.ring_range(v)]
     }
 
     /// Dense slot of a mesh entity, if it is a live vertex, edge or face.
@@ -102,13 +139,9 @@ impl Topology {
 
     /// Slot of the edge joining vertex slots `a` and `b`, if any.
     pub fn edge_between(&self, a: u32, b: u32) -> Option<u32> {
-        let (lo, hi) = (
-            self.ring_offsets[a as usize] as usize,
-            self.ring_offsets[a as usize + 1] as usize,
-        );
-        (lo..hi)
-            .find(|&k| self.ring[k] == b)
-            .map(|k| self.ring_edges[k])
+        let a = a as usize;
+        let k = self.neighbours(a).iter().position(|&w| w == b)?;
+        Some(self.ring_edges_of(a)[k])
     }
 
     /// Builds the cache from the world's vertex ([`Position`]), [`Edge`] and
@@ -196,10 +229,11 @@ impl Topology {
         Ok(t)
     }
 
-    /// Builds the ordered 1-ring CSR arrays from `faces` and `face_edges`.
+    /// Builds every vertex's ordered 1-ring block from `faces` and
+    /// `face_edges`.
     fn build_rings(&mut self) -> Result<(), TopologyError> {
         let n = self.vertex_entities.len();
-        // Per vertex: its incident (face, corner) pairs in CSR form.
+        // Per vertex: its incident faces in ascending slot order (CSR).
         let mut count = vec![0u32; n + 1];
         for f in &self.faces {
             for &v in f {
@@ -210,45 +244,64 @@ impl Topology {
             count[v + 1] += count[v];
         }
         let mut fill = count.clone();
-        let mut incident = vec![(0u32, 0u8); self.faces.len() * 3];
+        let mut incident = vec![0u32; self.faces.len() * 3];
         for (fi, f) in self.faces.iter().enumerate() {
-            for (k, &v) in f.iter().enumerate() {
-                incident[fill[v as usize] as usize] = (fi as u32, k as u8);
+            for &v in f {
+                incident[fill[v as usize] as usize] = fi as u32;
                 fill[v as usize] += 1;
             }
         }
-        self.ring_offsets = count.clone();
-        let total = count[n] as usize;
-        self.ring = vec![0; total];
-        self.ring_edges = vec![0; total];
-        self.ring_faces = vec![0; total];
+        let max_valence = (0..n).map(|v| count[v + 1] - count[v]).max().unwrap_or(0);
+        self.ring_stride = ring_stride_for(max_valence as usize);
+        self.ring_len = vec![0; n];
+        self.ring = vec![0; n * self.ring_stride];
+        self.ring_edges = vec![0; n * self.ring_stride];
+        self.ring_faces = vec![0; n * self.ring_stride];
         for v in 0..n {
-            let (lo, hi) = (count[v] as usize, count[v + 1] as usize);
-            let fan = &incident[lo..hi];
-            if fan.is_empty() {
-                return Err(TopologyError::BrokenFan { vertex: v as u32 });
-            }
-            // Face (v, a, b): the ring steps a → b. Start anywhere, follow.
-            let next_of = |a: u32| {
-                fan.iter()
-                    .find(|&&(fi, k)| self.faces[fi as usize][(k as usize + 1) % 3] == a)
-            };
-            let (f0, k0) = fan[0];
-            let start = self.faces[f0 as usize][(k0 as usize + 1) % 3];
-            let mut cur = start;
-            for slot in lo..hi {
-                let &(fi, k) = next_of(cur).ok_or(TopologyError::BrokenFan { vertex: v as u32 })?;
-                let face = self.faces[fi as usize];
-                self.ring[slot] = cur;
-                self.ring_faces[slot] = fi;
-                // Edge from v to cur is the face edge (k, k+1).
-                self.ring_edges[slot] = self.face_edges[fi as usize][k as usize];
-                cur = face[(k as usize + 2) % 3];
-            }
-            if cur != start {
-                return Err(TopologyError::BrokenFan { vertex: v as u32 });
-            }
+            let fan = &incident[count[v] as usize..count[v + 1] as usize];
+            self.write_ring(v, fan)?;
         }
+        Ok(())
+    }
+
+    /// Writes vertex `v`'s ring block from its incident faces `fan` (face
+    /// slots in ascending order; `faces` and `face_edges` must be current).
+    /// The ring starts at the first face of `fan` and follows the faces
+    /// counter-clockwise.
+    pub(crate) fn write_ring(&mut self, v: usize, fan: &[u32]) -> Result<(), TopologyError> {
+        let broken = TopologyError::BrokenFan { vertex: v as u32 };
+        if fan.is_empty() || fan.len() > self.ring_stride {
+            return Err(broken);
+        }
+        let corner_of = |f: u32| {
+            let face = &self.faces[f as usize];
+            (0..3).find(|&k| face[k] as usize == v)
+        };
+        // Face (v, a, b): the ring steps a → b.
+        let next_of = |a: u32| {
+            fan.iter().find_map(|&f| {
+                let k = corner_of(f)?;
+                (self.faces[f as usize][(k + 1) % 3] == a).then_some((f, k))
+            })
+        };
+        let f0 = fan[0];
+        let k0 = corner_of(f0).ok_or(broken.clone())?;
+        let start = self.faces[f0 as usize][(k0 + 1) % 3];
+        let lo = v * self.ring_stride;
+        let mut cur = start;
+        for slot in lo..lo + fan.len() {
+            let (fi, k) = next_of(cur).ok_or(broken.clone())?;
+            let face = self.faces[fi as usize];
+            self.ring[slot] = cur;
+            self.ring_faces[slot] = fi;
+            // Edge from v to cur is the face edge (k, k+1).
+            self.ring_edges[slot] = self.face_edges[fi as usize][k];
+            cur = face[(k + 2) % 3];
+        }
+        if cur != start {
+            return Err(broken);
+        }
+        self.ring_len[v] = fan.len() as u32;
         Ok(())
     }
 }

@@ -27,8 +27,7 @@ impl SelfAvoidanceForces {
         let t = ctx.topology;
         self_avoidance(
             ctx.positions,
-            &t.ring_offsets,
-            &t.ring,
+            t,
             self.params.k,
             self.params.distance,
             &mut self.cells,

@@ -6,11 +6,16 @@
 //! vertex's 1-ring: each toward the point itself (as run) or, with the
 //! centroid coupling, the patch's centroid toward the point.
 
+use crate::cell_list::CellList;
 use crate::components::ControlPoint;
 use crate::energy::springs::control_point_springs;
 use crate::force::{ForceContext, ForceTerm};
 use crate::params::SpringCoupling;
 use glam::DVec3;
+
+/// Cell size of the nearest-vertex grid (l̄): two mean edge lengths, a few
+/// vertices per cell on the surface.
+const NEAREST_CELL_SIZE: f64 = 2.0;
 
 /// The control-point spring system. Control points are read from the world
 /// on each evaluation (a handful of entities, not a per-edge loop).
@@ -18,6 +23,9 @@ use glam::DVec3;
 pub struct SpringForces {
     coupling: SpringCoupling,
     points: Vec<ControlPoint>,
+    /// Each point's nearest vertex, kept as the next search's first guess.
+    nearest: Vec<usize>,
+    cells: CellList,
 }
 
 impl SpringForces {
@@ -25,7 +33,7 @@ impl SpringForces {
     pub fn new(coupling: SpringCoupling) -> Self {
         Self {
             coupling,
-            points: Vec::new(),
+            ..Default::default()
         }
     }
 
@@ -35,15 +43,18 @@ impl SpringForces {
         self.points.clear();
         self.points
             .extend(ctx.world.query::<&ControlPoint>().iter().copied());
-        let t = ctx.topology;
-        control_point_springs(
-            ctx.positions,
-            &t.ring_offsets,
-            &t.ring,
-            &self.points,
-            self.coupling,
-            force,
-        )
+        let p = ctx.positions;
+        // Nearest vertices through a cell list (exactly the brute-force
+        // answer): O(N) to build plus a few cells per point, instead of
+        // O(N) per point.
+        self.cells.build(p, NEAREST_CELL_SIZE);
+        self.nearest.resize(self.points.len(), 0);
+        for (cp, guess) in self.points.iter().zip(self.nearest.iter_mut()) {
+            let start = if *guess < p.len() { *guess } else { 0 };
+            *guess = self.cells.nearest(p, cp.position, start);
+        }
+        let (t, points, nearest) = (ctx.topology, &self.points, &self.nearest);
+        control_point_springs(p, t, points, nearest, self.coupling, force)
     }
 }
 

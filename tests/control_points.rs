@@ -123,9 +123,9 @@ fn centroid_coupling_keeps_the_net_pull_and_drops_the_squeeze() {
         let mut force = vec![DVec3::ZERO; mesh.positions.len()];
         let energy = control_point_springs(
             &mesh.positions,
-            &t.ring_offsets,
-            &t.ring,
+            &t,
             &[point],
+            &[nearest_vertex(&mesh.positions, point.position)],
             coupling,
             Some(&mut force),
         );

@@ -307,14 +307,14 @@ fn topology_cache_matches_mesh() {
     }
     for v in 0..t.vertex_count() {
         let ring = t.neighbours(v);
-        let lo = t.ring_offsets[v] as usize;
+        let (ring_faces, ring_edges) = (t.ring_faces_of(v), t.ring_edges_of(v));
         for k in 0..ring.len() {
             let next = ring[(k + 1) % ring.len()];
             assert_eq!(
-                rotate_to(t.faces[t.ring_faces[lo + k] as usize], v as u32),
+                rotate_to(t.faces[ring_faces[k] as usize], v as u32),
                 [v as u32, ring[k], next]
             );
-            let [a, b] = t.edges[t.ring_edges[lo + k] as usize];
+            let [a, b] = t.edges[ring_edges[k] as usize];
             assert!((a, b) == (v as u32, ring[k]) || (b, a) == (v as u32, ring[k]));
         }
     }

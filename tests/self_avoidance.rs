@@ -23,16 +23,8 @@ fn the_cell_list_sums_the_same_pairs_as_a_brute_force_search() {
     let t = m.topology().unwrap().clone();
     for d0 in [0.3, 0.6, 1.5] {
         let mut cells = CellList::default();
-        let e = self_avoidance(
-            &mesh.positions,
-            &t.ring_offsets,
-            &t.ring,
-            7.0,
-            d0,
-            &mut cells,
-            None,
-        );
-        let brute = self_avoidance_brute_force(&mesh.positions, &t.ring_offsets, &t.ring, 7.0, d0);
+        let e = self_avoidance(&mesh.positions, &t, 7.0, d0, &mut cells, None);
+        let brute = self_avoidance_brute_force(&mesh.positions, &t, 7.0, d0);
         assert!(brute > 0.0, "the squashed sheets overlap at d0 = {d0}");
         assert!(
             (e - brute).abs() < 1e-12 * brute,
@@ -40,15 +32,7 @@ fn the_cell_list_sums_the_same_pairs_as_a_brute_force_search() {
         );
         // Newton's third law: the forces sum to zero.
         let mut f = vec![DVec3::ZERO; mesh.positions.len()];
-        self_avoidance(
-            &mesh.positions,
-            &t.ring_offsets,
-            &t.ring,
-            7.0,
-            d0,
-            &mut cells,
-            Some(&mut f),
-        );
+        self_avoidance(&mesh.positions, &t, 7.0, d0, &mut cells, Some(&mut f));
         let net: DVec3 = f.iter().copied().sum();
         assert!(net.length() < 1e-9 * f.iter().map(|v| v.length()).sum::<f64>());
     }

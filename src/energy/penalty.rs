@@ -132,8 +132,7 @@ pub fn local_tension(
 /// f'(i) = (f(i) + Σ_j f(j)) / (1 + valence_i). `scratch` is reused.
 pub fn smooth_over_rings(
     force: &mut [DVec3],
-    ring_offsets: &[u32],
-    ring: &[u32],
+    topology: &crate::topology::Topology,
     passes: u32,
     scratch: &mut Vec<DVec3>,
 ) {
@@ -144,18 +143,15 @@ pub fn smooth_over_rings(
     // scratch holds the previous pass in [0, n) and 1/(1 + valence) in [n, 2n).
     scratch.clear();
     scratch.extend_from_slice(force);
-    scratch.extend(
-        (0..n).map(|i| DVec3::splat(1.0 / (1 + ring_offsets[i + 1] - ring_offsets[i]) as f64)),
-    );
+    scratch.extend((0..n).map(|i| DVec3::splat(1.0 / (1 + topology.valence(i)) as f64)));
     let (previous, inverse_counts) = scratch.split_at_mut(n);
     for pass in 0..passes {
         if pass > 0 {
             previous.copy_from_slice(force);
         }
         let average = |i: usize| {
-            let (lo, hi) = (ring_offsets[i] as usize, ring_offsets[i + 1] as usize);
             let mut sum = previous[i];
-            for &j in &ring[lo..hi] {
+            for &j in topology.neighbours(i) {
                 sum += previous[j as usize];
             }
             sum * inverse_counts[i]

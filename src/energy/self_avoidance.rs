@@ -11,26 +11,14 @@
 
 use glam::DVec3;
 
-/// Reusable buffers of the cell list: a dense grid over the bounding box,
-/// vertices counting-sorted by cell (slot order within a cell).
-#[derive(Clone, Debug, Default)]
-pub struct CellList {
-    start: Vec<u32>,
-    members: Vec<u32>,
-    cell_of: Vec<u32>,
-}
-
-/// Most grid cells per vertex before the cells are made coarser (a
-/// stretched shape's bounding box can be mostly empty).
-const MAX_CELLS_PER_VERTEX: f64 = 32.0;
+pub use crate::cell_list::CellList;
 
 /// The self-avoidance energy (Ē) with stiffness `k` (Ē/l̄²) and range `d0`
-/// (l̄); with `force`, adds −∇E. `ring_offsets`/`ring` are the 1-rings
+/// (l̄); with `force`, adds −∇E. `topology` gives the 1-rings
 /// (CSR by vertex slot) whose pairs are excluded.
 pub fn self_avoidance(
     positions: &[DVec3],
-    ring_offsets: &[u32],
-    ring: &[u32],
+    topology: &crate::topology::Topology,
     k: f64,
     d0: f64,
     cells: &mut CellList,
@@ -40,65 +28,18 @@ pub fn self_avoidance(
     if n == 0 {
         return 0.0;
     }
-    let lo = positions.iter().copied().fold(DVec3::INFINITY, DVec3::min);
-    let hi = positions
-        .iter()
-        .copied()
-        .fold(DVec3::NEG_INFINITY, DVec3::max);
     // Cells no smaller than d0, so the 27 cells around a vertex hold every
     // vertex within d0 of it.
-    let extent = hi - lo;
-    let mut size = d0;
-    let dims = |size: f64| (extent / size).floor().as_uvec3() + glam::UVec3::ONE;
-    while {
-        let d = dims(size).as_dvec3();
-        d.x * d.y * d.z > MAX_CELLS_PER_VERTEX * n as f64 + 27.0
-    } {
-        size *= 1.5;
-    }
-    let d = dims(size);
-    let index = |c: glam::UVec3| ((c.x * d.y + c.y) * d.z + c.z) as usize;
-    let cell = |p: DVec3| {
-        ((p - lo) / size)
-            .floor()
-            .as_uvec3()
-            .min(d - glam::UVec3::ONE)
-    };
-    let total = (d.x * d.y * d.z) as usize;
-    cells.start.clear();
-    cells.start.resize(total + 1, 0);
-    cells.cell_of.clear();
-    for &p in positions {
-        let c = index(cell(p)) as u32;
-        cells.cell_of.push(c);
-        cells.start[c as usize + 1] += 1;
-    }
-    for c in 0..total {
-        cells.start[c + 1] += cells.start[c];
-    }
-    cells.members.clear();
-    cells.members.resize(n, 0);
-    let mut fill = cells.start.clone();
-    for (i, &c) in cells.cell_of.iter().enumerate() {
-        cells.members[fill[c as usize] as usize] = i as u32;
-        fill[c as usize] += 1;
-    }
+    cells.build(positions, d0);
     let d0_sq = d0 * d0;
     let mut energy = 0.0;
     for (i, &p) in positions.iter().enumerate() {
-        let c = cell(p).as_ivec3();
-        let neighbours = &ring[ring_offsets[i] as usize..ring_offsets[i + 1] as usize];
+        let c = cells.cell(p);
+        let neighbours = topology.neighbours(i);
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for dz in -1..=1 {
-                    let q = c + glam::IVec3::new(dx, dy, dz);
-                    if q.min_element() < 0 || q.cmpge(d.as_ivec3()).any() {
-                        continue;
-                    }
-                    let q = index(q.as_uvec3());
-                    let members =
-                        &cells.members[cells.start[q] as usize..cells.start[q + 1] as usize];
-                    for &j in members {
+                    for &j in cells.members(c, glam::IVec3::new(dx, dy, dz)) {
                         if j as usize <= i || neighbours.contains(&j) {
                             continue;
                         }
@@ -128,14 +69,13 @@ pub fn self_avoidance(
 /// The same energy by checking every pair (O(N²); a reference for tests).
 pub fn self_avoidance_brute_force(
     positions: &[DVec3],
-    ring_offsets: &[u32],
-    ring: &[u32],
+    topology: &crate::topology::Topology,
     k: f64,
     d0: f64,
 ) -> f64 {
     let mut energy = 0.0;
     for i in 0..positions.len() {
-        let neighbours = &ring[ring_offsets[i] as usize..ring_offsets[i + 1] as usize];
+        let neighbours = topology.neighbours(i);
         for j in i + 1..positions.len() {
             if neighbours.contains(&(j as u32)) {
                 continue;

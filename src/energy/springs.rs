@@ -10,32 +10,24 @@ use glam::DVec3;
 
 /// Index of the vertex nearest to `point` (ties: lowest index).
 pub fn nearest_vertex(positions: &[DVec3], point: DVec3) -> usize {
-    let mut best = (f64::INFINITY, 0);
-    for (i, p) in positions.iter().enumerate() {
-        let d = p.distance_squared(point);
-        if d < best.0 {
-            best = (d, i);
-        }
-    }
-    best.1
+    crate::cell_list::nearest_by_scan(positions, point)
 }
 
 /// Spring energy; with `force`, adds the spring forces. Each control point
-/// attaches to its nearest vertex (chosen anew on every call) and its 1-ring,
-/// coupled as `coupling` says.
+/// attaches to its nearest vertex and its 1-ring, coupled as `coupling`
+/// says; `nearest[k]` is point k's nearest vertex ([`nearest_vertex`], or
+/// the same answer from a [`crate::cell_list::CellList`]).
 pub fn control_point_springs(
     positions: &[DVec3],
-    ring_offsets: &[u32],
-    ring: &[u32],
+    topology: &crate::topology::Topology,
     points: &[ControlPoint],
+    nearest: &[usize],
     coupling: SpringCoupling,
     mut force: Option<&mut [DVec3]>,
 ) -> f64 {
     let mut energy = 0.0;
-    for cp in points {
-        let i = nearest_vertex(positions, cp.position);
-        let (lo, hi) = (ring_offsets[i] as usize, ring_offsets[i + 1] as usize);
-        let patch = || std::iter::once(i as u32).chain(ring[lo..hi].iter().copied());
+    for (cp, &i) in points.iter().zip(nearest) {
+        let patch = || std::iter::once(i as u32).chain(topology.neighbours(i).iter().copied());
         match coupling {
             SpringCoupling::OneRing => {
                 for j in patch() {
@@ -47,7 +39,7 @@ pub fn control_point_springs(
                 }
             }
             SpringCoupling::Centroid => {
-                let n = (hi - lo + 1) as f64;
+                let n = (topology.valence(i) + 1) as f64;
                 let centroid = patch().map(|j| positions[j as usize]).sum::<DVec3>() / n;
                 let d = cp.position - centroid;
                 energy += 0.5 * cp.stiffness * n * d.length_squared();
