@@ -90,9 +90,9 @@ fn default_docking_level() -> u32 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum MembraneSource {
-    /// Icosphere of `level` subdivisions (0..=6; 3 gives 642 vertices).
+    /// Icosphere of `level` subdivisions (0..=7; 3 gives 642 vertices).
     Icosphere {
-        /// Subdivision level 0..=6.
+        /// Subdivision level 0..=7.
         level: u32,
         /// Mean edge length after rescaling (l̄; default 1).
         #[serde(

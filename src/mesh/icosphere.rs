@@ -4,8 +4,9 @@ use super::SurfaceMesh;
 use glam::DVec3;
 use std::collections::HashMap;
 
-/// Highest subdivision level the generator accepts (40,962 vertices at 6).
-pub const MAX_ICOSPHERE_LEVEL: u32 = 6;
+/// Highest subdivision level the generator accepts (163,842 vertices at 7,
+/// the largest benchmark size; about 0.5 GB in a run).
+pub const MAX_ICOSPHERE_LEVEL: u32 = 7;
 
 /// Vertex count of an icosphere with `level` subdivisions: 10·4^level + 2.
 pub fn vertex_count_for_level(level: u32) -> usize {
