@@ -328,7 +328,7 @@ impl Membrane {
     }
 
     /// Checks `edit` and, if valid, applies it to the world (see the module
-    /// contract). The topology cache is rebuilt before returning.
+    /// contract). The topology cache is updated for the patch before returning.
     pub fn apply_patch(
         &mut self,
         edit: &PatchEdit,
