@@ -65,7 +65,9 @@ impl System for ForceTermsSystem {
             lipid: &lipid.0,
             face_geometry: &geometry.0,
         };
-        let concurrent = self.terms.len() > 1 && crate::parallel::splits(positions.0.len());
+        // Term work scales with the faces.
+        let faces = membrane.cached_topology().faces.len();
+        let concurrent = self.terms.len() > 1 && crate::parallel::splits(faces);
         let ev = &mut buffers.evaluation;
         // One job per term: the term, its buffer, energy and time.
         let jobs: Vec<Job<'_>> = self

@@ -8,15 +8,38 @@
 //! per-element buffer, in element order, so a sum has the same rounding as
 //! the single-threaded loop it replaces.
 //!
-//! Loops shorter than [`MIN_PARALLEL_LEN`] run on the calling thread: at
+//! Loops shorter than [`SPLIT_FACTOR`] grains run on the calling thread: at
 //! that size waking the pool costs more than it saves.
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Elements per rayon task, and the length below which a loop stays on the
-/// calling thread. At 2048 a bending pass over faces is ≈ 60 µs of work per
-/// task, well above the ≈ 1-3 µs it costs to hand a task to another thread.
-pub const MIN_PARALLEL_LEN: usize = 2048;
+/// Elements per rayon task by default (the grain). A loop splits only
+/// from [`SPLIT_FACTOR`] grains. Measured on the 2-core test VM: loops split
+/// from 4096 elements made a 2562-vertex run 1.5× slower on 2 threads and
+/// a 10242-vertex run no faster, while at 40962 vertices 2 threads are
+/// 1.5-2× faster with 2048-element tasks and no faster with 8192 (too few
+/// tasks to balance).
+pub const DEFAULT_GRAIN: usize = 2048;
+
+/// A loop splits from this many grains (16384 elements by default: the
+/// faces and edges of a 10242-vertex mesh, everything of a larger one).
+pub const SPLIT_FACTOR: usize = 8;
+
+static GRAIN: AtomicUsize = AtomicUsize::new(DEFAULT_GRAIN);
+
+/// Sets the grain for the whole process (see [`DEFAULT_GRAIN`]). Results do
+/// not depend on it: tests lower it so a small mesh takes every parallel
+/// path.
+pub fn set_grain(elements: usize) {
+    GRAIN.store(elements.max(1), Ordering::Relaxed);
+}
+
+/// The current grain (elements per task).
+#[inline]
+pub fn grain() -> usize {
+    GRAIN.load(Ordering::Relaxed)
+}
 
 /// Runs `f` on a worker thread of the current rayon pool and waits for it.
 ///
@@ -35,10 +58,10 @@ pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
 }
 
 /// Whether a loop of `len` elements is split across threads (false on a
-/// one-thread pool and below [`MIN_PARALLEL_LEN`] per task).
+/// one-thread pool and below [`SPLIT_FACTOR`] tasks of [`grain`] elements).
 #[inline]
 pub fn splits(len: usize) -> bool {
-    len >= 2 * MIN_PARALLEL_LEN && rayon::current_num_threads() > 1
+    len >= SPLIT_FACTOR * grain() && rayon::current_num_threads() > 1
 }
 
 // Every helper hands the caller's closure a whole chunk (or the whole range
@@ -50,9 +73,10 @@ pub fn splits(len: usize) -> bool {
 /// the chunk's first index).
 pub fn for_chunks<T: Send>(out: &mut [T], body: impl Fn(usize, &mut [T]) + Sync + Send) {
     if splits(out.len()) {
-        out.par_chunks_mut(MIN_PARALLEL_LEN)
+        let g = grain();
+        out.par_chunks_mut(g)
             .enumerate()
-            .for_each(|(c, chunk)| body(c * MIN_PARALLEL_LEN, chunk));
+            .for_each(|(c, chunk)| body(c * g, chunk));
     } else {
         body(0, out);
     }
@@ -67,10 +91,11 @@ pub fn for_chunks2<A: Send, B: Send>(
 ) {
     assert_eq!(a.len(), b.len(), "for_chunks2 needs equal lengths");
     if splits(a.len()) {
-        a.par_chunks_mut(MIN_PARALLEL_LEN)
-            .zip(b.par_chunks_mut(MIN_PARALLEL_LEN))
+        let g = grain();
+        a.par_chunks_mut(g)
+            .zip(b.par_chunks_mut(g))
             .enumerate()
-            .for_each(|(c, (x, y))| body(c * MIN_PARALLEL_LEN, x, y));
+            .for_each(|(c, (x, y))| body(c * g, x, y));
     } else {
         body(0, a, b);
     }
@@ -86,9 +111,10 @@ pub fn reduce_ranges<R: Send>(
     combine: impl Fn(R, R) -> R + Sync + Send,
 ) -> R {
     if splits(len) {
-        (0..len.div_ceil(MIN_PARALLEL_LEN))
+        let g = grain();
+        (0..len.div_ceil(g))
             .into_par_iter()
-            .map(|c| map(c * MIN_PARALLEL_LEN..((c + 1) * MIN_PARALLEL_LEN).min(len)))
+            .map(|c| map(c * g..((c + 1) * g).min(len)))
             .reduce(identity, combine)
     } else {
         map(0..len)
@@ -207,14 +233,12 @@ pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bo
         out.extend(range.filter(|&i| pred(i)).map(|i| i as u32));
     };
     if splits(len) {
-        let parts: Vec<Vec<u32>> = (0..len.div_ceil(MIN_PARALLEL_LEN))
+        let g = grain();
+        let parts: Vec<Vec<u32>> = (0..len.div_ceil(g))
             .into_par_iter()
             .map(|c| {
                 let mut part = Vec::new();
-                pick(
-                    c * MIN_PARALLEL_LEN..((c + 1) * MIN_PARALLEL_LEN).min(len),
-                    &mut part,
-                );
+                pick(c * g..((c + 1) * g).min(len), &mut part);
                 part
             })
             .collect();
@@ -277,7 +301,7 @@ mod tests {
 
     #[test]
     fn reductions_match_the_serial_scan_for_any_thread_count() {
-        let n = 5 * MIN_PARALLEL_LEN + 17;
+        let n = (SPLIT_FACTOR + 3) * grain() + 17;
         // Repeated minima: the first one must win.
         let key = |i: usize| ((i * 7919) % 1013) as f64;
         let serial = {

@@ -3,10 +3,12 @@
 //! byte-identical run directories (all files; `summary.json` without its
 //! wall-clock timings).
 //!
-//! At this size the parallel paths are taken (faces and edges ≥ 2 ×
-//! `MIN_PARALLEL_LEN`): on one thread every kernel runs its serial loop, on
-//! two or three its parallel form and the force terms run concurrently, so
-//! this compares the two forms bit for bit.
+//! The grain is lowered to 128 elements per task (loops split from 1024)
+//! so that every loop over
+//! the 10242 vertices, 20480 faces and 30720 edges splits: on one thread
+//! every kernel runs its serial loop, on two or three its parallel form and
+//! the force terms run concurrently, so this compares the two forms bit for
+//! bit.
 
 mod common;
 
@@ -53,6 +55,7 @@ fn contents(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
 
 #[test]
 fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
+    remembrane::parallel::set_grain(128);
     let (scene, path) = noisy_scene();
     let root = tempfile::tempdir().unwrap();
     let mut runs = Vec::new();
