@@ -256,6 +256,16 @@ impl Membrane {
             faces.extend(edit.add_faces.iter().filter(|f| f.contains(&v)).copied());
             after.insert(v, faces);
         }
+        // For each affected vertex x, the vertex after x in each of its
+        // faces: face (x, y, z) traverses the edge x → y.
+        let mut heads: HashMap<Entity, Vec<Entity>> = HashMap::default();
+        for (&x, faces) in &after {
+            let head = |f: &[Entity; 3]| {
+                let k = f.iter().position(|&w| w == x).expect("face contains x");
+                f[(k + 1) % 3]
+            };
+            heads.insert(x, faces.iter().map(head).collect());
+        }
         let mut valences = HashMap::default();
         for &v in &affected {
             let faces = &after[&v];
@@ -304,12 +314,8 @@ impl Membrane {
                 if removing.contains(&a) || removing.contains(&b) {
                     continue;
                 }
-                let count = |x: Entity, y: Entity| {
-                    after[&x]
-                        .iter()
-                        .filter(|f| (0..3).any(|m| f[m] == x && f[(m + 1) % 3] == y))
-                        .count()
-                };
+                // Faces traversing x → y.
+                let count = |x: Entity, y: Entity| heads[&x].iter().filter(|&&h| h == y).count();
                 let (forward, backward) = (count(a, b), count(b, a));
                 if forward + backward == 0 {
                     continue; // the edge disappears
