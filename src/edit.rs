@@ -165,10 +165,7 @@ impl Membrane {
         let t = self.cached_topology();
         let removed: HashSet<Entity> = edit.remove_faces.iter().copied().collect();
         for &f in &edit.remove_faces {
-            let live = t
-                .slot(f)
-                .is_some_and(|s| t.face_entities.get(s as usize) == Some(&f));
-            if !live {
+            if t.face_slot(f).is_none() {
                 return Err(EditError::UnknownFace(f));
             }
         }

@@ -82,25 +82,6 @@ pub fn for_chunks<T: Send>(out: &mut [T], body: impl Fn(usize, &mut [T]) + Sync 
     }
 }
 
-/// Calls `body(start, a_chunk, b_chunk)` on matching chunks of two equally
-/// long slices.
-pub fn for_chunks2<A: Send, B: Send>(
-    a: &mut [A],
-    b: &mut [B],
-    body: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send,
-) {
-    assert_eq!(a.len(), b.len(), "for_chunks2 needs equal lengths");
-    if splits(a.len()) {
-        let g = grain();
-        a.par_chunks_mut(g)
-            .zip(b.par_chunks_mut(g))
-            .enumerate()
-            .for_each(|(c, (x, y))| body(c * g, x, y));
-    } else {
-        body(0, a, b);
-    }
-}
-
 /// `map(range)` on consecutive index ranges covering `0..len`, combined in
 /// any grouping by `combine`: the result is thread-count independent when
 /// `combine` is associative and commutative on the values `map` returns.
@@ -149,20 +130,6 @@ pub fn for_each_mut<T: Send>(out: &mut [T], f: impl Fn(usize, &mut T) + Sync + S
     for_chunks(out, |start, chunk| {
         for (j, x) in chunk.iter_mut().enumerate() {
             f(start + j, x);
-        }
-    });
-}
-
-/// Calls `f(i, &mut a[i], &mut b[i])` for every index of two equally long
-/// slices.
-pub fn for_each_mut2<A: Send, B: Send>(
-    a: &mut [A],
-    b: &mut [B],
-    f: impl Fn(usize, &mut A, &mut B) + Sync + Send,
-) {
-    for_chunks2(a, b, |start, xs, ys| {
-        for (j, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
-            f(start + j, x, y);
         }
     });
 }
@@ -274,16 +241,6 @@ pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O>(
         for (j, &v) in vertices.iter().enumerate() {
             add(&mut out[v as usize], c[j]);
         }
-    }
-    sum
-}
-
-/// Σ values in index order: the same rounding as a serial `+=` loop from 0.
-#[inline]
-pub fn ordered_sum(values: &[f64]) -> f64 {
-    let mut sum = 0.0;
-    for v in values {
-        sum += v;
     }
     sum
 }

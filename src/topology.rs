@@ -137,6 +137,18 @@ impl Topology {
             .filter(|&s| self.vertex_entities.get(s as usize) == Some(&entity))
     }
 
+    /// Dense slot of a live edge entity (generation checked).
+    pub fn edge_slot(&self, entity: Entity) -> Option<u32> {
+        self.slot(entity)
+            .filter(|&s| self.edge_entities.get(s as usize) == Some(&entity))
+    }
+
+    /// Dense slot of a live face entity (generation checked).
+    pub fn face_slot(&self, entity: Entity) -> Option<u32> {
+        self.slot(entity)
+            .filter(|&s| self.face_entities.get(s as usize) == Some(&entity))
+    }
+
     /// Slot of the edge joining vertex slots `a` and `b`, if any.
     pub fn edge_between(&self, a: u32, b: u32) -> Option<u32> {
         let a = a as usize;

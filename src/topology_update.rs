@@ -170,7 +170,7 @@ impl Topology {
                 WorldChange::DespawnFace(f) => {
                     removed_faces.push(f);
                     // Its corners lose a face.
-                    let s = base_slot(f, &self.face_entities).ok_or(UpdateError::Unknown(f))?;
+                    let s = self.face_slot(f).ok_or(UpdateError::Unknown(f))? as usize;
                     for v in self.faces[s] {
                         insert(&mut ring_dirty, self.vertex_entities[v as usize]);
                     }
@@ -223,25 +223,29 @@ impl Topology {
         // neighbours' rings.
         // (An entity moved by one removal may itself be removed later.)
         let alive = |e: &&Entity| world.contains(**e);
+        // A recomputed face, and the rings of its corners and its edges.
+        let mark_face = |f: Entity,
+                         face_dirty: &mut Vec<Entity>,
+                         ring_dirty: &mut Vec<Entity>,
+                         edge_dirty: &mut Vec<Entity>|
+         -> Result<(), UpdateError> {
+            insert(face_dirty, f);
+            let face = face_of(f)?;
+            for k in 0..3 {
+                insert(ring_dirty, face.vertices[k]);
+                insert(edge_dirty, face.edges[k]);
+            }
+            Ok(())
+        };
         for &x in vertices.moved.iter().filter(alive) {
             insert(&mut ring_dirty, x);
             for f in incident(x)? {
-                insert(&mut face_dirty, f);
-                let face = face_of(f)?;
-                for k in 0..3 {
-                    insert(&mut ring_dirty, face.vertices[k]);
-                    insert(&mut edge_dirty, face.edges[k]);
-                }
+                mark_face(f, &mut face_dirty, &mut ring_dirty, &mut edge_dirty)?;
             }
         }
         // A moved face: its edges and its corners' rings name its slot.
         for &f in faces.moved.iter().filter(alive) {
-            insert(&mut face_dirty, f);
-            let face = face_of(f)?;
-            for k in 0..3 {
-                insert(&mut ring_dirty, face.vertices[k]);
-                insert(&mut edge_dirty, face.edges[k]);
-            }
+            mark_face(f, &mut face_dirty, &mut ring_dirty, &mut edge_dirty)?;
         }
         // A moved edge: its faces and its ends' rings name its slot.
         for &e in edges.moved.iter().filter(alive) {
@@ -278,10 +282,7 @@ impl Topology {
         // 3. Recompute what names a touched or moved slot.
         let vertex_slot = |t: &Topology, v: Entity| t.vertex_slot(v).ok_or(UpdateError::Unknown(v));
         for &f in &face_dirty {
-            let Some(s) = self
-                .slot(f)
-                .filter(|&s| self.face_entities.get(s as usize) == Some(&f))
-            else {
+            let Some(s) = self.face_slot(f) else {
                 continue;
             };
             let face = face_of(f)?;
@@ -290,19 +291,13 @@ impl Topology {
             for k in 0..3 {
                 corners[k] = vertex_slot(self, face.vertices[k])?;
                 let e = face.edges[k];
-                face_edges[k] = self
-                    .slot(e)
-                    .filter(|&s| self.edge_entities.get(s as usize) == Some(&e))
-                    .ok_or(UpdateError::Unknown(e))?;
+                face_edges[k] = self.edge_slot(e).ok_or(UpdateError::Unknown(e))?;
             }
             self.faces[s as usize] = corners;
             self.face_edges[s as usize] = face_edges;
         }
         for &e in &edge_dirty {
-            let Some(s) = self
-                .slot(e)
-                .filter(|&s| self.edge_entities.get(s as usize) == Some(&e))
-            else {
+            let Some(s) = self.edge_slot(e) else {
                 continue;
             };
             let edge = edge_of(e)?;
@@ -310,11 +305,7 @@ impl Topology {
                 vertex_slot(self, edge.vertices[0])?,
                 vertex_slot(self, edge.vertices[1])?,
             ];
-            self.edge_faces[s as usize] = edge.faces.map(|f| {
-                self.slot(f)
-                    .filter(|&s| self.face_entities.get(s as usize) == Some(&f))
-                    .unwrap_or(NO_SLOT)
-            });
+            self.edge_faces[s as usize] = edge.faces.map(|f| self.face_slot(f).unwrap_or(NO_SLOT));
         }
         let mut fan: Vec<u32> = Vec::new();
         for (v, faces_of_v) in &fans {
