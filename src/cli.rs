@@ -308,7 +308,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         eprintln!("error: --threads {n}: {e}");
         return ExitCode::from(2);
     }
-    let name = scene_name(&scene, &path);
+    let name = crate::run::run_name(&scene, &path);
     let out = args
         .out
         .unwrap_or_else(|| free_directory(Path::new("out").join(&name)));
@@ -377,7 +377,10 @@ fn compare_command(
             }
         }
     }
-    let names: Vec<String> = scenes.iter().map(|(s, p)| scene_name(s, p)).collect();
+    let names: Vec<String> = scenes
+        .iter()
+        .map(|(s, p)| crate::run::run_name(s, p))
+        .collect();
     if names[0] == names[1] {
         eprintln!(
             "error: both scenes are named `{}`; give them different `name`s",
@@ -485,16 +488,6 @@ fn load(path: &Path) -> Result<(Scene, crate::simulation::Simulation), String> {
     Ok((scene, sim))
 }
 
-fn scene_name(scene: &Scene, path: &Path) -> String {
-    if scene.name.is_empty() {
-        path.file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    } else {
-        scene.name.clone()
-    }
-}
-
 /// The scene a run directory's summary names, if it still loads.
 fn run_scene_file(dir: &Path) -> Option<Scene> {
     let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
@@ -569,7 +562,7 @@ fn check(path: &Path) -> Result<(), String> {
     let initial = *sim.resource::<crate::simulation::InitialState>();
     let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
     say!("{}: ok", path.display());
-    say!("  name         {}", scene_name(&scene, path));
+    say!("  name         {}", crate::run::run_name(&scene, path));
     say!("  seed         {}", scene.seed);
     say!("  membrane     {:?}", scene.membrane);
     say!(
@@ -612,7 +605,7 @@ fn check(path: &Path) -> Result<(), String> {
 fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {
     let (scene, mut sim) = load(path)?;
     sim.evaluate_forces().map_err(|e| e.to_string())?;
-    let report = EnergyReport::new(&scene_name(&scene, path), &sim);
+    let report = EnergyReport::new(&crate::run::run_name(&scene, path), &sim);
     if let Some(bad) = report.energies.iter().find(|e| !e.energy.is_finite()) {
         return Err(format!(
             "{}: energy term `{}` is not finite ({})",

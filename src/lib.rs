@@ -54,6 +54,7 @@ pub mod resources;
 pub mod rng;
 pub mod run;
 pub mod scene;
+pub mod scene_override;
 pub mod schedule;
 pub mod shape;
 pub mod simulation;

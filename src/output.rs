@@ -99,6 +99,11 @@ impl RunOutput {
         let _ = std::fs::remove_dir_all(&self.staging);
     }
 
+    /// The staging directory (`DIR.incomplete`) written until the run ends.
+    pub fn staging(&self) -> &Path {
+        &self.staging
+    }
+
     /// The final run directory.
     pub fn dir(&self) -> &Path {
         &self.dir

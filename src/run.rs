@@ -132,6 +132,15 @@ pub enum RunError {
     /// The simulation could not start (e.g. an invalid schedule).
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The run was interrupted (Ctrl-C); its outputs so far stay in the
+    /// staging directory, which does not look like a result.
+    #[error("interrupted at iteration {iteration}; partial outputs are in {}", staging.display())]
+    Interrupted {
+        /// Iterations done.
+        iteration: u64,
+        /// The `DIR.incomplete` staging directory.
+        staging: PathBuf,
+    },
 }
 
 impl From<crate::topology::TopologyError> for RunError {
@@ -160,6 +169,41 @@ pub fn run_scene(
     customize: impl FnOnce(&mut Simulation) -> Result<(), SimError>,
 ) -> Result<RunSummary, RunError> {
     let started = Instant::now();
+    let mut run = prepare_run(scene, scene_path, options)?;
+    customize(&mut run.sim)?;
+    drive_run(&mut run, scene_path, options, started, &|| false)
+}
+
+/// A scene with the run's overrides applied and its simulation built, not
+/// yet started: what [`drive_run`] runs.
+pub struct PreparedRun {
+    /// The scene as run (seed, iterations, frames and `from` applied).
+    pub scene: Scene,
+    /// The run's name (the scene's, else the file stem).
+    pub name: String,
+    /// The simulation; systems and force terms may still be added.
+    pub sim: Simulation,
+}
+
+/// The scene's name, or the file stem of `scene_path` when it has none.
+pub fn run_name(scene: &Scene, scene_path: &Path) -> String {
+    if scene.name.is_empty() {
+        scene_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    } else {
+        scene.name.clone()
+    }
+}
+
+/// Applies `options`' overrides (seed, iterations, frames, start state) to
+/// `scene` and builds its simulation.
+pub fn prepare_run(
+    scene: &Scene,
+    scene_path: &Path,
+    options: &RunOptions,
+) -> Result<PreparedRun, RunError> {
     let mut scene = scene.clone();
     if let Some(seed) = options.seed {
         scene.seed = seed;
@@ -175,17 +219,27 @@ pub fn run_scene(
         let path = std::path::absolute(from).unwrap_or_else(|_| from.clone());
         scene.membrane = crate::scene::MembraneSource::State { path };
     }
-    let name = if scene.name.is_empty() {
-        scene_path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    } else {
-        scene.name.clone()
-    };
+    let name = run_name(&scene, scene_path);
     let mut sim = scene.build(scene_path)?;
     sim.resource_mut::<CheckInvariants>().0 |= options.check_invariants;
-    customize(&mut sim)?;
+    Ok(PreparedRun { scene, name, sim })
+}
+
+/// Runs a prepared, not yet started simulation to the end of its scene
+/// (iterations or duration), writing every output into `options.out`.
+/// `started` is when the run's wall time began. `interrupted` is asked
+/// after every tick; when it returns true the run stops with
+/// [`RunError::Interrupted`] and its staging directory stays
+/// `DIR.incomplete`, as for a killed process.
+pub fn drive_run(
+    run: &mut PreparedRun,
+    scene_path: &Path,
+    options: &RunOptions,
+    started: Instant,
+    interrupted: &dyn Fn() -> bool,
+) -> Result<RunSummary, RunError> {
+    let PreparedRun { scene, name, sim } = run;
+    let name = name.as_str();
     let iterations = scene.dynamics.iterations;
     let duration = scene.dynamics.duration.unwrap_or(f64::INFINITY);
     let frames = FrameSchedule::new(
@@ -198,7 +252,7 @@ pub fn run_scene(
         .remove_resource::<Recorders>()
         .map(|r| r.0)
         .unwrap_or_default();
-    sim.add_dynamic_system(Stage::Observe, FrameWriter::new(&name, frames, recorders))?;
+    sim.add_dynamic_system(Stage::Observe, FrameWriter::new(name, frames, recorders))?;
     sim.insert_resource(RunOutput::create(&options.out, options.overwrite)?)?;
     if let Err(e) = sim.start() {
         if let Some(out) = sim.remove_resource::<RunOutput>() {
@@ -227,6 +281,18 @@ pub fn run_scene(
             );
             next_line += iterations / 10;
         }
+        if interrupted() {
+            if let Some(b) = &bar {
+                b.abandon();
+            }
+            let out = sim
+                .remove_resource::<RunOutput>()
+                .expect("the run's output stays a resource");
+            return Err(RunError::Interrupted {
+                iteration: it,
+                staging: out.staging().to_owned(),
+            });
+        }
     }
     if let Some(b) = bar {
         b.finish_and_clear();
@@ -235,25 +301,17 @@ pub fn run_scene(
     if stop.is_none() {
         if let Err(e) = sim.observe() {
             stop = Some(e);
-            regather(&mut sim)?;
+            regather(sim)?;
         }
     } else {
         // Positions in the world are the last good ones (integration checks
         // before writing back); re-gather without the failing forces.
-        regather(&mut sim)?;
+        regather(sim)?;
     }
     let out = sim
         .remove_resource::<RunOutput>()
         .expect("the run's output stays a resource");
-    let summary = summarize(
-        &name,
-        &scene,
-        scene_path,
-        &sim,
-        &out,
-        stop.as_ref(),
-        started,
-    );
+    let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), started);
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
     let mesh = sim.membrane_mut().to_mesh()?;
@@ -264,15 +322,8 @@ pub fn run_scene(
     // Only a completed run leaves a state to continue from.
     let clock = sim.clock();
     let state = stop.is_none().then(|| {
-        crate::state::SavedState::new(
-            &name,
-            scene.seed,
-            clock.iteration,
-            clock.time,
-            &mesh,
-            &lipid,
-        )
-        .to_json()
+        crate::state::SavedState::new(name, scene.seed, clock.iteration, clock.time, &mesh, &lipid)
+            .to_json()
     });
     let dir = out.finish(&json, &mesh, &lipid, state.as_deref())?;
     match stop {

@@ -130,6 +130,14 @@ pub enum MembraneSource {
         /// Path of the state file.
         path: PathBuf,
     },
+    /// A mesh given inline (what the Python package's `Scene.with_mesh`
+    /// writes): vertex positions and triangles, checked like a file's.
+    Mesh {
+        /// Vertex positions (l̄).
+        positions: Vec<DVec3>,
+        /// Triangles as vertex indices, counter-clockwise seen from outside.
+        faces: Vec<[u32; 3]>,
+    },
 }
 
 /// One energy term and its parameters.
@@ -307,6 +315,13 @@ impl Scene {
         Ok(scene)
     }
 
+    /// The scene as RON text in the scene-file dialect: parsing it gives
+    /// back an equal scene.
+    pub fn to_ron_string(&self) -> Result<String, ron::Error> {
+        let pretty = ron::ser::PrettyConfig::default().struct_names(true);
+        ron_options().to_string_pretty(self, pretty)
+    }
+
     /// Reads and parses a scene file with the process default registry.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         Self::load_with(path, &crate::registry::PluginRegistry::default_registry())
@@ -325,7 +340,7 @@ impl Scene {
     }
 
     /// Checks that need the whole scene.
-    fn validate(&self, path: &Path) -> Result<(), SceneError> {
+    pub(crate) fn validate(&self, path: &Path) -> Result<(), SceneError> {
         let invalid = |field: &str, reason: String| SceneError::Invalid {
             path: path.to_owned(),
             field: field.to_string(),
@@ -564,6 +579,10 @@ impl Scene {
                 lipid = state.lipid_density.clone();
                 state.mesh()
             }
+            MembraneSource::Mesh { positions, faces } => SurfaceMesh {
+                positions: positions.clone(),
+                faces: faces.clone(),
+            },
         };
         // Generated meshes are valid by construction; this also applies the
         // scene's valence limits to files and docked pairs.

@@ -1,0 +1,502 @@
+//! `remembrane.Simulation`: a scene's simulation, stepped or run from
+//! Python through the same code as the CLI.
+
+use crate::convert::{index_array, json_to_py, vec3_array};
+use crate::errors::{scene_error, simulation_error};
+use crate::force_term::{PyForceTerm, TermErrors};
+use crate::interrupt::run_detached;
+use crate::scene::PyScene;
+use glam::DVec3;
+use numpy::PyArray2;
+use pyo3::exceptions::{PyFileExistsError, PyKeyError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use remembrane::force::ForceBuffers;
+use remembrane::quality::MeshQuality;
+use remembrane::remesh::RemeshStats;
+use remembrane::report::EnergyReport;
+use remembrane::run::{PreparedRun, Progress, RunError, RunOptions, drive_run, prepare_run};
+use remembrane::simulation::SimError;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard, TryLockError};
+use std::time::Instant;
+
+/// Everything behind the lock: the engine's simulation and what is needed
+/// to build it again.
+struct Inner {
+    run: PreparedRun,
+    scene: PyScene,
+    check_invariants: bool,
+    python_terms: Vec<(String, Py<PyAny>)>,
+    errors: TermErrors,
+    /// Set once `run()` has been called: its frame writer and outputs are
+    /// part of the schedule, so the simulation cannot be stepped again.
+    ran: bool,
+}
+
+impl Inner {
+    fn options(&self, out: PathBuf, overwrite: bool, progress: Progress) -> RunOptions {
+        RunOptions {
+            out,
+            overwrite,
+            seed: None,
+            iterations: None,
+            frames: None,
+            from: None,
+            progress,
+            check_invariants: self.check_invariants,
+        }
+    }
+
+    /// A fresh, unstarted simulation of the scene with the Python terms
+    /// added again in their order.
+    fn rebuild(&mut self, py: Python<'_>) -> PyResult<()> {
+        let options = self.options(PathBuf::new(), false, Progress::Quiet);
+        self.run = prepare(py, &self.scene, &options)?;
+        for (name, f) in &self.python_terms {
+            let term = PyForceTerm::new(name.clone(), f.clone_ref(py), self.errors.clone());
+            self.run
+                .sim
+                .add_force_term(term)
+                .map_err(simulation_error)?;
+        }
+        Ok(())
+    }
+
+    /// The error to raise for a failed step: the Python term's own
+    /// exception when one caused it, else the engine's.
+    fn step_error(&self, e: impl std::fmt::Display) -> PyErr {
+        self.errors.take().unwrap_or_else(|| simulation_error(e))
+    }
+
+    /// Brings the topology cache up to date and returns the positions by
+    /// dense slot, gathered from the world (the source of truth).
+    fn positions(&mut self) -> PyResult<Vec<DVec3>> {
+        let membrane = self.run.sim.membrane_mut();
+        membrane.topology().map_err(simulation_error)?;
+        let mut p = Vec::new();
+        membrane.gather_positions(&mut p);
+        Ok(p)
+    }
+
+    fn topology(&mut self) -> PyResult<&remembrane::topology::Topology> {
+        self.run
+            .sim
+            .membrane_mut()
+            .topology()
+            .map_err(simulation_error)
+    }
+}
+
+fn prepare(py: Python<'_>, scene: &PyScene, options: &RunOptions) -> PyResult<PreparedRun> {
+    prepare_run(&scene.scene, &scene.path, options).map_err(|e| match e {
+        RunError::Scene(e) => scene_error(py, &e),
+        other => simulation_error(other),
+    })
+}
+
+/// A simulation of a scene.
+///
+/// `Simulation(scene, threads=None, check_invariants=False)`. `threads`
+/// sets the size of this simulation's own thread pool (default: the
+/// process-wide pool, one thread per core); results are identical for any
+/// thread count. `check_invariants` checks every mesh invariant after each
+/// remesh edit (slow).
+///
+/// Advance it with `step(n)`, or `run(out=...)` to write the same run
+/// directory as `remembrane run`. Both release the GIL and stop on Ctrl-C
+/// with `KeyboardInterrupt`.
+#[pyclass(name = "Simulation", module = "remembrane")]
+pub struct PySimulation {
+    inner: Mutex<Inner>,
+    pool: Option<rayon::ThreadPool>,
+}
+
+impl PySimulation {
+    fn lock(&self) -> PyResult<MutexGuard<'_, Inner>> {
+        match self.inner.try_lock() {
+            Ok(g) => Ok(g),
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(simulation_error(
+                "the simulation is busy: it was called from inside its own step or run \
+                 (e.g. from one of its Python force terms, which get the positions as their argument)",
+            )),
+        }
+    }
+
+    /// Evaluates the forces of the current state (all terms, as a tick
+    /// would) without moving anything, detached from the interpreter.
+    fn evaluate(&self, py: Python<'_>, inner: &mut Inner) -> PyResult<()> {
+        let sim = &mut inner.run.sim;
+        let (result, _) = run_detached(py, self.pool.as_ref(), |_| {
+            sim.evaluate_forces().map(|_| ())
+        });
+        result.map_err(|e| inner.step_error(e))
+    }
+}
+
+#[pymethods]
+impl PySimulation {
+    #[new]
+    #[pyo3(signature = (scene, threads=None, check_invariants=false))]
+    fn new(
+        py: Python<'_>,
+        scene: &Bound<'_, PyScene>,
+        threads: Option<usize>,
+        check_invariants: bool,
+    ) -> PyResult<Self> {
+        let scene = scene.get().clone();
+        let pool = match threads {
+            None => None,
+            Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
+            Some(n) => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| PyValueError::new_err(format!("threads={n}: {e}")))?,
+            ),
+        };
+        let options = RunOptions {
+            out: PathBuf::new(),
+            overwrite: false,
+            seed: None,
+            iterations: None,
+            frames: None,
+            from: None,
+            progress: Progress::Quiet,
+            check_invariants,
+        };
+        let run = prepare(py, &scene, &options)?;
+        Ok(Self {
+            inner: Mutex::new(Inner {
+                run,
+                scene,
+                check_invariants,
+                python_terms: Vec::new(),
+                errors: TermErrors::default(),
+                ran: false,
+            }),
+            pool,
+        })
+    }
+
+    /// Adds a force term written in Python, before the first step.
+    ///
+    /// `fn(positions) -> (energy, forces)` is called once per force
+    /// evaluation with the vertex positions (N×3 float64, l̄) and returns the
+    /// energy (float, Ē = 10 k_BT) and the force −∇E (N×3 float64, Ē/l̄). It
+    /// joins the schedule like a scene's terms: the same finite checks,
+    /// timing (`summary.json`) and per-term forces (`forces(name)`). An
+    /// exception inside it stops the step and is re-raised.
+    fn add_force_term(&self, py: Python<'_>, name: String, r#fn: Py<PyAny>) -> PyResult<()> {
+        if !r#fn.bind(py).is_callable() {
+            return Err(PyTypeError::new_err(
+                "the force term must be callable: fn(positions) -> (energy, forces)",
+            ));
+        }
+        let mut inner = self.lock()?;
+        if inner.ran || inner.run.sim.clock().iteration > 0 || inner.run.sim.schedule().is_some() {
+            if inner.run.sim.clock().iteration > 0 || inner.ran {
+                return Err(simulation_error(format!(
+                    "add_force_term({name:?}): terms are added before the first step"
+                )));
+            }
+            // Only evaluated so far: start again from the same state.
+            inner.rebuild(py)?;
+        }
+        let term = PyForceTerm::new(name.clone(), r#fn.clone_ref(py), inner.errors.clone());
+        inner.run.sim.add_force_term(term).map_err(|e| match e {
+            SimError::Build(b) => PyValueError::new_err(b.to_string()),
+            other => simulation_error(other),
+        })?;
+        inner.python_terms.push((name, r#fn));
+        Ok(())
+    }
+
+    /// Advances `n` ticks (each: forces, time step, integration, barrier
+    /// check, remeshing, diffusion, as the scene declares).
+    #[pyo3(signature = (n=1))]
+    fn step(&self, py: Python<'_>, n: u64) -> PyResult<()> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        if inner.ran {
+            return Err(simulation_error(
+                "this simulation has done its run(); build a new Simulation to step",
+            ));
+        }
+        let sim = &mut inner.run.sim;
+        let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
+            for _ in 0..n {
+                sim.tick()?;
+                if stop() {
+                    break;
+                }
+            }
+            Ok::<(), SimError>(())
+        });
+        if let Some(e) = raised {
+            return Err(e);
+        }
+        result.map_err(|e| inner.step_error(e))
+    }
+
+    /// Runs the scene's iterations (or duration) from the start and writes
+    /// the run directory `out` exactly as `remembrane run` does (frames,
+    /// series.csv, summary.json, final.ply, state.json, ...). Returns the
+    /// summary as a dict. A run that blows up raises `SimulationError`
+    /// (its outputs up to the last good frame are in `out`); Ctrl-C raises
+    /// `KeyboardInterrupt` and leaves `out.incomplete`.
+    #[pyo3(signature = (out, progress=true, overwrite=false))]
+    fn run<'py>(
+        &self,
+        py: Python<'py>,
+        out: PathBuf,
+        progress: bool,
+        overwrite: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        if inner.ran {
+            return Err(simulation_error(
+                "this simulation has done its run(); build a new Simulation",
+            ));
+        }
+        let done = inner.run.sim.clock().iteration;
+        if done > 0 {
+            return Err(simulation_error(format!(
+                "run() starts at iteration 0, but this simulation has stepped {done} iterations; \
+                 build a new Simulation"
+            )));
+        }
+        if out.exists() && !overwrite {
+            return Err(PyFileExistsError::new_err(format!(
+                "{}: the run directory exists (pass overwrite=True to replace it)",
+                out.display()
+            )));
+        }
+        if inner.run.sim.schedule().is_some() {
+            // Forces were evaluated: the schedule is fixed, so build the
+            // same unstarted simulation again to add the frame writer.
+            inner.rebuild(py)?;
+        }
+        let progress = if !progress {
+            Progress::Quiet
+        } else if std::io::stderr().is_terminal() {
+            Progress::Bar
+        } else {
+            Progress::Lines
+        };
+        let options = inner.options(out, overwrite, progress);
+        inner.ran = true;
+        let run = &mut inner.run;
+        let path = inner.scene.path.clone();
+        let started = Instant::now();
+        let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
+            drive_run(run, &path, &options, started, stop)
+        });
+        match result {
+            Ok(summary) => {
+                let value = serde_json::to_value(&summary).map_err(simulation_error)?;
+                json_to_py(py, &value)
+            }
+            Err(RunError::Interrupted { .. }) if raised.is_some() => Err(raised.expect("checked")),
+            Err(RunError::Scene(e)) => Err(scene_error(py, &e)),
+            Err(e) => Err(inner.step_error(e)),
+        }
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(self.lock()?.run.sim.clock().time)
+    }
+
+    /// Completed iterations.
+    #[getter]
+    fn iteration(&self) -> PyResult<u64> {
+        Ok(self.lock()?.run.sim.clock().iteration)
+    }
+
+    /// The scene being simulated.
+    #[getter]
+    fn scene(&self) -> PyResult<PyScene> {
+        Ok(self.lock()?.scene.clone())
+    }
+
+    /// Threads of this simulation's own pool (None: the process-wide pool).
+    #[getter]
+    fn threads(&self) -> Option<usize> {
+        self.pool.as_ref().map(|p| p.current_num_threads())
+    }
+
+    /// Vertex positions, N×3 float64 (l̄), by vertex index.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let p = self.lock()?.positions()?;
+        vec3_array(py, &p)
+    }
+
+    /// Triangles, F×3 int64 vertex indices (counter-clockwise seen from
+    /// outside).
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let mut inner = self.lock()?;
+        index_array(py, &inner.topology()?.faces)
+    }
+
+    /// Edges, E×2 int64 vertex indices.
+    #[getter]
+    fn edges<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let mut inner = self.lock()?;
+        index_array(py, &inner.topology()?.edges)
+    }
+
+    /// Names of the per-vertex fields (e.g. `lipid_density`, or a
+    /// plugin's).
+    #[getter]
+    fn field_names(&self) -> PyResult<Vec<String>> {
+        let inner = self.lock()?;
+        Ok(inner
+            .run
+            .sim
+            .membrane()
+            .fields()
+            .iter()
+            .map(|f| f.name().to_string())
+            .collect())
+    }
+
+    /// A per-vertex field by name, float64 array of length N.
+    fn field<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+    ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+        let mut inner = self.lock()?;
+        inner.topology()?;
+        let membrane = inner.run.sim.membrane();
+        let field = membrane
+            .fields()
+            .iter()
+            .find(|f| f.name() == name)
+            .cloned()
+            .ok_or_else(|| {
+                let names: Vec<&str> = membrane.fields().iter().map(|f| f.name()).collect();
+                PyKeyError::new_err(format!(
+                    "no per-vertex field {name:?} (fields: {})",
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ))
+            })?;
+        let t = membrane.cached_topology();
+        let values: Vec<f64> = t
+            .vertex_entities
+            .iter()
+            .map(|&e| field.get(&membrane.world, e))
+            .collect();
+        Ok(numpy::PyArray1::from_vec(py, values))
+    }
+
+    /// Energy of each term at the current state (Ē = 10 k_BT), as a dict in
+    /// evaluation order.
+    fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let mut inner = self.lock()?;
+        self.evaluate(py, &mut inner)?;
+        let buffers = inner.run.sim.resource::<ForceBuffers>();
+        let d = PyDict::new(py);
+        for t in remembrane::report::term_energies(&buffers) {
+            d.set_item(t.term, t.energy)?;
+        }
+        Ok(d)
+    }
+
+    /// Force at the current state, N×3 float64 (Ē/l̄): the total the
+    /// dynamics uses (penalty terms smoothed as the scene says), or one
+    /// term's exact −∇E by name.
+    #[pyo3(signature = (term=None))]
+    fn forces<'py>(
+        &self,
+        py: Python<'py>,
+        term: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let mut inner = self.lock()?;
+        self.evaluate(py, &mut inner)?;
+        let buffers = inner.run.sim.resource::<ForceBuffers>();
+        let e = &buffers.evaluation;
+        match term {
+            None => vec3_array(py, &e.total),
+            Some(name) => {
+                let names = buffers.names();
+                let k = names.iter().position(|n| n == name).ok_or_else(|| {
+                    PyKeyError::new_err(format!(
+                        "no force term {name:?} (terms: {})",
+                        names.join(", ")
+                    ))
+                })?;
+                vec3_array(py, &e.term_forces[k])
+            }
+        }
+    }
+
+    /// The state report of `remembrane energy`: energies by term, total,
+    /// area, volume, reduced volume and mesh quality, as a dict.
+    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut inner = self.lock()?;
+        self.evaluate(py, &mut inner)?;
+        let name = inner.scene.name();
+        let report = EnergyReport::new(&name, &inner.run.sim);
+        json_to_py(
+            py,
+            &serde_json::to_value(&report).map_err(simulation_error)?,
+        )
+    }
+
+    /// Mesh quality: edge lengths (min/mean/max/std, l̄), smallest angle
+    /// (degrees) and the valence histogram, as a dict.
+    fn mesh_quality<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut inner = self.lock()?;
+        let p = inner.positions()?;
+        let q = MeshQuality::measure(inner.run.sim.membrane().cached_topology(), &p);
+        json_to_py(py, &serde_json::to_value(&q).map_err(simulation_error)?)
+    }
+
+    /// Remeshing counts so far (split/merge × success/cancel/impossible/
+    /// failure, unresolved and capped ticks, events), or None when the
+    /// scene has no remeshing.
+    fn remesh_stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let inner = self.lock()?;
+        let Ok(stats) = inner.run.sim.resources().get::<RemeshStats>() else {
+            return Ok(None);
+        };
+        let value = serde_json::json!({
+            "split": stats.split,
+            "merge": stats.merge,
+            "events": stats.successes(),
+            "overflow_ticks": stats.overflow_ticks,
+            "unresolved_ticks": stats.unresolved_ticks,
+            "unresolved_edges": stats.unresolved_edges,
+            "relax_iterations": stats.relax_iterations,
+        });
+        json_to_py(py, &value).map(Some)
+    }
+
+    fn __repr__(&self) -> String {
+        match self.inner.try_lock() {
+            Ok(inner) => {
+                let c = inner.run.sim.clock();
+                format!(
+                    "Simulation({:?}, vertices={}, iteration={}, time={:.6e})",
+                    inner.scene.name(),
+                    inner.run.sim.membrane().cached_topology().vertex_count(),
+                    c.iteration,
+                    c.time
+                )
+            }
+            Err(_) => "Simulation(<busy>)".to_string(),
+        }
+    }
+}
