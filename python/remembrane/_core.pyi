@@ -5,13 +5,28 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import final
 
 _Path = Union[str, PathLike[str]]
 _Points = npt.NDArray[np.float64]
 _Indices = npt.NDArray[np.int64]
-ForceFunction = Callable[[_Points], Tuple[float, _Points]]
+_ForceFunction = Callable[[_Points], Tuple[float, _Points]]
 
 __version__: str
+__all__ = [
+    "Scene",
+    "SceneError",
+    "Simulation",
+    "SimulationError",
+    "__version__",
+    "check_force",
+    "collect",
+    "icosphere",
+    "perturbed_icosphere",
+    "read_mesh",
+    "read_vtp",
+    "sweep",
+]
 
 class SceneError(ValueError):
     """A scene that cannot be loaded."""
@@ -26,6 +41,7 @@ class SimulationError(RuntimeError):
     """A simulation that stopped (blow-up, failed output) or a call that does
     not fit its state."""
 
+@final
 class Scene:
     """A parsed, validated scene (see scenes/reference.ron)."""
 
@@ -74,11 +90,12 @@ class Scene:
     @property
     def energy_terms(self) -> List[str]: ...
 
+@final
 class Simulation:
     """A scene's simulation, stepped or run through the CLI's code."""
 
-    def __init__(self, scene: Scene, threads: Optional[int] = None, check_invariants: bool = False) -> None: ...
-    def add_force_term(self, name: str, fn: ForceFunction) -> None: ...
+    def __new__(cls, scene: Scene, threads: Optional[int] = None, check_invariants: bool = False) -> Simulation: ...
+    def add_force_term(self, name: str, fn: _ForceFunction) -> None: ...
     def step(self, n: int = 1) -> None: ...
     def run(self, out: _Path, progress: bool = True, overwrite: bool = False) -> Dict[str, Any]: ...
     @property
@@ -105,7 +122,7 @@ class Simulation:
     def remesh_stats(self) -> Optional[Dict[str, Any]]: ...
 
 def check_force(
-    fn: ForceFunction,
+    fn: _ForceFunction,
     points: _Points,
     faces: _Indices,
     *,
