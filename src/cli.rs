@@ -115,6 +115,9 @@ enum Command {
         /// Array tasks of the emitted script (default: one per run).
         #[arg(long)]
         tasks: Option<usize>,
+        /// Run only the sweep's shared phases (the first job of a campaign).
+        #[arg(long)]
+        phases_only: bool,
         /// No per-run progress lines.
         #[arg(long)]
         quiet: bool,
@@ -226,9 +229,20 @@ where
             iterations,
             emit_slurm,
             tasks,
+            phases_only,
             quiet,
         } => sweep_command(
-            &sweep, out, jobs, shard, iterations, emit_slurm, tasks, quiet,
+            &sweep,
+            SweepArgs {
+                out,
+                jobs,
+                shard,
+                iterations,
+                emit_slurm,
+                tasks,
+                phases_only,
+                quiet,
+            },
         ),
         Command::Collect {
             dir,
@@ -284,6 +298,11 @@ struct RunArgs {
 fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
     use crate::run::{Progress, RunOptions, run_scene};
     use std::io::IsTerminal;
+    if let Some(p) = scene_path
+        && std::fs::read_to_string(p).is_ok_and(|t| crate::protocol::is_protocol(&t))
+    {
+        return protocol_command(p, args);
+    }
     let loaded = match scene_path {
         Some(p) => Scene::load(p).map(|s| (s, p.to_path_buf())),
         None => Scene::from_ron_str(BUNDLED_SCENE, Path::new(BUNDLED_SCENE_NAME))
@@ -353,6 +372,74 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
             eprintln!("error: {}: {e}", path.display());
             ExitCode::from(e.exit_code())
         }
+    }
+}
+
+/// `remembrane run PROTOCOL`: every phase in order into one directory.
+fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
+    use crate::protocol::{PhaseRunOptions, Protocol, run_protocol};
+    use crate::run::Progress;
+    use std::io::IsTerminal;
+    let fail = |message: String, code: u8| {
+        eprintln!("error: {message}");
+        ExitCode::from(code)
+    };
+    for (given, flag) in [
+        (args.seed.is_some(), "--seed"),
+        (args.from.is_some(), "--from"),
+    ] {
+        if given {
+            return fail(
+                format!(
+                    "{}: {flag} does not apply to a protocol (set `seed` or `start` per phase)",
+                    path.display()
+                ),
+                2,
+            );
+        }
+    }
+    let loaded = match Protocol::load(path) {
+        Ok(l) => l,
+        Err(e) => return fail(e.to_string(), e.exit_code()),
+    };
+    if let Some(n) = args.threads
+        && let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+    {
+        return fail(format!("--threads {n}: {e}"), 2);
+    }
+    let out = args
+        .out
+        .unwrap_or_else(|| free_directory(Path::new("out").join(&loaded.protocol.name)));
+    let progress = if args.quiet {
+        Progress::Quiet
+    } else if std::io::stderr().is_terminal() {
+        Progress::Bar
+    } else {
+        Progress::Lines
+    };
+    let options = PhaseRunOptions {
+        progress,
+        iterations: args.iterations,
+        frames: args.frames,
+        check_invariants: args.check_invariants,
+        skip_completed: false,
+    };
+    match crate::parallel::on_pool(|| run_protocol(&loaded, &out, args.overwrite, &options)) {
+        Ok(summary) => {
+            if !args.quiet {
+                for p in &summary.phases {
+                    eprintln!(
+                        "{}: {} iterations, t = {:.4} s, {:.1} s wall",
+                        p.name, p.iterations, p.simulated_time, p.wall_time_s
+                    );
+                }
+                eprintln!("outputs in {}", out.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(format!("{}: {e}", path.display()), e.exit_code()),
     }
 }
 
@@ -482,6 +569,31 @@ fn run(command: Command) -> Result<(), String> {
     }
 }
 
+/// `remembrane check PROTOCOL`: every phase's scene and start.
+fn check_protocol(path: &Path) -> Result<(), String> {
+    let loaded = crate::protocol::Protocol::load(path).map_err(|e| e.to_string())?;
+    say!(
+        "{}: ok (protocol `{}`)",
+        path.display(),
+        loaded.protocol.name
+    );
+    for (phase, (scene, scene_path)) in loaded.protocol.phases.iter().zip(&loaded.scenes) {
+        say!(
+            "  phase {:<12} {} ({} iterations{}), start {:?}",
+            phase.name,
+            scene_path.display(),
+            scene.dynamics.iterations,
+            scene
+                .dynamics
+                .duration
+                .map(|t| format!(", at most {t} s"))
+                .unwrap_or_default(),
+            phase.start
+        );
+    }
+    Ok(())
+}
+
 fn load(path: &Path) -> Result<(Scene, crate::simulation::Simulation), String> {
     let scene = Scene::load(path).map_err(|e| e.to_string())?;
     let sim = scene.build(path).map_err(|e| e.to_string())?;
@@ -558,6 +670,9 @@ fn spectrum_command(
 }
 
 fn check(path: &Path) -> Result<(), String> {
+    if std::fs::read_to_string(path).is_ok_and(|t| crate::protocol::is_protocol(&t)) {
+        return check_protocol(path);
+    }
     let (scene, mut sim) = load(path)?;
     let initial = *sim.resource::<crate::simulation::InitialState>();
     let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
@@ -629,18 +744,33 @@ fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> 
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
-fn sweep_command(
-    sweep_path: &Path,
+/// The options of `remembrane sweep`.
+struct SweepArgs {
     out: Option<PathBuf>,
     jobs: Option<usize>,
     shard: Option<String>,
     iterations: Option<u64>,
     emit_slurm: bool,
     tasks: Option<usize>,
+    phases_only: bool,
     quiet: bool,
-) -> ExitCode {
-    use crate::sweep::{Sweep, SweepOptions, parse_shard, run_sweep, slurm_script};
+}
+
+fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
+    use crate::sweep::{
+        Sweep, SweepError, SweepOptions, parse_shard, run_sweep, slurm_campaign_script,
+        slurm_script,
+    };
+    let SweepArgs {
+        out,
+        jobs,
+        shard,
+        iterations,
+        emit_slurm,
+        tasks,
+        phases_only,
+        quiet,
+    } = args;
     let fail = |message: String| {
         eprintln!("error: {message}");
         ExitCode::from(2)
@@ -660,9 +790,14 @@ fn sweep_command(
         }
         let binary = std::env::current_exe().unwrap_or_else(|_| PathBuf::from("remembrane"));
         let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
+        let emit = if sweep.phases.is_empty() {
+            slurm_script
+        } else {
+            slurm_campaign_script
+        };
         say_raw!(
             "{}",
-            slurm_script(&sweep.name, &binary, &abs(sweep_path), &abs(&out), tasks)
+            emit(&sweep.name, &binary, &abs(sweep_path), &abs(&out), tasks)
         );
         return ExitCode::SUCCESS;
     }
@@ -676,8 +811,18 @@ fn sweep_command(
         shard,
         iterations,
         quiet,
+        phases_only,
     };
     match run_sweep(sweep_path, &options) {
+        Ok(report) if phases_only => {
+            eprintln!(
+                "sweep {}: {} shared phases ready in {}",
+                sweep.name,
+                report.phases.len(),
+                crate::sweep::phases_dir(&out).display()
+            );
+            ExitCode::SUCCESS
+        }
         Ok(report) => {
             eprintln!(
                 "sweep {}: {} runs in all, {} in this shard: {} done now, {} already done, {} failed; results in {}",
@@ -697,6 +842,10 @@ fn sweep_command(
             } else {
                 ExitCode::from(1)
             }
+        }
+        Err(e @ SweepError::Phase { .. }) => {
+            eprintln!("error: {}: {e}", sweep_path.display());
+            ExitCode::from(1)
         }
         Err(e) => fail(e.to_string()),
     }

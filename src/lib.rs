@@ -40,6 +40,7 @@ pub mod fd;
 pub mod force;
 pub mod force_term_system;
 pub mod params;
+pub mod protocol;
 
 pub mod plot;
 pub mod plugin_decl;

@@ -11,6 +11,12 @@
 //! finished), so an interrupted sweep resumes. `--shard I/N` runs only the
 //! runs whose index is I mod N, so a batch system (e.g. a Slurm job array)
 //! can drive it; `--emit-slurm` prints such a job-array script.
+//!
+//! A sweep may declare shared `phases` (a [`crate::protocol`]): they run
+//! once, into `OUT/phases/<phase>/`, before the runs, and a condition can
+//! start its runs from one of them (`from_phase`). With phases,
+//! `--emit-slurm` prints a campaign script that submits the phases as one
+//! job and the run array after it (`--dependency=afterok`).
 
 use crate::params::{BlockedRegion, DiffusionRate};
 use crate::rng::stream_seed;
@@ -45,6 +51,10 @@ pub struct Sweep {
     /// Grid axes; runs cover their Cartesian product (default: none).
     #[serde(default)]
     pub grid: Vec<Axis>,
+    /// Shared phases run once before the runs (default: none); see
+    /// [`Condition::from_phase`].
+    #[serde(default)]
+    pub phases: Vec<crate::protocol::Phase>,
 }
 
 /// One condition of a sweep.
@@ -56,6 +66,10 @@ pub struct Condition {
     /// Saved state to start from (relative to the sweep file's folder).
     #[serde(default)]
     pub from: Option<PathBuf>,
+    /// Start from the final state of this shared phase (one of
+    /// [`Sweep::phases`]) instead.
+    #[serde(default)]
+    pub from_phase: Option<String>,
     /// Settings applied to the base scene.
     #[serde(default)]
     pub set: Vec<Setting>,
@@ -216,6 +230,29 @@ pub enum SweepError {
     /// The base scene is invalid.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// A shared phase failed.
+    #[error("shared phase `{phase}`: {reason}")]
+    Phase {
+        /// The phase.
+        phase: String,
+        /// Its error.
+        reason: String,
+    },
+}
+
+/// A protocol-checking error as a sweep error.
+fn phase_error(e: crate::protocol::ProtocolError) -> SweepError {
+    use crate::protocol::ProtocolError;
+    match e {
+        ProtocolError::Scene(s) => SweepError::Scene(s),
+        ProtocolError::File { path, reason } | ProtocolError::Io { path, reason } => {
+            SweepError::File { path, reason }
+        }
+        other => SweepError::Phase {
+            phase: String::new(),
+            reason: other.to_string(),
+        },
+    }
 }
 
 impl Sweep {
@@ -248,10 +285,7 @@ impl Sweep {
             reason,
         };
         let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
-        let options = ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
-            .with_default_extension(ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES);
-        let sweep: Sweep = options.from_str(&text).map_err(|e| {
+        let sweep: Sweep = ron_options().from_str(&text).map_err(|e| {
             err(format!(
                 "{}:{}: {}",
                 e.span.start.line, e.span.start.col, e.code
@@ -275,6 +309,24 @@ impl Sweep {
                     c.name
                 )));
             }
+            if let Some(phase) = &c.from_phase {
+                if c.from.is_some() {
+                    return Err(err(format!(
+                        "field `conditions[{i}]`: give `from` or `from_phase`, not both"
+                    )));
+                }
+                if !sweep.phases.iter().any(|p| &p.name == phase) {
+                    let names: Vec<&str> = sweep.phases.iter().map(|p| p.name.as_str()).collect();
+                    return Err(err(format!(
+                        "field `conditions[{i}].from_phase`: no shared phase `{phase}` (phases: {})",
+                        if names.is_empty() {
+                            "none".to_string()
+                        } else {
+                            names.join(", ")
+                        }
+                    )));
+                }
+            }
             let mut s = scene.clone();
             for (k, setting) in c.set.iter().enumerate() {
                 setting
@@ -297,6 +349,7 @@ impl Sweep {
                     .map_err(|r| err(format!("field `grid[{a}].values[{k}]`: {r}")))?;
             }
         }
+        crate::protocol::check_phases(&sweep.phases, path, "phases").map_err(phase_error)?;
         Ok((sweep, scene))
     }
 
@@ -315,6 +368,7 @@ impl Sweep {
             vec![Condition {
                 name: "base".into(),
                 from: None,
+                from_phase: None,
                 set: Vec::new(),
             }]
         } else {
@@ -374,10 +428,12 @@ impl Sweep {
         runs
     }
 
-    /// The scene and start state of `run`.
+    /// The scene and start state of `run` (shared phases in
+    /// `out/phases/`).
     pub fn scene_for(
         &self,
         sweep_path: &Path,
+        out: &Path,
         base: &Scene,
         run: &RunSpec,
     ) -> Result<(Scene, Option<PathBuf>), String> {
@@ -399,11 +455,30 @@ impl Sweep {
             value.apply(&mut scene)?;
         }
         scene.seed = run.seed;
-        Ok((scene, c.from.as_ref().map(|f| self.relative(sweep_path, f))))
+        let from = match (&c.from, &c.from_phase) {
+            (Some(f), _) => Some(self.relative(sweep_path, f)),
+            (None, Some(phase)) => Some(phases_dir(out).join(phase).join("state.json")),
+            (None, None) => None,
+        };
+        Ok((scene, from))
     }
 }
 
-fn valid_name(s: &str) -> bool {
+/// Where a sweep's shared phases are written.
+pub fn phases_dir(out: &Path) -> PathBuf {
+    out.join("phases")
+}
+
+/// RON options of sweep and protocol files (`Some` implied, newtype
+/// variants unwrapped), as for scenes.
+pub(crate) fn ron_options() -> ron::Options {
+    ron::Options::default()
+        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+        .with_default_extension(ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES)
+}
+
+/// Whether `s` is a plain file-name component.
+pub(crate) fn valid_name(s: &str) -> bool {
     !s.is_empty()
         && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
@@ -458,6 +533,37 @@ pub fn slurm_script(
     )
 }
 
+/// A Slurm campaign for a sweep with shared phases, as a shell script that
+/// submits the phases as one job and the run array (task I runs shard
+/// I/`tasks`) after it with `--dependency=afterok`.
+pub fn slurm_campaign_script(
+    name: &str,
+    binary: &Path,
+    sweep_path: &Path,
+    out: &Path,
+    tasks: usize,
+) -> String {
+    let array = slurm_script(name, binary, sweep_path, out, tasks);
+    format!(
+        "#!/bin/bash\n\
+         # Slurm campaign for the remembrane sweep `{name}`: its shared phases as one\n\
+         # job, then the job array of its runs once the phases have succeeded.\n\
+         # Submit with: bash THIS_FILE; collect with: {bin} collect {out}\n\
+         set -euo pipefail\n\
+         mkdir -p {out}\n\
+         phases=$(sbatch --parsable --job-name=remembrane-{name}-phases --ntasks=1 --cpus-per-task=1 \\\n\
+         \x20   --output={out}/slurm-phases-%j.out \\\n\
+         \x20   --wrap=\"exec {bin} sweep {sweep} --out {out} --phases-only --quiet\")\n\
+         array=$(sbatch --parsable --dependency=afterok:\"$phases\" <<'ARRAY'\n\
+         {array}ARRAY\n\
+         )\n\
+         echo \"submitted phases job $phases and run array $array (after $phases)\"\n",
+        bin = shell_quote(binary),
+        sweep = shell_quote(sweep_path),
+        out = shell_quote(out),
+    )
+}
+
 fn shell_quote(p: &Path) -> String {
     let s = p.display().to_string();
     if s.chars()
@@ -482,6 +588,8 @@ pub struct SweepReport {
     pub completed: usize,
     /// Runs that failed now: (run directory, error).
     pub failed: Vec<(PathBuf, String)>,
+    /// The shared phases (run now or kept from before).
+    pub phases: Vec<crate::protocol::PhaseRecord>,
 }
 
 /// The expansion written to `OUT/sweep.json` (what `collect` reads).
@@ -510,6 +618,8 @@ pub struct SweepOptions {
     pub iterations: Option<u64>,
     /// No per-run progress lines.
     pub quiet: bool,
+    /// Run only the shared phases (the first job of a Slurm campaign).
+    pub phases_only: bool,
 }
 
 /// Runs the sweep's share of runs (see the module docs).
@@ -531,6 +641,57 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepRepor
     // Every shard writes the same index; the write is atomic.
     let json = serde_json::to_string_pretty(&index).expect("the index serialises");
     crate::atomic_write(&out.join("sweep.json"), json.as_bytes()).map_err(io)?;
+    let mut phase_records = Vec::new();
+    if !sweep.phases.is_empty() {
+        let dir = phases_dir(out);
+        if options.phases_only || options.shard.is_none() {
+            let scenes = crate::protocol::check_phases(&sweep.phases, sweep_path, "phases")
+                .map_err(phase_error)?;
+            let phase_options = crate::protocol::PhaseRunOptions {
+                progress: if options.quiet {
+                    crate::run::Progress::Quiet
+                } else {
+                    crate::run::Progress::Lines
+                },
+                iterations: options.iterations,
+                frames: None,
+                check_invariants: false,
+                skip_completed: true,
+            };
+            let base_dir = sweep_path.parent().unwrap_or(Path::new("."));
+            phase_records =
+                crate::protocol::run_phases(&sweep.phases, &scenes, base_dir, &dir, &phase_options)
+                    .map_err(|f| SweepError::Phase {
+                        phase: sweep.phases[f.index].name.clone(),
+                        reason: f.error.to_string(),
+                    })?;
+        } else {
+            // A shard of a campaign: the phases job has run them.
+            for c in sweep.conditions() {
+                if let Some(phase) = &c.from_phase
+                    && !dir.join(phase).join("state.json").is_file()
+                {
+                    return Err(SweepError::Phase {
+                        phase: phase.clone(),
+                        reason: format!(
+                            "has not run (no {}): run `remembrane sweep {} --out {} --phases-only` first \
+                             (the campaign that --emit-slurm prints does)",
+                            dir.join(phase).join("state.json").display(),
+                            sweep_path.display(),
+                            out.display()
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    if options.phases_only {
+        return Ok(SweepReport {
+            total: runs.len(),
+            phases: phase_records,
+            ..Default::default()
+        });
+    }
     let mine: Vec<&RunSpec> = runs
         .iter()
         .filter(|r| options.shard.is_none_or(|(i, n)| r.index % n == i))
@@ -538,6 +699,7 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepRepor
     let mut report = SweepReport {
         total: runs.len(),
         in_shard: mine.len(),
+        phases: phase_records,
         ..Default::default()
     };
     let todo: Vec<&RunSpec> = mine
@@ -561,7 +723,7 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepRepor
             let Some(run) = todo.get(k) else { break };
             let dir = out.join(&run.dir);
             let result = sweep
-                .scene_for(sweep_path, &base, run)
+                .scene_for(sweep_path, out, &base, run)
                 .and_then(|(scene, from)| {
                     let opts = crate::run::RunOptions {
                         out: dir.clone(),

@@ -4,7 +4,9 @@
 # root), submits the job array that `remembrane sweep --emit-slurm` prints
 # for a tiny sweep (2 conditions × 2 κ × 1 repeat of the bundled sphere
 # scene, 60 iterations each, 2 array tasks), waits for it, and checks that
-# `remembrane collect` sees every run. Stops the cluster on exit.
+# `remembrane collect` sees every run; then a campaign (a sweep with a shared
+# phase: the phase job, then the array after it with --dependency=afterok)
+# and checks the same. Stops the cluster on exit.
 #
 # Usage: tests/slurm.sh [REMEMBRANE_BINARY]  (default: target/debug/remembrane,
 # the binary `cargo test` builds; .ci/run calls this after `cargo test`).
@@ -120,4 +122,46 @@ report=$("$bin" collect "$out" --x time --y energy_total)
 echo "$report"
 echo "$report" | grep -q "^4 of 4 runs collected$" || { echo "slurm test: collect did not see every run" >&2; exit 1; }
 [ -f "$out/collect.csv" ] && [ -f "$out/fig5f.png" ]
+echo "slurm test: array passed"
+
+# A campaign: a sweep with a shared phase. The emitted script submits the
+# phase as one job and the run array after it (--dependency=afterok).
+cat > "$work/campaign.ron" <<SWEEP
+Sweep(
+    name: "slurm_campaign",
+    scene: "$root/scenes/sphere.ron",
+    seed: 13,
+    phases: [(name: "relax", scene: "$root/scenes/sphere.ron", iterations: 60, set: [Kappa(3.0)])],
+    conditions: [
+        (name: "cont", from_phase: "relax", set: [Iterations(40)]),
+        (name: "fresh", set: [Iterations(40)]),
+    ],
+    grid: [(name: "kappa", values: [Kappa(1.0), Kappa(2.0)])],
+)
+SWEEP
+cout="$work/campaign"
+"$bin" sweep "$work/campaign.ron" --out "$cout" --emit-slurm --tasks 2 > "$work/campaign.sh"
+grep -q -- '--dependency=afterok' "$work/campaign.sh"
+submitted=$(bash "$work/campaign.sh")
+echo "slurm test: $submitted"
+phase_job=$(echo "$submitted" | sed -n 's/^submitted phases job \([0-9]*\) and run array \([0-9]*\).*/\1/p')
+array_job=$(echo "$submitted" | sed -n 's/^submitted phases job \([0-9]*\) and run array \([0-9]*\).*/\2/p')
+[ -n "$phase_job" ] && [ -n "$array_job" ] || { echo "slurm test: no job ids in: $submitted" >&2; exit 1; }
+for _ in $(seq 1 300); do
+  [ -z "$(squeue -h -j "$phase_job,$array_job" 2>/dev/null)" ] && break
+  sleep 1
+done
+if [ -n "$(squeue -h -j "$phase_job,$array_job" 2>/dev/null)" ]; then
+  echo "slurm test: campaign still queued after 300 s" >&2; squeue >&2; exit 1
+fi
+for f in "$cout"/slurm-*.out; do [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done
+[ -f "$cout/phases/relax/state.json" ] || { echo "slurm test: the shared phase did not run" >&2; exit 1; }
+# The array ran after the phase: every run directory is newer than the phase's summary.
+for s in "$cout"/runs/*/*/rep00/summary.json; do
+  [ "$s" -nt "$cout/phases/relax/summary.json" ] || { echo "slurm test: $s is older than the phase" >&2; exit 1; }
+done
+report=$("$bin" collect "$cout" --x time --y energy_total)
+echo "$report"
+echo "$report" | grep -q "^4 of 4 runs collected$" || { echo "slurm test: collect did not see every campaign run" >&2; exit 1; }
+echo "slurm test: campaign passed"
 echo "slurm test: passed"

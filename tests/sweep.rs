@@ -92,6 +92,7 @@ fn shards_run_their_share_resume_and_collect_sees_every_run() {
         shard,
         iterations: None,
         quiet: true,
+        phases_only: false,
     };
     let energy_over_time = CollectOptions {
         x: "time".into(),
@@ -170,4 +171,118 @@ fn the_bundled_tether_sweep_expands_to_the_papers_scan() {
     assert_eq!(runs[0].point_values, vec![Some(0.025)]);
     let conditions: HashSet<&str> = runs.iter().map(|r| r.condition.as_str()).collect();
     assert_eq!(conditions, HashSet::from(["naive", "barrier", "reservoir"]));
+    // The experiment is one file: its shared phases need no earlier runs,
+    // so it loads (and a campaign can be emitted) before anything ran.
+    let (sweep, _) = Sweep::load(&path).unwrap();
+    let phases: Vec<&str> = sweep.phases.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(phases, ["initial", "reservoir"]);
+}
+
+/// A sweep with one shared phase (40 iterations of the bundled sphere with
+/// κ = 3) whose runs (κ ∈ {1, 2}, 20 iterations) start from its state.
+fn write_phased_sweep(dir: &Path) -> std::path::PathBuf {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere.ron");
+    let text = format!(
+        r#"Sweep(
+    name: "phased",
+    scene: "{s}",
+    seed: 5,
+    phases: [(name: "relax", scene: "{s}", iterations: 40, set: [Kappa(3.0)])],
+    conditions: [
+        (name: "cont", from_phase: "relax", set: [Iterations(20)]),
+        (name: "fresh", set: [Iterations(20)]),
+    ],
+    grid: [(name: "kappa", values: [Kappa(1.0), Kappa(2.0)])],
+)"#,
+        s = scene.display()
+    );
+    let path = dir.join("phased.ron");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn shared_phases_run_once_and_conditions_start_from_them() {
+    use remembrane::sweep::{SweepError, phases_dir, slurm_campaign_script};
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_phased_sweep(dir.path());
+    let out = dir.path().join("out");
+    let options = |shard, phases_only| SweepOptions {
+        out: out.clone(),
+        jobs: 2,
+        shard,
+        iterations: None,
+        quiet: true,
+        phases_only,
+    };
+    // A shard (an array task) refuses to start before the phases ran.
+    match run_sweep(&path, &options(Some((0, 2)), false)) {
+        Err(SweepError::Phase { phase, reason }) => {
+            assert_eq!(phase, "relax");
+            assert!(reason.contains("--phases-only"), "{reason}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let first = run_sweep(&path, &options(None, true)).unwrap();
+    assert_eq!(first.phases.len(), 1);
+    assert_eq!(first.phases[0].status, "completed");
+    assert_eq!(first.completed, 0, "phases only");
+    let relax = phases_dir(&out).join("relax");
+    let relax_ply = std::fs::read(relax.join("final.ply")).unwrap();
+    // The whole sweep keeps the phase and runs every run.
+    let report = run_sweep(&path, &options(None, false)).unwrap();
+    assert_eq!(report.phases[0].status, "skipped");
+    assert_eq!((report.completed, report.failed.len()), (4, 0));
+    assert_eq!(std::fs::read(relax.join("final.ply")).unwrap(), relax_ply);
+    // `cont` runs start from the phase's final mesh, `fresh` ones from the scene's.
+    let (sweep, base) = Sweep::load(&path).unwrap();
+    let runs = sweep.expand();
+    let cont = runs.iter().find(|r| r.condition == "cont").unwrap();
+    let (_, from) = sweep.scene_for(&path, &out, &base, cont).unwrap();
+    assert_eq!(from, Some(relax.join("state.json")));
+    let fresh = runs.iter().find(|r| r.condition == "fresh").unwrap();
+    assert_eq!(sweep.scene_for(&path, &out, &base, fresh).unwrap().1, None);
+    let area = |run: &remembrane::sweep::RunSpec| -> f64 {
+        let csv = std::fs::read_to_string(out.join(&run.dir).join("series.csv")).unwrap();
+        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let k = header.iter().position(|h| *h == "area").unwrap();
+        csv.lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .nth(k)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let relax_area: f64 = {
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(relax.join("summary.json")).unwrap())
+                .unwrap();
+        s["area"].as_f64().unwrap()
+    };
+    assert!((area(cont) - relax_area).abs() < 1e-9 * relax_area);
+    assert!((area(fresh) - relax_area).abs() > 1e-6 * relax_area);
+    // A campaign: phases as one job, the array after it.
+    let script = slurm_campaign_script("phased", Path::new("/bin/remembrane"), &path, &out, 2);
+    assert!(script.contains("--phases-only"));
+    assert!(script.contains("--dependency=afterok:\"$phases\""));
+    assert!(script.contains("#SBATCH --array=0-1"));
+}
+
+#[test]
+fn a_condition_names_an_existing_phase() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_phased_sweep(dir.path());
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("from_phase: \"relax\"", "from_phase: \"relaxx\""),
+    )
+    .unwrap();
+    let err = Sweep::load(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("field `conditions[0].from_phase`: no shared phase `relaxx` (phases: relax)"),
+        "{err}"
+    );
 }

@@ -144,6 +144,7 @@ def sweep(
     shard: Optional[Tuple[int, int]] = None,
     iterations: Optional[int] = None,
     quiet: bool = True,
+    phases_only: bool = False,
 ) -> Dict[str, Any]: ...
 def collect(
     dir: _Path,

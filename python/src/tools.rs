@@ -212,11 +212,13 @@ pub fn read_vtp(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyTuple>> {
     PyTuple::new(py, [p.into_any(), f.into_any(), data.into_any()])
 }
 
-/// Runs a sweep file (`remembrane sweep`): every condition × grid point ×
-/// repeat into `out`, `jobs` at a time, skipping runs that finished before.
-/// Returns a dict: `total`, `in_shard`, `skipped`, `completed`, `failed`.
+/// Runs a sweep file (`remembrane sweep`): its shared phases, then every
+/// condition × grid point × repeat into `out`, `jobs` at a time, skipping
+/// phases and runs that finished before. Returns a dict: `total`,
+/// `in_shard`, `skipped`, `completed`, `failed`, `phases`.
 #[pyfunction]
-#[pyo3(signature = (path, out, *, jobs=1, shard=None, iterations=None, quiet=true))]
+#[pyo3(signature = (path, out, *, jobs=1, shard=None, iterations=None, quiet=true, phases_only=false))]
+#[allow(clippy::too_many_arguments)]
 pub fn sweep<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -225,6 +227,7 @@ pub fn sweep<'py>(
     shard: Option<(usize, usize)>,
     iterations: Option<u64>,
     quiet: bool,
+    phases_only: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     if jobs == 0 {
         return Err(PyValueError::new_err("jobs must be at least 1"));
@@ -242,6 +245,7 @@ pub fn sweep<'py>(
         shard,
         iterations,
         quiet,
+        phases_only,
     };
     let (result, raised) =
         run_detached(py, None, |_| remembrane::sweep::run_sweep(&path, &options));
@@ -262,6 +266,7 @@ pub fn sweep<'py>(
             "skipped": report.skipped,
             "completed": report.completed,
             "failed": failed,
+            "phases": report.phases,
         }),
     )
 }

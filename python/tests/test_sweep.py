@@ -25,7 +25,7 @@ def sweep_file(tmp_path):
 def test_sweep_runs_resumes_and_loads(sweep_file, tmp_path):
     out = tmp_path / "out"
     report = rm.sweep(sweep_file, out, jobs=2)
-    assert report == {"total": 4, "in_shard": 4, "skipped": 0, "completed": 4, "failed": []}
+    assert report == {"total": 4, "in_shard": 4, "skipped": 0, "completed": 4, "failed": [], "phases": []}
     again = rm.sweep(sweep_file, out)
     assert again["skipped"] == 4 and again["completed"] == 0
     result = rm.load_run(out)

@@ -1,0 +1,229 @@
+//! Protocols: phases run in order into one directory, each exactly the run
+//! the commands would make by hand; bad protocols are rejected before
+//! anything runs; a failed phase leaves no directory that looks like a
+//! result.
+
+use remembrane::cli::main_with_args;
+use remembrane::registry::PluginRegistry;
+use std::path::Path;
+use std::process::ExitCode;
+
+const SCENE: &str = r#"Scene(
+    name: "small",
+    membrane: Icosphere(level: 2, jitter: 0.01),
+    energy: [Bending(kappa: 1.0), Area(k: 1.0, target: OfInitial(1.0)), Volume(k: 1.0, target: OfInitial(0.9))],
+    dynamics: (max_displacement: 0.01, iterations: 1000, frames: 3),
+)"#;
+
+fn cli(args: &[&str]) -> ExitCode {
+    let mut all = vec!["remembrane"];
+    all.extend_from_slice(args);
+    main_with_args(PluginRegistry::default_registry(), all)
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+fn bytes(p: impl AsRef<Path>) -> Vec<u8> {
+    std::fs::read(p.as_ref()).unwrap_or_else(|e| panic!("{}: {e}", p.as_ref().display()))
+}
+
+#[test]
+fn a_protocol_equals_its_phases_run_by_hand() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = write(d, "small.ron", SCENE);
+    let stiff = write(d, "stiff.ron", &SCENE.replace("kappa: 1.0", "kappa: 2.0"));
+    let protocol = write(
+        d,
+        "two.ron",
+        r#"// Two phases; the second continues the first with κ doubled.
+Protocol(
+    name: "two",
+    phases: [
+        (name: "first", scene: "small.ron", iterations: 40),
+        (name: "second", scene: "small.ron", start: Previous, iterations: 30, set: [Kappa(2.0)]),
+    ],
+)"#,
+    );
+    let out = d.join("out");
+    let out_s = out.display().to_string();
+    assert_eq!(
+        cli(&["run", &protocol, "--out", &out_s, "--quiet"]),
+        ExitCode::SUCCESS
+    );
+    assert!(!d.join("out.incomplete").exists());
+    let index: serde_json::Value =
+        serde_json::from_str(&String::from_utf8(bytes(out.join("protocol.json"))).unwrap())
+            .unwrap();
+    assert_eq!(index["status"], "completed");
+    assert_eq!(index["phases"][0]["iterations"], 40);
+    assert_eq!(index["phases"][1]["from"], "first/state.json");
+
+    // By hand: the first scene, then the stiff one from its state.
+    let a = d.join("a").display().to_string();
+    let b = d.join("b").display().to_string();
+    let state = d.join("a/state.json").display().to_string();
+    assert_eq!(
+        cli(&["run", &scene, "--out", &a, "--iterations", "40", "--quiet"]),
+        ExitCode::SUCCESS
+    );
+    assert_eq!(
+        cli(&[
+            "run",
+            &stiff,
+            "--out",
+            &b,
+            "--iterations",
+            "30",
+            "--from",
+            &state,
+            "--quiet"
+        ]),
+        ExitCode::SUCCESS
+    );
+    for (phase, by_hand) in [("first", &a), ("second", &b)] {
+        for file in ["final.ply", "series.csv", "state.json", "run.pvd"] {
+            assert_eq!(
+                bytes(out.join(phase).join(file)),
+                bytes(Path::new(by_hand).join(file)),
+                "{phase}/{file}"
+            );
+        }
+    }
+    // The second phase starts where the first ended.
+    let first_end = &bytes(out.join("first/final.ply"));
+    assert_ne!(first_end, &bytes(out.join("second/final.ply")));
+
+    // `check` describes it; a second run into the same directory is refused.
+    assert_eq!(cli(&["check", &protocol]), ExitCode::SUCCESS);
+    assert_eq!(
+        cli(&["run", &protocol, "--out", &out_s, "--quiet"]),
+        ExitCode::from(2)
+    );
+    assert_eq!(
+        cli(&["run", &protocol, "--out", &out_s, "--seed", "3", "--quiet"]),
+        ExitCode::from(2)
+    );
+}
+
+#[test]
+fn bad_protocols_name_the_field_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "small.ron", SCENE);
+    let cases = [
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron", start: Previous)])"#,
+            "field `phases[0].start`: the first phase has no previous phase",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron"), (name: "b", scene: "small.ron", start: Phase("z"))])"#,
+            "field `phases[1].start`: no earlier phase `z` (earlier phases: a)",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron"), (name: "a", scene: "small.ron")])"#,
+            "field `phases[1].name`: `a` is used twice",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron", set: [VolumeStrength(2.0), SpringStiffness(1.0), LocalTensionTarget(3.0)])])"#,
+            "field `phases[0].set[2]`: the scene declares no LocalTension term",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron", duration: -1.0)])"#,
+            "field `phases[0].duration`: must be a positive time",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [])"#,
+            "field `phases`: a protocol needs at least one phase",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron", iteration: 3)])"#,
+            "Unexpected field named `iteration`",
+        ),
+    ];
+    for (k, (text, expected)) in cases.iter().enumerate() {
+        let path = d.join(format!("bad{k}.ron"));
+        std::fs::write(&path, text).unwrap();
+        let err = match remembrane::protocol::Protocol::load(&path) {
+            Ok(_) => panic!("case {k} loaded"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.starts_with(&path.display().to_string()), "{err}");
+        assert!(err.contains(expected), "case {k}: {err}");
+        let out = d.join(format!("out{k}")).display().to_string();
+        assert_eq!(
+            cli(&["run", &path.display().to_string(), "--out", &out, "--quiet"]),
+            ExitCode::from(2)
+        );
+        assert!(!Path::new(&out).exists() && !Path::new(&format!("{out}.incomplete")).exists());
+    }
+    // A missing scene names the scene file.
+    let path = write(
+        d,
+        "missing.ron",
+        r#"Protocol(name: "p", phases: [(name: "a", scene: "nope.ron")])"#,
+    );
+    let err = remembrane::protocol::Protocol::load(Path::new(&path))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("nope.ron") && err.contains("cannot read"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_failed_phase_stops_the_protocol_and_stays_incomplete() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, "small.ron", SCENE);
+    let no_cap = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard/bending_no_cap.ron");
+    let protocol = write(
+        d,
+        "fails.ron",
+        &format!(
+            r#"Protocol(name: "fails", phases: [
+                (name: "ok", scene: "small.ron", iterations: 20),
+                (name: "blows", scene: "{}"),
+                (name: "never", scene: "small.ron", start: Previous),
+            ])"#,
+            no_cap.display()
+        ),
+    );
+    let out = d.join("out");
+    assert_eq!(
+        cli(&[
+            "run",
+            &protocol,
+            "--out",
+            &out.display().to_string(),
+            "--quiet"
+        ]),
+        ExitCode::from(1)
+    );
+    assert!(!out.exists());
+    let staging = d.join("out.incomplete");
+    let index: serde_json::Value =
+        serde_json::from_str(&String::from_utf8(bytes(staging.join("protocol.json"))).unwrap())
+            .unwrap();
+    assert_eq!(index["status"], "failed");
+    assert_eq!(index["phases"].as_array().unwrap().len(), 2);
+    assert_eq!(index["phases"][1]["status"], "blew_up");
+    // The failed phase is a normal blown-up run directory; nothing after it ran.
+    assert!(staging.join("ok/state.json").exists());
+    assert!(staging.join("blows/summary.json").exists());
+    assert!(!staging.join("never").exists());
+}
+
+#[test]
+fn the_bundled_rbc_protocol_checks() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/protocols/red_blood_cell.ron");
+    let loaded = remembrane::protocol::Protocol::load(&path).unwrap();
+    assert_eq!(loaded.protocol.phases.len(), 2);
+    assert_eq!(loaded.scenes[1].0.name, "red_blood_cell_stiff");
+    assert_eq!(loaded.scenes[1].0.dynamics.iterations, 25000);
+}
