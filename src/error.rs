@@ -116,7 +116,7 @@ impl std::fmt::Display for FoldCause {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             FoldCause::Drift => {
-                "the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, or add a Vin term, whose segments limit the step)"
+                "the step is too large for the forces (lower dynamics.dt_max or dynamics.max_displacement, keep dynamics.bending_step_limit on, or add a Vin term, whose segments limit the step)"
             }
             FoldCause::Noise => {
                 "the thermal noise turned a face over (the step rule bounds the drift, not the noise): lower dynamics.dt_max (the noise step scales as √Δt), stiffen Vin (a larger v0 keeps edges from collapsing) or lower dynamics.temperature"

@@ -227,6 +227,13 @@ pub struct DynamicsParams {
     /// none).
     #[serde(deserialize_with = "crate::validate::optional_positive")]
     pub frame_time: Option<f64>,
+    /// In a scene with bending and without V_in, keep the explicit step
+    /// below the stability bound of the stiffest bending mode,
+    /// Δt ≤ [`crate::timestep::BENDING_STABILITY`]·l_min²/(μκ), so that no
+    /// hand-picked `max_displacement` is needed (default true). V_in's
+    /// edge rule limits the step where V_in is declared; this bound then
+    /// does not apply.
+    pub bending_step_limit: bool,
 }
 
 impl Default for DynamicsParams {
@@ -240,6 +247,7 @@ impl Default for DynamicsParams {
             frames: 20,
             duration: None,
             frame_time: None,
+            bending_step_limit: true,
         }
     }
 }

@@ -2,7 +2,9 @@
 //!
 //! Stage: TimeStep. Reads: [`Membrane`] (edges), [`DensePositions`], the
 //! total force in [`ForceBuffers`], [`DynamicsParams`] (mobility, dt_max,
-//! s_max), the V_in segmentation when a Vin plugin inserted one. Writes:
+//! s_max), the V_in segmentation when a Vin plugin inserted one, and the
+//! bending rigidity when a bending term did (for the explicit bending
+//! step's stability bound in scenes without V_in). Writes:
 //! [`TimeStepChoice`]. Units: s.
 
 use crate::force::ForceBuffers;
@@ -12,7 +14,13 @@ use crate::resources::{Res, ResMut};
 use crate::schedule::System;
 use crate::simulation::{Clock, DensePositions, SimError};
 use crate::systems::vin_forces::VinSegmentation;
-use crate::timestep::{Limiter, TimeStepChoice, choose_time_step};
+use crate::timestep::{Limiter, TimeStepChoice, bending_step_limit, choose_time_step};
+
+/// The bending rigidity κ (Ē) that bounds the explicit step where no V_in
+/// does (inserted by the bending plugin; the largest κ if several terms
+/// insert one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BendingRigidity(pub f64);
 
 /// The adaptive time-step system.
 pub struct AdaptiveTimeStep;
@@ -25,6 +33,7 @@ impl System for AdaptiveTimeStep {
         Res<'a, DynamicsParams>,
         Res<'a, Clock>,
         Option<Res<'a, VinSegmentation>>,
+        Option<Res<'a, BendingRigidity>>,
         ResMut<'a, TimeStepChoice>,
     );
 
@@ -34,9 +43,11 @@ impl System for AdaptiveTimeStep {
 
     fn run(
         &mut self,
-        (membrane, positions, buffers, d, clock, segmentation, mut time_step): Self::Data<'_>,
+        (membrane, positions, buffers, d, clock, segmentation, bending, mut time_step): Self::Data<
+            '_,
+        >,
     ) -> Result<(), SimError> {
-        let choice = choose_time_step(
+        let mut choice = choose_time_step(
             segmentation.as_deref().map(|s| &*s.0),
             &membrane.cached_topology().edges,
             &positions.0,
@@ -45,9 +56,23 @@ impl System for AdaptiveTimeStep {
             d.dt_max,
             d.max_displacement,
         );
+        if let Some(kappa) = bending.filter(|_| d.bending_step_limit && segmentation.is_none()) {
+            let (dt, edge) = bending_step_limit(
+                &membrane.cached_topology().edges,
+                &positions.0,
+                d.mobility,
+                kappa.0,
+            );
+            if dt < choice.dt {
+                choice = TimeStepChoice {
+                    dt,
+                    limiter: Limiter::Bending(edge),
+                };
+            }
+        }
         if !(choice.dt.is_finite() && choice.dt > 0.0) {
             let element = match choice.limiter {
-                Limiter::Edge(e) => format!("edge {e}"),
+                Limiter::Edge(e) | Limiter::Bending(e) => format!("edge {e}"),
                 Limiter::Displacement(v) => format!("vertex {v}"),
                 Limiter::Cap => "the cap".to_string(),
             };

@@ -115,6 +115,14 @@ pub fn vin(params: VinParams, exerts_force: bool) -> impl Plugin {
 pub fn bending(params: BendingParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
         b.add_force_term(BendingForces::new(params))?;
+        // The stiffest bending term bounds the explicit step (without V_in).
+        let kappa = b
+            .resources()
+            .get::<crate::systems::adaptive_time_step::BendingRigidity>()
+            .map_or(0.0, |k| k.0);
+        b.insert_resource(crate::systems::adaptive_time_step::BendingRigidity(
+            kappa.max(params.kappa),
+        ));
         Ok(())
     }
 }

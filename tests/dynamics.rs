@@ -584,7 +584,8 @@ fn turned_faces_are_found() {
     assert!(volume < 0.0);
 }
 
-/// Runs a stiff volume penalty without V_in or displacement cap, at
+/// Runs a stiff volume penalty without V_in, displacement cap or bending
+/// stability bound, at
 /// `mobility`, from `dir` into `out`; the run is expected to stop.
 fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::run::RunError {
     let text = format!(
@@ -593,7 +594,8 @@ fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::run::RunEr
         membrane: Icosphere(level: 2, jitter: 0.05),
         energy: [Bending(kappa: 5.0), Volume(k: 100.0, target: OfInitial(0.5))],
         penalty_smoothing: 0,
-        dynamics: (mobility: {mobility:e}, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100),
+        dynamics: (mobility: {mobility:e}, dt_max: 0.01, max_displacement: 1e300, iterations: 500, frames: 100,
+            bending_step_limit: false),
     )"#
     );
     let path = dir.join("unstable.ron");

@@ -170,5 +170,40 @@ fn bending_without_a_step_limit_stops_naming_the_drift_and_its_fixes() {
         "{message}"
     );
     assert!(message.contains("dynamics.max_displacement") && message.contains("Vin"));
+    assert!(message.contains("dynamics.bending_step_limit"));
     assert_eq!(checked_summary(&out)["status"], "blew_up");
+}
+
+#[test]
+fn bending_with_the_stability_bound_relaxes_without_a_cap() {
+    let (outcome, _, _dir, out) = run_hard("bending_stable_step", None);
+    let summary = outcome.unwrap();
+    assert_eq!(summary.iterations, 3000);
+    let s = checked_summary(&out);
+    assert_eq!(s["status"], "completed");
+    // The energy never rises (an unstable explicit step makes it grow).
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (e, dt) = (col("energy_bending"), col("dt"));
+    let rows: Vec<Vec<f64>> = series
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    for w in rows.windows(2) {
+        assert!(
+            w[1][e] <= w[0][e] + 1e-12,
+            "energy rose: {} -> {}",
+            w[0][e],
+            w[1][e]
+        );
+    }
+    // It relaxes to the discrete sphere's energy (25.0136 Ē, sphere.ron)
+    // at the bound's step, not at a hand-picked one.
+    let last = rows.last().unwrap();
+    assert!((last[e] - 25.0136).abs() < 1e-3, "{}", last[e]);
+    let steps: Vec<f64> = rows[1..].iter().map(|r| r[dt]).collect();
+    assert!(steps.iter().all(|&d| d > 2e-5 && d < 6e-5), "{steps:?}");
+    assert!(s["quality"]["min_angle_deg"].as_f64().unwrap() > 45.0);
 }
