@@ -324,6 +324,11 @@ pub struct PhaseRunOptions {
     pub skip_completed: bool,
 }
 
+/// The file in a phase's directory that records what it was run from
+/// (its scene as RON, overrides and start), so that a completed phase is
+/// reused only when nothing it depends on changed.
+pub const PHASE_FINGERPRINT: &str = "phase.json";
+
 /// A phase that failed in [`run_phases`].
 #[derive(Debug)]
 pub struct PhaseFailure {
@@ -346,6 +351,8 @@ pub fn run_phases(
     options: &PhaseRunOptions,
 ) -> Result<Vec<PhaseRecord>, Box<PhaseFailure>> {
     let mut records = Vec::with_capacity(phases.len());
+    // Once a phase runs, every later one runs again (its start changed).
+    let mut ran_one = false;
     for (i, (phase, (scene, scene_path))) in phases.iter().zip(scenes).enumerate() {
         let out = dir.join(&phase.name);
         let from = start_state(phases, i, dir, base);
@@ -355,12 +362,25 @@ pub fn run_phases(
             f.strip_prefix(dir)
                 .map_or_else(|_| f.clone(), Path::to_path_buf)
         });
+        // What the phase's result depends on: a completed phase is kept
+        // only if it was run from exactly this.
+        let fingerprint = serde_json::json!({
+            "scene": scene.to_ron_string().unwrap_or_default(),
+            "iterations": options.iterations,
+            "frames": options.frames,
+            "from": from_record,
+        })
+        .to_string();
+        let fingerprint_file = out.join(PHASE_FINGERPRINT);
         if options.skip_completed
+            && !ran_one
+            && std::fs::read_to_string(&fingerprint_file).is_ok_and(|f| f == fingerprint)
             && let Some(done) = completed_record(phase, scene_path, from_record.clone(), &out)
         {
             records.push(done);
             continue;
         }
+        ran_one = true;
         let run_options = RunOptions {
             out: out.clone(),
             overwrite: true,
@@ -375,15 +395,19 @@ pub fn run_phases(
             eprintln!("phase {} of {}: {}", i + 1, phases.len(), phase.name);
         }
         match run_scene(scene, scene_path, &run_options, |_| Ok(())) {
-            Ok(s) => records.push(PhaseRecord {
-                name: phase.name.clone(),
-                scene: scene_path.clone(),
-                from: from_record,
-                status: "completed".into(),
-                iterations: s.iterations,
-                simulated_time: s.simulated_time,
-                wall_time_s: s.wall_time_s,
-            }),
+            Ok(s) => {
+                // Not fatal: without it the phase just runs again next time.
+                let _ = crate::atomic_write(&fingerprint_file, fingerprint.as_bytes());
+                records.push(PhaseRecord {
+                    name: phase.name.clone(),
+                    scene: scene_path.clone(),
+                    from: from_record,
+                    status: "completed".into(),
+                    iterations: s.iterations,
+                    simulated_time: s.simulated_time,
+                    wall_time_s: s.wall_time_s,
+                })
+            }
             Err(e) => {
                 records.push(PhaseRecord {
                     name: phase.name.clone(),

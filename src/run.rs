@@ -267,20 +267,10 @@ pub fn drive_run(
     while sim.clock().iteration < iterations && sim.clock().time < duration {
         // Each tick's Observe stage writes the frame of the state before it
         // (with the forces the step applies) when one is due.
-        if let Err(e) = sim.tick() {
-            stop = Some(e);
-            break;
-        }
+        let ticked = sim.tick();
         let it = sim.clock().iteration;
-        if let Some(b) = &bar {
-            b.set_position(it);
-        } else if options.progress == Progress::Lines && it >= next_line && iterations >= 10 {
-            eprintln!(
-                "{name}: iteration {it}/{iterations} ({:.0} s)",
-                started.elapsed().as_secs_f64()
-            );
-            next_line += iterations / 10;
-        }
+        // An interrupt can surface as a failed tick (e.g. Ctrl-C inside a
+        // Python force term): it is an interrupt, not a blow-up.
         if interrupted() {
             if let Some(b) = &bar {
                 b.abandon();
@@ -292,6 +282,19 @@ pub fn drive_run(
                 iteration: it,
                 staging: out.staging().to_owned(),
             });
+        }
+        if let Err(e) = ticked {
+            stop = Some(e);
+            break;
+        }
+        if let Some(b) = &bar {
+            b.set_position(it);
+        } else if options.progress == Progress::Lines && it >= next_line && iterations >= 10 {
+            eprintln!(
+                "{name}: iteration {it}/{iterations} ({:.0} s)",
+                started.elapsed().as_secs_f64()
+            );
+            next_line += iterations / 10;
         }
     }
     if let Some(b) = bar {

@@ -20,17 +20,32 @@ pub fn set_parameter(
     path: &str,
     value: Value,
 ) -> Result<Scene, SceneError> {
-    let invalid = |reason: String| SceneError::Invalid {
+    set_parameters(scene, scene_path, &[(path.to_string(), value)])
+}
+
+/// Returns `scene` with every `(path, value)` change applied, then parsed
+/// and validated once, so that changes valid only together (e.g. a term
+/// and the field it needs) are accepted.
+pub fn set_parameters(
+    scene: &Scene,
+    scene_path: &Path,
+    changes: &[(String, Value)],
+) -> Result<Scene, SceneError> {
+    let invalid = |field: &str, reason: String| SceneError::Invalid {
         path: scene_path.to_owned(),
-        field: path.to_string(),
+        field: field.to_string(),
         reason,
     };
-    let mut tree = serde_json::to_value(scene).map_err(|e| invalid(e.to_string()))?;
-    let mut node = &mut tree;
-    for segment in path.split('.') {
-        node = step(node, segment).map_err(&invalid)?;
+    let joined: Vec<&str> = changes.iter().map(|(p, _)| p.as_str()).collect();
+    let all = joined.join(", ");
+    let mut tree = serde_json::to_value(scene).map_err(|e| invalid(&all, e.to_string()))?;
+    for (path, value) in changes {
+        let mut node = &mut tree;
+        for segment in path.split('.') {
+            node = step(node, segment).map_err(|r| invalid(path, r))?;
+        }
+        *node = value.clone();
     }
-    *node = value;
     let changed: Scene =
         crate::registry::with_active(&crate::registry::PluginRegistry::default_registry(), || {
             serde_path_to_error::deserialize(tree)
@@ -38,10 +53,10 @@ pub fn set_parameter(
         .map_err(|e| {
             let inner = e.path().to_string();
             let reason = e.into_inner().to_string();
-            if inner == path || inner == "." {
-                invalid(reason)
-            } else {
-                invalid(format!("at `{inner}`: {reason}"))
+            match changes {
+                [(path, _)] if inner == *path || inner == "." => invalid(path, reason),
+                [(path, _)] => invalid(path, format!("at `{inner}`: {reason}")),
+                _ => invalid(&inner, reason),
             }
         })?;
     changed.validate(scene_path)?;

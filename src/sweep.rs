@@ -624,6 +624,17 @@ pub struct SweepOptions {
 
 /// Runs the sweep's share of runs (see the module docs).
 pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepReport, SweepError> {
+    run_sweep_with(sweep_path, options, &|| false)
+}
+
+/// [`run_sweep`], stopped when `cancel` returns true (Ctrl-C in the Python
+/// package): no new run starts, and the runs in progress stop as
+/// interrupted runs do (their directories stay `.incomplete`).
+pub fn run_sweep_with(
+    sweep_path: &Path,
+    options: &SweepOptions,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<SweepReport, SweepError> {
     let (sweep, base) = Sweep::load(sweep_path)?;
     let runs = sweep.expand();
     let out = &options.out;
@@ -719,6 +730,9 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepRepor
         // on the thread count.
         let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
         loop {
+            if cancel() {
+                break;
+            }
             let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let Some(run) = todo.get(k) else { break };
             let dir = out.join(&run.dir);
@@ -736,7 +750,10 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepRepor
                         check_invariants: false,
                     };
                     let go = || {
-                        crate::run::run_scene(&scene, &scene_path, &opts, |_| Ok(()))
+                        let started = std::time::Instant::now();
+                        let mut prepared = crate::run::prepare_run(&scene, &scene_path, &opts)
+                            .map_err(|e| e.to_string())?;
+                        crate::run::drive_run(&mut prepared, &scene_path, &opts, started, cancel)
                             .map(|s| s.wall_time_s)
                             .map_err(|e| e.to_string())
                     };

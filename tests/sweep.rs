@@ -263,6 +263,14 @@ fn shared_phases_run_once_and_conditions_start_from_them() {
     };
     assert!((area(cont) - relax_area).abs() < 1e-9 * relax_area);
     assert!((area(fresh) - relax_area).abs() > 1e-6 * relax_area);
+    // A phase run under other overrides is not reused: it runs again.
+    let quick = SweepOptions {
+        iterations: Some(7),
+        ..options(None, true)
+    };
+    let again = run_sweep(&path, &quick).unwrap();
+    assert_eq!(again.phases[0].status, "completed");
+    assert_eq!(again.phases[0].iterations, 7);
     // A campaign: phases as one job, the array after it.
     let script = slurm_campaign_script("phased", Path::new("/bin/remembrane"), &path, &out, 2);
     assert!(script.contains("--phases-only"));

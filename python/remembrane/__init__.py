@@ -10,15 +10,17 @@ time 1 s.
     >>> sim.step(100)
     >>> sim.positions.shape            # (N, 3) float64
     >>> sim.energies()                 # {"vin": ..., "bending": ..., ...}
-    >>> summary = sim.run(out="runs/rbc")   # the CLI's run directory
-    >>> run = rm.load_run("runs/rbc")       # series, summary, frames
+    >>> summary = rm.Simulation(scene).run(out="runs/rbc")   # the CLI's run directory
+    >>> run = rm.load_run("runs/rbc")                         # series, summary, frames
 
-Force terms written in Python join the schedule like the built-in ones:
+Force terms written in Python join the schedule like the built-in ones
+(add them before the first step):
 
     >>> def gravity(x):
     ...     g = 0.01                           # Ē/l̄ per vertex
     ...     f = np.zeros_like(x); f[:, 2] = -g
     ...     return g * x[:, 2].sum(), f        # energy, −∇E
+    >>> sim = rm.Simulation(scene)
     >>> sim.add_force_term("gravity", gravity)
     >>> rm.check_force(gravity, rm.perturbed_icosphere())["passed"]
     True

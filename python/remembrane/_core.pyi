@@ -1,6 +1,7 @@
 """Type stubs of the compiled module `remembrane._core`."""
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -80,7 +81,7 @@ class Scene:
     @property
     def name(self) -> str: ...
     @property
-    def path(self) -> str: ...
+    def path(self) -> Path: ...
     @property
     def seed(self) -> int: ...
     @property

@@ -74,12 +74,50 @@ pub fn json_to_py<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<B
         .call_method1("loads", (value.to_string(),))
 }
 
-/// A Python value (number, string, bool, None, list, dict) as JSON.
+/// A Python value (bool, int, float, str, None, list/tuple, dict with
+/// string keys; numpy scalars through `__index__` / `__float__`) as JSON,
+/// numbers exactly.
 pub fn py_to_json(value: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
-    let text: String = value
-        .py()
-        .import("json")?
-        .call_method1("dumps", (value,))?
-        .extract()?;
-    serde_json::from_str(&text).map_err(|e| PyValueError::new_err(e.to_string()))
+    use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
+    use serde_json::Value;
+    if value.is_none() {
+        return Ok(Value::Null);
+    }
+    if let Ok(b) = value.cast::<PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
+    }
+    if let Ok(s) = value.cast::<PyString>() {
+        return Ok(Value::String(s.extract::<String>()?));
+    }
+    if let Ok(d) = value.cast::<PyDict>() {
+        let mut map = serde_json::Map::new();
+        for (k, v) in d.iter() {
+            let key: String = k
+                .extract()
+                .map_err(|_| PyValueError::new_err("dictionary keys must be strings"))?;
+            map.insert(key, py_to_json(&v)?);
+        }
+        return Ok(Value::Object(map));
+    }
+    if value.cast::<PyList>().is_ok() || value.cast::<PyTuple>().is_ok() {
+        let items: PyResult<Vec<Value>> = value.try_iter()?.map(|v| py_to_json(&v?)).collect();
+        return Ok(Value::Array(items?));
+    }
+    if value.cast::<PyFloat>().is_err() {
+        if let Ok(i) = value.extract::<i64>() {
+            return Ok(Value::from(i));
+        }
+        if let Ok(u) = value.extract::<u64>() {
+            return Ok(Value::from(u));
+        }
+    }
+    if let Ok(x) = value.extract::<f64>() {
+        return serde_json::Number::from_f64(x)
+            .map(Value::Number)
+            .ok_or_else(|| PyValueError::new_err(format!("{x} is not a finite number")));
+    }
+    Err(PyValueError::new_err(format!(
+        "cannot use a {} as a scene value",
+        value.get_type().name()?
+    )))
 }

@@ -16,24 +16,48 @@ use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use remembrane::force::{ForceContext, ForceTerm};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-/// The first exception raised by a Python term since the slot was emptied.
+/// The first exception raised by a Python term since the slot was emptied,
+/// and whether it was a `KeyboardInterrupt` (Ctrl-C inside the term), so
+/// that a run treats it as an interrupt rather than a blow-up.
 #[derive(Clone, Default)]
-pub struct TermErrors(Arc<Mutex<Option<PyErr>>>);
+pub struct TermErrors {
+    kept: Arc<Mutex<Option<PyErr>>>,
+    interrupted: Arc<AtomicBool>,
+}
 
 impl TermErrors {
     /// Keeps `err` unless an earlier one is kept.
     fn keep(&self, err: PyErr) {
-        let mut slot = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let mut slot = self.kept.lock().unwrap_or_else(|p| p.into_inner());
         if slot.is_none() {
+            let interrupt = Python::attach(|py| {
+                err.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py)
+            });
+            self.interrupted.store(interrupt, Ordering::Relaxed);
             *slot = Some(err);
         }
     }
 
-    /// Takes the kept exception, if any.
+    /// Whether an exception is kept (later calls then skip Python).
+    fn is_set(&self) -> bool {
+        self.kept
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .is_some()
+    }
+
+    /// Whether the kept exception is a `KeyboardInterrupt`.
+    pub fn interrupted(&self) -> bool {
+        self.interrupted.load(Ordering::Relaxed)
+    }
+
+    /// Takes the kept exception, if any, and empties the slot.
     pub fn take(&self) -> Option<PyErr> {
-        self.0.lock().unwrap_or_else(|p| p.into_inner()).take()
+        self.interrupted.store(false, Ordering::Relaxed);
+        self.kept.lock().unwrap_or_else(|p| p.into_inner()).take()
     }
 }
 
@@ -57,6 +81,12 @@ impl PyForceTerm {
     /// Calls the function at `positions`; adds its force into `force` when
     /// given and returns its energy.
     fn call(&self, positions: &[DVec3], force: Option<&mut [DVec3]>) -> PyResult<f64> {
+        if self.errors.is_set() {
+            // An earlier call failed: the evaluation is lost anyway.
+            return Err(PyValueError::new_err(
+                "an earlier call of a Python term failed",
+            ));
+        }
         Python::attach(|py| {
             let x = vec3_array(py, positions)?;
             let result = self.function.bind(py).call1((x,))?;

@@ -10,9 +10,8 @@
 //! raising a flag that `stop()` reads.
 
 use pyo3::prelude::*;
-use std::cell::{Cell, RefCell};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc;
+use std::sync::{Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 /// How often pending signals are checked during engine work (a Ctrl-C
@@ -25,30 +24,38 @@ pub const SIGNAL_CHECK_INTERVAL: Duration = Duration::from_millis(20);
 pub fn run_detached<R: Send>(
     py: Python<'_>,
     pool: Option<&rayon::ThreadPool>,
-    work: impl FnOnce(&dyn Fn() -> bool) -> R + Send,
+    work: impl FnOnce(&(dyn Fn() -> bool + Sync)) -> R + Send,
 ) -> (R, Option<PyErr>) {
     match pool {
         None => py.detach(|| {
-            let raised: RefCell<Option<PyErr>> = RefCell::new(None);
-            let last = Cell::new(Instant::now());
+            let raised: Mutex<Option<PyErr>> = Mutex::new(None);
+            let stopped = AtomicBool::new(false);
+            let last = Mutex::new(Instant::now());
             let stop = || {
-                if raised.borrow().is_some() {
+                if stopped.load(Ordering::Relaxed) {
                     return true;
                 }
-                if last.get().elapsed() < SIGNAL_CHECK_INTERVAL {
-                    return false;
+                {
+                    let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
+                    if last.elapsed() < SIGNAL_CHECK_INTERVAL {
+                        return false;
+                    }
+                    *last = Instant::now();
                 }
-                last.set(Instant::now());
                 match Python::attach(|py| py.check_signals()) {
                     Ok(()) => false,
                     Err(e) => {
-                        *raised.borrow_mut() = Some(e);
+                        *raised.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                        stopped.store(true, Ordering::Relaxed);
                         true
                     }
                 }
             };
             let result = work(&stop);
-            (result, raised.into_inner())
+            (
+                result,
+                raised.into_inner().unwrap_or_else(|p| p.into_inner()),
+            )
         }),
         Some(pool) => py.detach(|| {
             let flag = AtomicBool::new(false);

@@ -55,10 +55,13 @@ impl PyScene {
             let key: String = k.extract()?;
             changes.push((key.replace("__", "."), v));
         }
-        for (path, value) in changes {
-            let value = py_to_json(&value)?;
+        if !changes.is_empty() {
+            let changes: Vec<(String, serde_json::Value)> = changes
+                .into_iter()
+                .map(|(p, v)| Ok((p, py_to_json(&v)?)))
+                .collect::<PyResult<_>>()?;
             self.scene =
-                remembrane::scene_override::set_parameter(&self.scene, &self.path, &path, value)
+                remembrane::scene_override::set_parameters(&self.scene, &self.path, &changes)
                     .map_err(|e| scene_error(py, &e))?;
         }
         Ok(self)

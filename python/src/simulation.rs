@@ -128,10 +128,14 @@ impl PySimulation {
     /// Evaluates the forces of the current state (all terms, as a tick
     /// would) without moving anything, detached from the interpreter.
     fn evaluate(&self, py: Python<'_>, inner: &mut Inner) -> PyResult<()> {
+        inner.errors.take();
         let sim = &mut inner.run.sim;
-        let (result, _) = run_detached(py, self.pool.as_ref(), |_| {
+        let (result, raised) = run_detached(py, self.pool.as_ref(), |_| {
             sim.evaluate_forces().map(|_| ())
         });
+        if let Some(e) = raised {
+            return Err(e);
+        }
         result.map_err(|e| inner.step_error(e))
     }
 }
@@ -225,11 +229,13 @@ impl PySimulation {
                 "this simulation has done its run(); build a new Simulation to step",
             ));
         }
+        inner.errors.take();
         let sim = &mut inner.run.sim;
+        let errors = inner.errors.clone();
         let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
             for _ in 0..n {
                 sim.tick()?;
-                if stop() {
+                if stop() || errors.interrupted() {
                     break;
                 }
             }
@@ -288,12 +294,16 @@ impl PySimulation {
             Progress::Lines
         };
         let options = inner.options(out, overwrite, progress);
+        inner.errors.take();
         inner.ran = true;
         let run = &mut inner.run;
         let path = inner.scene.path.clone();
+        let errors = inner.errors.clone();
         let started = Instant::now();
         let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
-            drive_run(run, &path, &options, started, stop)
+            drive_run(run, &path, &options, started, &|| {
+                stop() || errors.interrupted()
+            })
         });
         match result {
             Ok(summary) => {

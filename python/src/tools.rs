@@ -169,18 +169,27 @@ pub fn read_vtp(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyTuple>> {
         .points
         .cast_into()
         .ok_or_else(|| fail("points are not numbers".into()))?;
+    if !points.len().is_multiple_of(3) {
+        return Err(fail("points are not 3-D".into()));
+    }
     let n = points.len() / 3;
     let faces: Vec<i64> = match piece.polys {
         Some(VertexNumbers::XML {
             connectivity,
             offsets,
         }) => {
-            let mut start = 0usize;
+            let mut start = 0u64;
             for &o in &offsets {
-                if o as usize - start != 3 {
+                if o.checked_sub(start) != Some(3) {
                     return Err(fail("a polygon is not a triangle".into()));
                 }
-                start = o as usize;
+                start = o;
+            }
+            if start != connectivity.len() as u64 {
+                return Err(fail("the offsets do not cover the connectivity".into()));
+            }
+            if let Some(bad) = connectivity.iter().find(|&&i| i >= n as u64) {
+                return Err(fail(format!("vertex index {bad} is outside 0..{n}")));
             }
             connectivity.iter().map(|&i| i as i64).collect()
         }
@@ -199,6 +208,13 @@ pub fn read_vtp(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyTuple>> {
                 .data
                 .cast_into()
                 .ok_or_else(|| fail(format!("array {} is not numeric", d.name)))?;
+            if components == 0 || values.len() != n * components {
+                return Err(fail(format!(
+                    "array {} has {} values for {n} points × {components}",
+                    d.name,
+                    values.len()
+                )));
+            }
             let array = PyArray1::from_vec(py, values);
             if components == 1 {
                 data.set_item(d.name, array)?;
@@ -247,12 +263,23 @@ pub fn sweep<'py>(
         quiet,
         phases_only,
     };
-    let (result, raised) =
-        run_detached(py, None, |_| remembrane::sweep::run_sweep(&path, &options));
+    // The sweep runs on a worker thread while this (main) thread checks for
+    // Ctrl-C; the flag it raises stops the sweep's runs.
+    let waiter = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| simulation_error(e.to_string()))?;
+    let (result, raised) = run_detached(py, Some(&waiter), |stop| {
+        remembrane::sweep::run_sweep_with(&path, &options, stop)
+    });
     if let Some(e) = raised {
         return Err(e);
     }
-    let report = result.map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let report = result.map_err(|e| match e {
+        remembrane::sweep::SweepError::Scene(s) => crate::errors::scene_error(py, &s),
+        e @ remembrane::sweep::SweepError::Phase { .. } => simulation_error(e),
+        e => PyValueError::new_err(e.to_string()),
+    })?;
     let failed: Vec<(String, String)> = report
         .failed
         .iter()
@@ -272,8 +299,8 @@ pub fn sweep<'py>(
 }
 
 /// Collects a sweep (`remembrane collect`): fits, tables and charts in
-/// `dir`. Returns a dict: `expected`, `missing` (run directories without
-/// results) and `groups` (rows of the collected table).
+/// `dir`. Returns a dict: `expected` (runs in the sweep), `runs` (runs
+/// collected) and `missing` (run directories without results).
 #[pyfunction]
 #[pyo3(signature = (dir, *, x=None, y=None, frames=None, degree=None))]
 pub fn collect<'py>(

@@ -80,6 +80,12 @@ def test_overrides_are_validated_like_the_file():
     assert info.value.field == "energy.Bending.kappa"
     with pytest.raises(rm.SceneError, match="no field or variant `tempeature`"):
         base.replace(dynamics__tempeature=0.1)
+    # numpy scalars are numbers, kept exactly.
+    x = np.linspace(0, 1, 7)[3]
+    s2 = base.replace(iterations=np.int64(12), energy__Bending__kappa=np.float32(2.5), dynamics__dt_max=x)
+    assert s2.iterations == 12
+    assert s2 == base.replace(iterations=12, energy__Bending__kappa=2.5, dynamics__dt_max=float(x))
+    assert f"dt_max: {float(x)!r}" in s2.to_ron() or repr(float(x)) in s2.to_ron()
 
 
 def test_with_mesh_uses_the_given_membrane():

@@ -69,3 +69,23 @@ def test_sigint_stops_step_and_the_state_stays_usable(tmp_path):
     code, err = interrupt(tmp_path, call)
     assert code == 3, err
     assert "caught" in err
+
+
+def test_sigint_inside_a_python_term_is_an_interrupt_not_a_blow_up(tmp_path):
+    # Most of each tick is spent in the term, so the KeyboardInterrupt is
+    # raised inside it; the run must still end as interrupted.
+    call = textwrap.dedent(
+        """
+        import time, numpy as np
+        def slow(x):
+            time.sleep(0.002)
+            return 0.0, np.zeros_like(x)
+        sim = rm.Simulation(scene)
+        sim.add_force_term("slow", slow)
+        sim.run(out=sys.argv[2], progress=False)
+        """
+    )
+    code, err = interrupt(tmp_path, call)
+    assert code != 0 and "KeyboardInterrupt" in err, err
+    assert (tmp_path / "out.incomplete").is_dir()
+    assert not (tmp_path / "out").exists()
