@@ -40,9 +40,10 @@ pub struct TimeStepChoice {
 /// eigenvalue of the bending energy's Hessian. The discrete Helfrich energy
 /// is scale-free, so λ_max ∝ κ/l² for the shortest edge l. Measured on
 /// bending-only icospheres (jitter 0.01 l̄, κ = 1 and 4, levels 3 and 4,
-/// mean edge 1 and 2 l̄, μ = 1000) the largest stable step is
-/// μκΔt/l_min² = 0.071-0.15; this c is 0.7 of the smallest.
-pub const BENDING_STABILITY: f64 = 0.05;
+/// mean edge 1 and 2 l̄, μ = 1000; benches/RESULTS.md) the largest step at
+/// which the energy falls monotonically is μκΔt/l_min² = 0.050-0.064; this
+/// c is 0.8 of the tightest.
+pub const BENDING_STABILITY: f64 = 0.04;
 
 /// The explicit bending step's stability bound for bending rigidity
 /// `kappa` (Ē) and mobility `mobility`: (Δt in s, slot of the shortest
