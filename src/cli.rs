@@ -297,7 +297,6 @@ struct RunArgs {
 
 fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
     use crate::run::{Progress, RunOptions, run_scene};
-    use std::io::IsTerminal;
     if let Some(p) = scene_path
         && std::fs::read_to_string(p).is_ok_and(|t| crate::protocol::is_protocol(&t))
     {
@@ -331,13 +330,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
     let out = args
         .out
         .unwrap_or_else(|| free_directory(Path::new("out").join(&name)));
-    let progress = if args.quiet {
-        Progress::Quiet
-    } else if std::io::stderr().is_terminal() {
-        Progress::Bar
-    } else {
-        Progress::Lines
-    };
+    let progress = Progress::for_stderr(args.quiet);
     let options = RunOptions {
         out,
         overwrite: args.overwrite,
@@ -379,7 +372,6 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
 fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
     use crate::protocol::{PhaseRunOptions, Protocol, run_protocol};
     use crate::run::Progress;
-    use std::io::IsTerminal;
     let fail = |message: String, code: u8| {
         eprintln!("error: {message}");
         ExitCode::from(code)
@@ -412,13 +404,7 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
     let out = args
         .out
         .unwrap_or_else(|| free_directory(Path::new("out").join(&loaded.protocol.name)));
-    let progress = if args.quiet {
-        Progress::Quiet
-    } else if std::io::stderr().is_terminal() {
-        Progress::Bar
-    } else {
-        Progress::Lines
-    };
+    let progress = Progress::for_stderr(args.quiet);
     let options = PhaseRunOptions {
         progress,
         iterations: args.iterations,

@@ -72,18 +72,7 @@ impl RunOutput {
     /// Prepares `dir` (via `dir.incomplete`). An existing `dir` is an error
     /// unless `overwrite`, in which case it is removed first.
     pub fn create(dir: &Path, overwrite: bool) -> Result<Self, OutputError> {
-        if dir.exists() {
-            if !overwrite {
-                return Err(OutputError::Exists(dir.to_owned()));
-            }
-            std::fs::remove_dir_all(dir).map_err(|e| write_err(dir, e))?;
-        }
-        let mut staging = dir.as_os_str().to_owned();
-        staging.push(".incomplete");
-        let staging = PathBuf::from(staging);
-        if staging.exists() {
-            std::fs::remove_dir_all(&staging).map_err(|e| write_err(&staging, e))?;
-        }
+        let staging = prepare_staging(dir, overwrite)?;
         std::fs::create_dir_all(staging.join("frames")).map_err(|e| write_err(&staging, e))?;
         Ok(Self {
             dir: dir.to_owned(),
@@ -233,6 +222,27 @@ impl RunOutput {
         std::fs::rename(&self.staging, &self.dir).map_err(|e| write_err(&self.dir, e))?;
         Ok(self.dir)
     }
+}
+
+/// Prepares the staging directory `dir.incomplete` of an output that is
+/// renamed to `dir` when it is complete: an existing `dir` is an error
+/// unless `overwrite` (then it is removed), a stale staging directory is
+/// removed, and the staging directory is created empty.
+pub fn prepare_staging(dir: &Path, overwrite: bool) -> Result<PathBuf, OutputError> {
+    if dir.exists() {
+        if !overwrite {
+            return Err(OutputError::Exists(dir.to_owned()));
+        }
+        std::fs::remove_dir_all(dir).map_err(|e| write_err(dir, e))?;
+    }
+    let mut staging = dir.as_os_str().to_owned();
+    staging.push(".incomplete");
+    let staging = PathBuf::from(staging);
+    if staging.exists() {
+        std::fs::remove_dir_all(&staging).map_err(|e| write_err(&staging, e))?;
+    }
+    std::fs::create_dir_all(&staging).map_err(|e| write_err(&staging, e))?;
+    Ok(staging)
 }
 
 /// A VTK XML PolyData document of a triangle mesh with point data.

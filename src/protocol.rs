@@ -477,19 +477,10 @@ pub fn run_protocol(
         path: path.to_owned(),
         reason: e.to_string(),
     };
-    if out.exists() {
-        if !overwrite {
-            return Err(ProtocolError::Exists(out.to_owned()));
-        }
-        std::fs::remove_dir_all(out).map_err(|e| io(out, e))?;
-    }
-    let mut staging = out.as_os_str().to_owned();
-    staging.push(".incomplete");
-    let staging = PathBuf::from(staging);
-    if staging.exists() {
-        std::fs::remove_dir_all(&staging).map_err(|e| io(&staging, e))?;
-    }
-    std::fs::create_dir_all(&staging).map_err(|e| io(&staging, e))?;
+    let staging = crate::output::prepare_staging(out, overwrite).map_err(|e| match e {
+        crate::output::OutputError::Exists(dir) => ProtocolError::Exists(dir),
+        crate::output::OutputError::Write { path, reason } => ProtocolError::Io { path, reason },
+    })?;
     let base = loaded.path.parent().unwrap_or(Path::new("."));
     let result = run_phases(
         &loaded.protocol.phases,

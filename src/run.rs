@@ -24,6 +24,20 @@ pub enum Progress {
     Quiet,
 }
 
+impl Progress {
+    /// Nothing when `quiet`, else a bar on a terminal and lines otherwise.
+    pub fn for_stderr(quiet: bool) -> Self {
+        use std::io::IsTerminal;
+        if quiet {
+            Progress::Quiet
+        } else if std::io::stderr().is_terminal() {
+            Progress::Bar
+        } else {
+            Progress::Lines
+        }
+    }
+}
+
 /// Options of a run; `None` keeps the scene's value.
 #[derive(Clone, Debug)]
 pub struct RunOptions {

@@ -82,6 +82,15 @@ cleanup() {
 }
 trap cleanup EXIT
 
+# Waits until the jobs (comma-separated ids) have left the queue, at most 300 s.
+wait_for_jobs() {
+  for _ in $(seq 1 300); do
+    [ -z "$(squeue -h -j "$1" 2>/dev/null)" ] && return 0
+    sleep 1
+  done
+  echo "slurm test: jobs $1 still queued after 300 s" >&2; squeue >&2; exit 1
+}
+
 # Live daemons only (stopped ones may linger as zombies where PID 1 does
 # not reap).
 if ps -C slurmctld,slurmd -o stat= 2>/dev/null | grep -qv '^Z'; then
@@ -110,13 +119,7 @@ out="$work/out"
 grep -q -- '--array=0-1' "$work/array.sbatch"
 job=$(sbatch --parsable "$work/array.sbatch")
 echo "slurm test: submitted array job $job"
-for _ in $(seq 1 300); do
-  [ -z "$(squeue -h -j "$job" 2>/dev/null)" ] && break
-  sleep 1
-done
-if [ -n "$(squeue -h -j "$job" 2>/dev/null)" ]; then
-  echo "slurm test: job $job still queued after 300 s" >&2; squeue >&2; exit 1
-fi
+wait_for_jobs "$job"
 for f in "$out"/slurm-*.out; do [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done
 report=$("$bin" collect "$out" --x time --y energy_total)
 echo "$report"
@@ -147,13 +150,7 @@ echo "slurm test: $submitted"
 phase_job=$(echo "$submitted" | sed -n 's/^submitted phases job \([0-9]*\) and run array \([0-9]*\).*/\1/p')
 array_job=$(echo "$submitted" | sed -n 's/^submitted phases job \([0-9]*\) and run array \([0-9]*\).*/\2/p')
 [ -n "$phase_job" ] && [ -n "$array_job" ] || { echo "slurm test: no job ids in: $submitted" >&2; exit 1; }
-for _ in $(seq 1 300); do
-  [ -z "$(squeue -h -j "$phase_job,$array_job" 2>/dev/null)" ] && break
-  sleep 1
-done
-if [ -n "$(squeue -h -j "$phase_job,$array_job" 2>/dev/null)" ]; then
-  echo "slurm test: campaign still queued after 300 s" >&2; squeue >&2; exit 1
-fi
+wait_for_jobs "$phase_job,$array_job"
 for f in "$cout"/slurm-*.out; do [ -f "$f" ] && { echo "--- $f"; cat "$f"; }; done
 [ -f "$cout/phases/relax/state.json" ] || { echo "slurm test: the shared phase did not run" >&2; exit 1; }
 # The array ran after the phase: every run directory is newer than the phase's summary.

@@ -17,7 +17,6 @@ use remembrane::remesh::RemeshStats;
 use remembrane::report::EnergyReport;
 use remembrane::run::{PreparedRun, Progress, RunError, RunOptions, drive_run, prepare_run};
 use remembrane::simulation::SimError;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
@@ -35,18 +34,28 @@ struct Inner {
     ran: bool,
 }
 
+/// Run options with the scene's own seed, iterations, frames and membrane.
+fn run_options(
+    out: PathBuf,
+    overwrite: bool,
+    progress: Progress,
+    check_invariants: bool,
+) -> RunOptions {
+    RunOptions {
+        out,
+        overwrite,
+        seed: None,
+        iterations: None,
+        frames: None,
+        from: None,
+        progress,
+        check_invariants,
+    }
+}
+
 impl Inner {
     fn options(&self, out: PathBuf, overwrite: bool, progress: Progress) -> RunOptions {
-        RunOptions {
-            out,
-            overwrite,
-            seed: None,
-            iterations: None,
-            frames: None,
-            from: None,
-            progress,
-            check_invariants: self.check_invariants,
-        }
+        run_options(out, overwrite, progress, self.check_invariants)
     }
 
     /// A fresh, unstarted simulation of the scene with the Python terms
@@ -161,16 +170,7 @@ impl PySimulation {
                     .map_err(|e| PyValueError::new_err(format!("threads={n}: {e}")))?,
             ),
         };
-        let options = RunOptions {
-            out: PathBuf::new(),
-            overwrite: false,
-            seed: None,
-            iterations: None,
-            frames: None,
-            from: None,
-            progress: Progress::Quiet,
-            check_invariants,
-        };
+        let options = run_options(PathBuf::new(), false, Progress::Quiet, check_invariants);
         let run = prepare(py, &scene, &options)?;
         Ok(Self {
             inner: Mutex::new(Inner {
@@ -286,13 +286,7 @@ impl PySimulation {
             // same unstarted simulation again to add the frame writer.
             inner.rebuild(py)?;
         }
-        let progress = if !progress {
-            Progress::Quiet
-        } else if std::io::stderr().is_terminal() {
-            Progress::Bar
-        } else {
-            Progress::Lines
-        };
+        let progress = Progress::for_stderr(!progress);
         let options = inner.options(out, overwrite, progress);
         inner.errors.take();
         inner.ran = true;
