@@ -306,6 +306,7 @@ fn write_outputs(
                 lines: true,
                 markers: true,
                 color: k,
+                ..Default::default()
             }
         })
         .collect();

@@ -2,7 +2,7 @@
 //! events and the spread σ(|r|) of their positions, as a table, a CSV and
 //! a PNG bar chart.
 
-use crate::plot::{COLORS, Canvas, INK};
+use crate::plot::{BarPanel, bar_chart};
 use crate::run::RunSummary;
 
 /// One row of the comparison.
@@ -78,49 +78,22 @@ pub fn csv(rows: &[ComparisonRow; 2]) -> String {
     s
 }
 
-const W: usize = 640;
-const H: usize = 360;
-
-/// A chart panel: title, the two values, and how to print a value.
-type Panel = (&'static str, [f64; 2], fn(f64) -> String);
-
-/// A PNG with two panels: remesh events and σ(|r|), one bar per run,
-/// labelled with its value; scene names in the legend.
+/// A PNG with two panels: remesh events and σ(|r|), one bar per run
+/// labelled with its value, the scene names under the bars.
 pub fn chart_png(rows: &[ComparisonRow; 2]) -> Vec<u8> {
-    let mut c = Canvas::new(W, H);
-    let panels: [Panel; 2] = [
-        (
-            "remesh events",
-            [rows[0].events as f64, rows[1].events as f64],
-            |v| format!("{v:.0}"),
-        ),
-        (
-            "sigma |r|",
-            [rows[0].position_spread, rows[1].position_spread],
-            |v| format!("{v:.3}"),
-        ),
-    ];
-    let (top, bottom) = (60, 280);
-    for (p, (title, values, label)) in panels.iter().enumerate() {
-        let x_mid = W / 4 + p * W / 2;
-        c.text(x_mid, 20, title, INK, 2);
-        c.rect(x_mid - 110, bottom, x_mid + 110, bottom + 2, INK);
-        let max = values
-            .iter()
-            .copied()
-            .fold(0.0, f64::max)
-            .max(f64::MIN_POSITIVE);
-        for (k, &v) in values.iter().enumerate() {
-            let height = ((v / max) * (bottom - top) as f64) as usize;
-            let x0 = x_mid - 90 + k * 100;
-            c.rect(x0, bottom - height, x0 + 80, bottom, COLORS[k]);
-            c.text(x0 + 40, bottom - height - 20, &label(v), INK, 2);
-        }
-    }
-    for (k, r) in rows.iter().enumerate() {
-        let y = 300 + k * 24;
-        c.rect(40, y, 56, y + 16, COLORS[k]);
-        c.text(70 + r.scene.chars().count() * 8, y, &r.scene, INK, 2);
-    }
-    c.png()
+    let labels: Vec<String> = rows.iter().map(|r| r.scene.clone()).collect();
+    bar_chart(&[
+        BarPanel {
+            title: "remesh events".into(),
+            labels: labels.clone(),
+            values: rows.iter().map(|r| r.events as f64).collect(),
+            format: |v| format!("{v:.0}"),
+        },
+        BarPanel {
+            title: "σ(|r|) of the vertices".into(),
+            labels,
+            values: rows.iter().map(|r| r.position_spread).collect(),
+            format: |v| format!("{v:.3}"),
+        },
+    ])
 }

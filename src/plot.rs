@@ -1,93 +1,52 @@
-//! A small PNG chart renderer (RGB canvas, 8×8 bitmap font): bar charts for
-//! `compare`, line/point charts with error bars for `collect`. No system
-//! fonts or plotting stack needed, so charts render the same everywhere.
+//! PNG charts drawn with `plotters`: line and point charts with error bars,
+//! linear or logarithmic axes and a legend (`collect`, `spectrum`, `study`),
+//! and bar panels (`compare`). The font (DejaVu Sans) is embedded in the
+//! binary, so a chart looks the same on every machine and needs no system
+//! fonts.
 
-use font8x8::UnicodeFonts;
+use std::sync::Once;
 
-/// White.
-pub const BACKGROUND: [u8; 3] = [255, 255, 255];
-/// Text and axes.
-pub const INK: [u8; 3] = [30, 30, 30];
-/// Series colours, in order.
-pub const COLORS: [[u8; 3]; 6] = [
-    [60, 110, 180],
-    [220, 120, 40],
-    [60, 160, 80],
-    [190, 60, 60],
-    [130, 90, 170],
-    [120, 120, 120],
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
+
+/// The font family every chart uses (registered from embedded bytes).
+const FONT: &str = "sans-serif";
+
+/// Chart size in pixels.
+const WIDTH: u32 = 800;
+const HEIGHT: u32 = 520;
+
+/// Series colours, in order (matplotlib's first six "tab" colours).
+pub const COLORS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(127, 127, 127),
 ];
 
-/// An RGB image.
-pub struct Canvas {
-    width: usize,
-    height: usize,
-    pixels: Vec<u8>,
+/// An axis' scale.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Scale {
+    /// Linear.
+    #[default]
+    Linear,
+    /// Base-10 logarithmic; non-positive values are left out.
+    Log,
 }
 
-impl Canvas {
-    /// A blank canvas.
-    pub fn new(width: usize, height: usize) -> Self {
-        Self {
-            width,
-            height,
-            pixels: BACKGROUND.repeat(width * height),
-        }
-    }
-
-    /// Fills the rectangle [x0, x1) × [y0, y1) (clipped).
-    pub fn rect(&mut self, x0: usize, y0: usize, x1: usize, y1: usize, c: [u8; 3]) {
-        for y in y0.min(self.height)..y1.min(self.height) {
-            for x in x0.min(self.width)..x1.min(self.width) {
-                let i = (y * self.width + x) * 3;
-                self.pixels[i..i + 3].copy_from_slice(&c);
-            }
-        }
-    }
-
-    /// A line of thickness 2 from (x0, y0) to (x1, y1) (pixels, clipped).
-    pub fn line(&mut self, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: [u8; 3]) {
-        let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
-        for k in 0..=steps {
-            let t = k as f64 / steps as f64;
-            let (x, y) = (x0 + t * (x1 - x0), y0 + t * (y1 - y0));
-            if x >= 0.0 && y >= 0.0 {
-                self.rect(x as usize, y as usize, x as usize + 2, y as usize + 2, c);
-            }
-        }
-    }
-
-    /// Text with the 8×8 bitmap font scaled by `scale`, centred at `cx`.
-    pub fn text(&mut self, cx: usize, y: usize, s: &str, c: [u8; 3], scale: usize) {
-        let width = s.chars().count() * 8 * scale;
-        let x0 = cx.saturating_sub(width / 2);
-        for (k, ch) in s.chars().enumerate() {
-            let glyph = font8x8::BASIC_FONTS.get(ch).unwrap_or([0; 8]);
-            for (row, bits) in glyph.iter().enumerate() {
-                for col in 0..8 {
-                    if bits & (1 << col) != 0 {
-                        let x = x0 + (k * 8 + col) * scale;
-                        let yy = y + row * scale;
-                        self.rect(x, yy, x + scale, yy + scale, c);
-                    }
-                }
-            }
-        }
-    }
-
-    /// PNG bytes of the canvas.
-    pub fn png(&self) -> Vec<u8> {
-        let mut out = Vec::new();
-        {
-            let mut encoder = png::Encoder::new(&mut out, self.width as u32, self.height as u32);
-            encoder.set_color(png::ColorType::Rgb);
-            encoder.set_depth(png::BitDepth::Eight);
-            if let Ok(mut writer) = encoder.write_header() {
-                let _ = writer.write_image_data(&self.pixels);
-            }
-        }
-        out
-    }
+/// How a series marks its points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Marker {
+    /// A filled circle.
+    #[default]
+    Circle,
+    /// A filled triangle (used for peer engines on the study charts).
+    Triangle,
+    /// A cross.
+    Cross,
 }
 
 /// One series of a line chart (an empty name: no legend entry).
@@ -95,7 +54,8 @@ impl Canvas {
 pub struct Series {
     /// Legend entry.
     pub name: String,
-    /// Points (x, y); non-finite points are skipped.
+    /// Points (x, y); non-finite points (and non-positive ones on a log axis)
+    /// are skipped.
     pub points: Vec<(f64, f64)>,
     /// Half-height of an error bar per point (empty = none).
     pub errors: Vec<f64>,
@@ -103,45 +63,149 @@ pub struct Series {
     pub lines: bool,
     /// Draw a marker at each point.
     pub markers: bool,
+    /// The marker's shape.
+    pub marker: Marker,
     /// Colour index into [`COLORS`] (wraps).
     pub color: usize,
 }
 
-/// "Nice" tick positions covering [lo, hi].
-fn ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let span = (hi - lo).max(1e-12);
-    let raw = span / 5.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= 6.0)
-        .unwrap_or(10.0 * mag);
-    let mut t = (lo / step).ceil() * step;
-    let mut out = Vec::new();
-    while t <= hi + 1e-9 * span {
-        out.push(t);
-        t += step;
+/// A line/point chart: title, axis labels and scales, series.
+#[derive(Clone, Debug, Default)]
+pub struct Chart {
+    /// Title above the plot.
+    pub title: String,
+    /// x-axis label.
+    pub x_label: String,
+    /// y-axis label.
+    pub y_label: String,
+    /// x-axis scale.
+    pub x_scale: Scale,
+    /// y-axis scale.
+    pub y_scale: Scale,
+    /// The series, drawn in order.
+    pub series: Vec<Series>,
+}
+
+/// A panel of a bar chart: one bar per label, each labelled with its value.
+pub struct BarPanel {
+    /// Title above the panel.
+    pub title: String,
+    /// One label (x tick) per bar.
+    pub labels: Vec<String>,
+    /// The bar heights.
+    pub values: Vec<f64>,
+    /// How a value is printed above its bar.
+    pub format: fn(f64) -> String,
+}
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a valid TrueType font compiled into the binary.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+/// Renders `draw` on a white RGB canvas and returns the PNG bytes.
+fn render(
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>,
+) -> Result<Vec<u8>, String> {
+    register_font();
+    let mut pixels = vec![255u8; (WIDTH * HEIGHT * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        draw(&root)?;
+        root.present().map_err(|e| e.to_string())?;
     }
-    out
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, WIDTH, HEIGHT);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+    writer
+        .write_image_data(&pixels)
+        .map_err(|e| e.to_string())?;
+    writer.finish().map_err(|e| e.to_string())?;
+    Ok(out)
 }
 
-fn label(v: f64) -> String {
-    let s = format!("{v:.3}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.into() }
-}
-
-/// A line/point chart with axes, ticks, title, axis labels and a legend.
+/// A linear line/point chart (see [`Chart`] for log axes).
 pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Vec<u8> {
-    let (w, h) = (720usize, 480usize);
-    let (left, right, top, bottom) = (80.0, 180.0, 50.0, 60.0);
-    let mut c = Canvas::new(w, h);
-    let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
+    chart(&Chart {
+        title: title.into(),
+        x_label: x_label.into(),
+        y_label: y_label.into(),
+        series: series.to_vec(),
+        ..Default::default()
+    })
+}
+
+/// PNG bytes of a chart (an empty PNG-less vector only if drawing failed,
+/// which a fixed-size in-memory canvas does not do).
+pub fn chart(spec: &Chart) -> Vec<u8> {
+    render(|root| draw_chart(root, spec)).unwrap_or_default()
+}
+
+/// The range an axis shows: the data's extent with 5 % padding (a factor on
+/// a log axis), or a unit range when there is no data.
+fn axis_range(values: &[f64], scale: Scale) -> (f64, f64) {
+    let usable: Vec<f64> = values
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite() && (scale == Scale::Linear || *v > 0.0))
+        .collect();
+    let lo = usable.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = usable.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    match scale {
+        _ if !lo.is_finite() => match scale {
+            Scale::Linear => (0.0, 1.0),
+            Scale::Log => (0.1, 10.0),
+        },
+        Scale::Linear if hi - lo < 1e-12 * lo.abs().max(1.0) => (lo - 0.5, hi + 0.5),
+        Scale::Linear => {
+            let pad = 0.05 * (hi - lo);
+            (lo - pad, hi + pad)
+        }
+        Scale::Log if hi / lo < 1.0 + 1e-9 => (lo / 2.0, hi * 2.0),
+        Scale::Log => {
+            let pad = (hi / lo).powf(0.05);
+            (lo / pad, hi * pad)
+        }
+    }
+}
+
+/// A tick label: at most 4 significant digits, scientific notation for
+/// very large or small magnitudes.
+fn tick_label(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e5).contains(&a) {
+        let s = format!("{v:.2e}");
+        let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = m.trim_end_matches('0').trim_end_matches('.');
+        return format!("{m}e{e}");
+    }
+    let s = format!(
+        "{:.*}",
+        (3 - a.log10().floor().max(-3.0) as i32).clamp(0, 6) as usize,
+        v
+    );
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    if s == "-0" { "0".into() } else { s }
+}
+
+fn draw_chart(root: &DrawingArea<BitMapBackend<'_>, Shift>, spec: &Chart) -> Result<(), String> {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
-    for s in series {
-        for (k, p) in s.points.iter().enumerate().filter(|(_, p)| finite(p)) {
+    for s in &spec.series {
+        for (k, p) in s.points.iter().enumerate() {
+            if !(p.0.is_finite() && p.1.is_finite()) {
+                continue;
+            }
             let e = s
                 .errors
                 .get(k)
@@ -149,99 +213,273 @@ pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series]) 
                 .filter(|e| e.is_finite())
                 .unwrap_or(0.0);
             xs.push(p.0);
-            ys.extend([p.1 - e, p.1 + e]);
+            ys.extend([p.1, p.1 - e, p.1 + e]);
         }
     }
-    let range = |v: &[f64]| {
-        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if !lo.is_finite() {
-            (0.0, 1.0)
-        } else if hi - lo < 1e-12 {
-            (lo - 0.5, hi + 0.5)
-        } else {
-            let pad = 0.05 * (hi - lo);
-            (lo - pad, hi + pad)
+    let (x0, x1) = axis_range(&xs, spec.x_scale);
+    let (y0, y1) = axis_range(&ys, spec.y_scale);
+    match (spec.x_scale, spec.y_scale) {
+        (Scale::Linear, Scale::Linear) => draw_series(root, spec, x0..x1, y0..y1),
+        (Scale::Linear, Scale::Log) => draw_series(root, spec, x0..x1, (y0..y1).log_scale()),
+        (Scale::Log, Scale::Linear) => draw_series(root, spec, (x0..x1).log_scale(), y0..y1),
+        (Scale::Log, Scale::Log) => {
+            draw_series(root, spec, (x0..x1).log_scale(), (y0..y1).log_scale())
         }
-    };
-    let (x0, x1) = range(&xs);
-    let (y0, y1) = range(&ys);
-    let (pw, ph) = (w as f64 - left - right, h as f64 - top - bottom);
-    let px = |x: f64| left + (x - x0) / (x1 - x0) * pw;
-    let py = |y: f64| top + (1.0 - (y - y0) / (y1 - y0)) * ph;
-    // Scale-2 text when the title fits, else scale 1.
-    let title_scale = if title.chars().count() * 16 + 20 <= w {
-        2
-    } else {
-        1
-    };
-    c.text(w / 2, 15, title, INK, title_scale);
-    c.text((left + pw / 2.0) as usize, h - 22, x_label, INK, 2);
-    c.text(left as usize, (top - 22.0) as usize, y_label, INK, 1);
-    c.line((left, top), (left, top + ph), INK);
-    c.line((left, top + ph), (left + pw, top + ph), INK);
-    for t in ticks(x0, x1) {
-        let x = px(t);
-        c.line((x, top + ph), (x, top + ph + 5.0), INK);
-        c.text(x as usize, (top + ph + 10.0) as usize, &label(t), INK, 1);
     }
-    for t in ticks(y0, y1) {
-        let y = py(t);
-        c.line((left - 5.0, y), (left, y), INK);
-        let s = label(t);
-        c.text(
-            (left - 10.0) as usize - s.len() * 4,
-            y as usize - 4,
-            &s,
-            INK,
-            1,
-        );
-    }
-    let mut legend = 0;
-    for s in series {
+}
+
+fn draw_series<X, Y>(
+    root: &DrawingArea<BitMapBackend<'_>, Shift>,
+    spec: &Chart,
+    x: X,
+    y: Y,
+) -> Result<(), String>
+where
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+    let mut chart = ChartBuilder::on(root)
+        .caption(&spec.title, (FONT, 22))
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(78)
+        .build_cartesian_2d(x, y)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(spec.x_label.as_str())
+        .y_desc(spec.y_label.as_str())
+        .label_style((FONT, 15))
+        .axis_desc_style((FONT, 17))
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_label_formatter(&|v| tick_label(*v))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(210, 210, 210))
+        .draw()
+        .map_err(err)?;
+    let log_x = spec.x_scale == Scale::Log;
+    let log_y = spec.y_scale == Scale::Log;
+    let shown = |p: &(f64, f64)| {
+        p.0.is_finite() && p.1.is_finite() && (!log_x || p.0 > 0.0) && (!log_y || p.1 > 0.0)
+    };
+    let mut named = false;
+    for s in &spec.series {
         let color = COLORS[s.color % COLORS.len()];
-        let pts: Vec<(usize, (f64, f64))> = s
+        let points: Vec<(usize, (f64, f64))> = s
             .points
             .iter()
             .copied()
             .enumerate()
-            .filter(|(_, p)| finite(&p))
+            .filter(|(_, p)| shown(p))
             .collect();
+        let legend_marker = |c: RGBColor| {
+            move |(x, y): (i32, i32)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled())
+        };
+        let mut labelled = false;
         if s.lines {
-            for pair in pts.windows(2) {
-                let (a, b) = (pair[0].1, pair[1].1);
-                c.line((px(a.0), py(a.1)), (px(b.0), py(b.1)), color);
+            let line = chart
+                .draw_series(LineSeries::new(
+                    points.iter().map(|&(_, p)| p),
+                    color.stroke_width(2),
+                ))
+                .map_err(err)?;
+            if !s.name.is_empty() {
+                line.label(s.name.as_str()).legend(legend_marker(color));
+                labelled = true;
             }
         }
-        for &(i, (x, y)) in &pts {
-            if s.markers {
-                let (cx, cy) = (px(x) as usize, py(y) as usize);
-                c.rect(
-                    cx.saturating_sub(3),
-                    cy.saturating_sub(3),
-                    cx + 4,
-                    cy + 4,
-                    color,
+        for &(k, (px, py)) in &points {
+            let Some(&e) = s.errors.get(k).filter(|e| e.is_finite() && **e > 0.0) else {
+                continue;
+            };
+            let lo = if log_y && py - e <= 0.0 {
+                py / 10.0
+            } else {
+                py - e
+            };
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(px, lo), (px, py + e)],
+                    color.stroke_width(2),
+                )))
+                .map_err(err)?;
+        }
+        if s.markers {
+            let coords = points.iter().map(|&(_, p)| p);
+            let drawn = match s.marker {
+                Marker::Circle => chart
+                    .draw_series(coords.map(|p| Circle::new(p, 4, color.filled())))
+                    .map_err(err)?,
+                Marker::Triangle => chart
+                    .draw_series(coords.map(|p| TriangleMarker::new(p, 6, color.filled())))
+                    .map_err(err)?,
+                Marker::Cross => chart
+                    .draw_series(coords.map(|p| Cross::new(p, 5, color.stroke_width(2))))
+                    .map_err(err)?,
+            };
+            if !labelled && !s.name.is_empty() {
+                drawn.label(s.name.as_str()).legend(legend_marker(color));
+                labelled = true;
+            }
+        }
+        named |= labelled;
+    }
+    if named {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((FONT, 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+    }
+    Ok(())
+}
+
+/// PNG bytes of bar panels side by side: one bar per label, its value
+/// printed above it.
+pub fn bar_chart(panels: &[BarPanel]) -> Vec<u8> {
+    render(|root| {
+        let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+        let areas = root.split_evenly((1, panels.len().max(1)));
+        for (area, panel) in areas.iter().zip(panels) {
+            let n = panel.values.len().max(1);
+            let max = panel
+                .values
+                .iter()
+                .copied()
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max);
+            let top = if max > 0.0 { 1.2 * max } else { 1.0 };
+            let mut chart = ChartBuilder::on(area)
+                .caption(&panel.title, (FONT, 22))
+                .margin(14)
+                .x_label_area_size(40)
+                .y_label_area_size(64)
+                .build_cartesian_2d((0..n - 1).into_segmented(), 0.0..top)
+                .map_err(err)?;
+            let labels = panel.labels.clone();
+            chart
+                .configure_mesh()
+                .disable_x_mesh()
+                .label_style((FONT, 15))
+                .y_label_formatter(&|v| tick_label(*v))
+                .x_label_formatter(&|v| match v {
+                    SegmentValue::CenterOf(i) => labels.get(*i).cloned().unwrap_or_default(),
+                    _ => String::new(),
+                })
+                .draw()
+                .map_err(err)?;
+            for (i, &v) in panel.values.iter().enumerate() {
+                let color = COLORS[i % COLORS.len()];
+                let mut bar = Rectangle::new(
+                    [
+                        (SegmentValue::Exact(i), 0.0),
+                        (SegmentValue::Exact(i + 1), v),
+                    ],
+                    color.filled(),
                 );
-            }
-            if let Some(&e) = s.errors.get(i).filter(|e| e.is_finite() && **e > 0.0) {
-                c.line((px(x), py(y - e)), (px(x), py(y + e)), color);
+                bar.set_margin(0, 0, 12, 12);
+                chart.draw_series(std::iter::once(bar)).map_err(err)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        (panel.format)(v),
+                        (SegmentValue::CenterOf(i), v + 0.04 * top),
+                        (FONT, 16).into_font().color(&BLACK),
+                    )))
+                    .map_err(err)?;
             }
         }
-        if s.name.is_empty() {
-            continue; // unnamed: no legend entry
-        }
-        let ly = top as usize + 10 + legend * 22;
-        legend += 1;
-        let lx = (left + pw) as usize + 15;
-        c.rect(lx, ly, lx + 14, ly + 14, color);
-        c.text(
-            lx + 22 + s.name.chars().count() * 4,
-            ly + 3,
-            &s.name,
-            INK,
-            1,
+        Ok(())
+    })
+    .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Decodes a PNG into (width, height, RGB pixels).
+    fn decode(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
+        let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
+            .read_info()
+            .expect("a PNG");
+        let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
+        let info = reader.next_frame(&mut pixels).expect("a frame");
+        (info.width, info.height, pixels)
+    }
+
+    /// Dark pixels in the rows [y0, y1): text, axes or lines were drawn there.
+    fn dark_pixels(pixels: &[u8], y0: u32, y1: u32) -> usize {
+        pixels[(y0 * WIDTH * 3) as usize..(y1 * WIDTH * 3) as usize]
+            .chunks(3)
+            .filter(|p| p.iter().all(|&c| c < 100))
+            .count()
+    }
+
+    #[test]
+    fn a_log_log_chart_has_a_title_axes_and_coloured_series() {
+        let png = chart(&Chart {
+            title: "error against cost".into(),
+            x_label: "wall time (s)".into(),
+            y_label: "relative error".into(),
+            x_scale: Scale::Log,
+            y_scale: Scale::Log,
+            series: vec![
+                Series {
+                    name: "remembrane".into(),
+                    points: vec![(0.01, 1e-2), (0.1, 1e-3), (1.0, 1e-4), (2.0, -1.0)],
+                    errors: vec![1e-3, 1e-4, 1e-5, 0.0],
+                    lines: true,
+                    markers: true,
+                    ..Default::default()
+                },
+                Series {
+                    name: "peer".into(),
+                    points: vec![(0.2, 2e-3)],
+                    markers: true,
+                    marker: Marker::Triangle,
+                    color: 1,
+                    ..Default::default()
+                },
+            ],
+        });
+        let (w, h, pixels) = decode(&png);
+        assert_eq!((w, h), (WIDTH, HEIGHT));
+        assert!(dark_pixels(&pixels, 0, 40) > 100, "no title text");
+        let blue = pixels.chunks(3).filter(|p| p == &[31, 119, 180]).count();
+        let orange = pixels.chunks(3).filter(|p| p == &[255, 127, 14]).count();
+        assert!(
+            blue > 200 && orange > 20,
+            "series not drawn: {blue} {orange}"
         );
     }
-    c.png()
+
+    #[test]
+    fn bar_panels_draw_one_bar_per_value() {
+        let png = bar_chart(&[BarPanel {
+            title: "events".into(),
+            labels: vec!["a".into(), "b".into()],
+            values: vec![10.0, 5.0],
+            format: |v| format!("{v:.0}"),
+        }]);
+        let (_, _, pixels) = decode(&png);
+        let first = pixels.chunks(3).filter(|p| p == &[31, 119, 180]).count();
+        let second = pixels.chunks(3).filter(|p| p == &[255, 127, 14]).count();
+        // Equal widths: the areas are in the ratio of the values.
+        let ratio = first as f64 / second as f64;
+        assert!((ratio - 2.0).abs() < 0.1, "bar areas {first} {second}");
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(tick_label(0.30000000000000004), "0.3");
+        assert_eq!(tick_label(1e-6), "1e-6");
+        assert_eq!(tick_label(2500.0), "2500");
+        assert_eq!(tick_label(-0.0), "0");
+    }
 }

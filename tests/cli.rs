@@ -250,7 +250,7 @@ fn compare_runs_both_scenes_and_writes_table_csv_and_chart() {
     let reader = png::Decoder::new(std::io::Cursor::new(png))
         .read_info()
         .unwrap();
-    assert_eq!((reader.info().width, reader.info().height), (640, 360));
+    assert_eq!((reader.info().width, reader.info().height), (800, 520));
     for name in ["vesicle_fusion", "fusion_geometric"] {
         assert!(out.join(name).join("summary.json").exists());
         assert!(out.join(name).join("events.vtp").exists());
