@@ -141,6 +141,27 @@ enum Command {
         #[arg(long)]
         partial: bool,
     },
+    /// Speed against error: run a study's ladder of settings on reference
+    /// problems with independent answers (resumable), then write study.csv,
+    /// study.md, study.json and error-vs-cost / convergence charts in OUT
+    /// and print the tables.
+    Study {
+        /// Study file (RON), e.g. scenes/studies/accuracy.ron.
+        study: PathBuf,
+        /// Output directory (default out/<study name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Cases at once (default 1: wall times are comparable only when
+        /// cases do not share the cores).
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// Only the rungs each problem lists in `quick` (the CI ladder).
+        #[arg(long)]
+        quick: bool,
+        /// No per-case progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Flicker spectrum of a fluctuating quasi-spherical vesicle run: its
     /// frames' shapes in spherical harmonics, ⟨|u_lm|²⟩ by l after an
     /// equilibration time, and the Helfrich fit of κ and σ with block
@@ -251,6 +272,13 @@ where
             frames,
             partial,
         } => collect_command(&dir, x, y, frames, partial),
+        Command::Study {
+            study,
+            out,
+            jobs,
+            quick,
+            quiet,
+        } => study_command(&study, out, jobs, quick, quiet),
         other => match run(other) {
             Ok(()) => ExitCode::SUCCESS,
             Err(message) => {
@@ -536,7 +564,8 @@ fn run(command: Command) -> Result<(), String> {
         Command::Run { .. }
         | Command::Compare { .. }
         | Command::Sweep { .. }
-        | Command::Collect { .. } => unreachable!("handled in main"),
+        | Command::Collect { .. }
+        | Command::Study { .. } => unreachable!("handled in main"),
         Command::Check { scene } => check(&scene),
         Command::Spectrum {
             dir,
@@ -740,6 +769,68 @@ struct SweepArgs {
     tasks: Option<usize>,
     phases_only: bool,
     quiet: bool,
+}
+
+/// `remembrane study`: runs the cases not yet finished, then measures and
+/// reports all of them. Exit 2 for a bad study file, 1 if a case could not
+/// run or be measured.
+fn study_command(
+    path: &Path,
+    out: Option<PathBuf>,
+    jobs: usize,
+    quick: bool,
+    quiet: bool,
+) -> ExitCode {
+    use crate::study::{Study, StudyOptions, run_cases, selected};
+    let (study, cases) = match Study::load(path) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let cases = selected(&study, cases, quick);
+    let options = StudyOptions {
+        out: out.unwrap_or_else(|| PathBuf::from("out").join(&study.name)),
+        jobs,
+        quick,
+        quiet,
+    };
+    let ran = match run_cases(&study, &cases, &options) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    if !quiet {
+        eprintln!(
+            "study {}: {} cases, {} run now, {} already done, {} failed",
+            study.name,
+            ran.cases,
+            ran.completed,
+            ran.skipped,
+            ran.failed.len()
+        );
+    }
+    for (dir, e) in &ran.failed {
+        eprintln!("error: {}: {e}", options.out.join(dir).display());
+    }
+    let report = match crate::study_report::evaluate(&study, &cases, &options.out)
+        .and_then(|r| crate::study_report::write_report(&r, &options.out).map(|()| r))
+    {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    say_raw!("{}", crate::study_report::markdown(&report));
+    if ran.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
 }
 
 fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {

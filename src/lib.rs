@@ -1,6 +1,7 @@
 //! remembrane: closed triangulated membranes moved by overdamped Langevin
 //! dynamics under their free energy, with free-energy-controlled remeshing.
 
+pub mod axisymmetric;
 pub mod cell_list;
 pub mod cli;
 pub mod collect;
@@ -61,6 +62,9 @@ pub mod shape;
 pub mod simulation;
 pub mod spectrum;
 pub mod state;
+pub mod study;
+pub mod study_reference;
+pub mod study_report;
 pub mod sweep;
 #[path = "../systems/mod.rs"]
 pub mod systems;

@@ -105,6 +105,21 @@ pub enum MembraneSource {
         #[serde(default, deserialize_with = "crate::validate::non_negative")]
         jitter: f64,
     },
+    /// An ellipsoid: the unit icosphere of `level` subdivisions with every
+    /// vertex mapped to (a x, b y, c z), so all vertices lie on the surface
+    /// x²/a² + y²/b² + z²/c² = 1 (the spheroid of the accuracy study).
+    Ellipsoid {
+        /// Subdivision level 0..=7.
+        level: u32,
+        /// Semi-axes (a, b, c) along x, y, z (l̄).
+        semi_axes: (f64, f64, f64),
+        /// Seeded random tangential displacement of each unit-sphere vertex
+        /// before the mapping, as a fraction of the unit icosphere's mean
+        /// edge length (default 0). Vertices stay exactly on the surface;
+        /// only the mesh quality changes (paper Fig 1).
+        #[serde(default, deserialize_with = "crate::validate::non_negative")]
+        jitter: f64,
+    },
     /// Two icospheres of `level` glued through one triangle (fusion; level 2
     /// gives 321 vertices).
     DockedPair {
@@ -347,12 +362,31 @@ impl Scene {
             reason,
         };
         match &self.membrane {
-            MembraneSource::Icosphere { level, .. } | MembraneSource::DockedPair { level }
+            MembraneSource::Icosphere { level, .. }
+            | MembraneSource::Ellipsoid { level, .. }
+            | MembraneSource::DockedPair { level }
                 if *level > MAX_ICOSPHERE_LEVEL =>
             {
                 return Err(invalid(
                     "membrane.level",
                     format!("must be 0..={MAX_ICOSPHERE_LEVEL} (got {level})"),
+                ));
+            }
+            MembraneSource::Ellipsoid {
+                semi_axes: (a, b, c),
+                ..
+            } if ![a, b, c].iter().all(|x| x.is_finite() && **x > 0.0) => {
+                return Err(invalid(
+                    "membrane.semi_axes",
+                    format!("must be positive and finite (got ({a}, {b}, {c}))"),
+                ));
+            }
+            MembraneSource::Ellipsoid { jitter, .. } if *jitter >= 0.5 => {
+                return Err(invalid(
+                    "membrane.jitter",
+                    format!(
+                        "must be below 0.5 of the mean edge length, or faces may fold (got {jitter})"
+                    ),
                 ));
             }
             _ => {}
@@ -557,6 +591,11 @@ impl Scene {
                 }
                 m
             }
+            MembraneSource::Ellipsoid {
+                level,
+                semi_axes: (a, b, c),
+                jitter,
+            } => crate::mesh::ellipsoid(*level, [*a, *b, *c], *jitter, self.seed),
             MembraneSource::DockedPair { level } => docked_pair(*level),
             MembraneSource::File { path, scale } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));

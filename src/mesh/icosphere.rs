@@ -91,3 +91,33 @@ pub fn icosphere(level: u32, mean_edge_length: f64) -> SurfaceMesh {
     mesh.rescale_to_mean_edge_length(mean_edge_length);
     mesh
 }
+
+/// The unit icosphere of `level` subdivisions mapped onto the ellipsoid with
+/// semi-axes `semi_axes` (l̄): each vertex p goes to (a p.x, b p.y, c p.z), so
+/// it lies exactly on the surface. `jitter` > 0 first moves every
+/// unit-sphere vertex by a seeded random tangential offset of up to `jitter`
+/// times the unit icosphere's mean edge length and projects it back onto
+/// the sphere: the vertices stay on the ellipsoid, the triangles get
+/// irregular.
+pub fn ellipsoid(level: u32, semi_axes: [f64; 3], jitter: f64, seed: u64) -> SurfaceMesh {
+    use rand::{RngExt, SeedableRng};
+    let mut mesh = icosphere_unit(level);
+    if jitter > 0.0 {
+        let edge = mesh.mean_edge_length();
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+        for p in &mut mesh.positions {
+            let offset = DVec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            );
+            let tangential = offset - offset.dot(*p) * *p;
+            *p = (*p + jitter * edge * tangential).normalize();
+        }
+    }
+    let [a, b, c] = semi_axes;
+    for p in &mut mesh.positions {
+        *p = DVec3::new(a * p.x, b * p.y, c * p.z);
+    }
+    mesh
+}

@@ -9,7 +9,9 @@ pub mod invariants;
 pub mod io;
 
 pub use docking::docked_pair;
-pub use icosphere::{MAX_ICOSPHERE_LEVEL, icosphere, icosphere_unit, vertex_count_for_level};
+pub use icosphere::{
+    MAX_ICOSPHERE_LEVEL, ellipsoid, icosphere, icosphere_unit, vertex_count_for_level,
+};
 pub use invariants::{MeshError, MeshReport, ValenceRange, check_mesh};
 
 use glam::DVec3;

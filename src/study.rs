@@ -1,0 +1,437 @@
+//! Speed against error: `remembrane study STUDY.ron` runs a ladder of
+//! settings on reference problems whose answers do not come from the engine,
+//! and reports each case's wall time and error (issue 12).
+//!
+//! A study file names problems. Each problem has a scene (relative to the
+//! study file), a [`Reference`] and a ladder of [`Rung`]s: settings applied
+//! to the scene by dotted path (`membrane.Icosphere.level`,
+//! `dynamics.dt_max`, ...), a label and optionally the resolution `h` the
+//! rung stands for. Every (problem, rung) is a case, run as a normal run
+//! directory `OUT/cases/<problem>/<rung>/`; a case whose directory exists
+//! has finished and is not run again, so an interrupted study resumes.
+//! `--quick` keeps only the rungs each problem lists in `quick`.
+//!
+//! After the runs, [`crate::study_report`] measures each case against its
+//! reference, fits the observed convergence order and writes `study.csv`,
+//! `study.md`, `study.json` and the charts.
+
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A study file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Study {
+    /// Name (the default output directory is `out/<name>`).
+    pub name: String,
+    /// The reference problems, in order.
+    pub problems: Vec<Problem>,
+}
+
+/// One reference problem and its ladder of settings.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Problem {
+    /// Name (a directory name).
+    pub name: String,
+    /// What the problem tests, for the report (default empty).
+    #[serde(default)]
+    pub description: String,
+    /// Base scene, relative to the study file's folder.
+    pub scene: PathBuf,
+    /// Where the exact answer comes from.
+    pub reference: Reference,
+    /// What a rung's resolution `h` is when it declares none (default
+    /// `Vertices`).
+    #[serde(default)]
+    pub resolution: Resolution,
+    /// The ladder: one case per rung.
+    pub rungs: Vec<Rung>,
+    /// Indices of the rungs `--quick` keeps (default: all).
+    #[serde(default)]
+    pub quick: Option<Vec<usize>>,
+}
+
+/// One setting of a problem's ladder.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rung {
+    /// Label (a directory name and the row's name in the tables).
+    pub label: String,
+    /// The resolution the rung stands for, for the convergence fit and for
+    /// finding the finest rung (default: the problem's [`Resolution`]).
+    #[serde(default)]
+    pub h: Option<f64>,
+    /// Changes to the scene by dotted path, e.g.
+    /// `("membrane.Icosphere.level", 4)` (see `scene_override`).
+    #[serde(default)]
+    pub set: Vec<(String, serde_json::Value)>,
+    /// Threads of the case's run (default 1).
+    #[serde(default)]
+    pub threads: Option<usize>,
+}
+
+/// The resolution of a case, when its rung declares no `h`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Resolution {
+    /// N^(-1/2) for N vertices of the initial mesh: proportional to the
+    /// mean edge length over the radius.
+    #[default]
+    Vertices,
+    /// The run's mean time step, simulated time / iterations (s).
+    MeanStep,
+}
+
+/// The exact answer of a problem.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Reference {
+    /// A sphere's bending energy 8πκ (κ of the scene's `Bending` term),
+    /// compared with the initial mesh's. A static problem: the cost is the
+    /// systems' time per iteration of the case's run.
+    SphereBending,
+    /// The continuum bending energy of the scene's spheroid
+    /// (`membrane: Ellipsoid` with a = b), by 1-D quadrature, compared with
+    /// the initial mesh's. Static, as `SphereBending`.
+    SpheroidBending,
+    /// The continuum minimiser of the bending energy at fixed area and
+    /// volume, solved at the reduced volume the case ends at
+    /// ([`crate::axisymmetric`]): E_b/8πκ, D/R0, centre and maximal
+    /// thickness over R0, compared with the final mesh. The cost is the
+    /// case's whole wall time.
+    Axisymmetric,
+    /// A quantity at the end of the run, against the same quantity at the
+    /// end of the problem's finest finished case (smallest `h`), for
+    /// time-step errors. The cost is the case's whole wall time.
+    FinestRung(Quantity),
+}
+
+impl Reference {
+    /// Whether the error is measured on the initial mesh (the cost is then
+    /// the time per iteration).
+    pub fn is_static(self) -> bool {
+        matches!(self, Reference::SphereBending | Reference::SpheroidBending)
+    }
+}
+
+/// A quantity read from a run's summary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Quantity {
+    /// Reduced volume v = 6√π V / A^{3/2}.
+    ReducedVolume,
+    /// Bending energy (Ē).
+    BendingEnergy,
+    /// Total energy (Ē).
+    TotalEnergy,
+    /// Area (l̄²).
+    Area,
+    /// Volume (l̄³).
+    Volume,
+}
+
+impl Quantity {
+    /// Name in the tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::ReducedVolume => "v",
+            Quantity::BendingEnergy => "E_b",
+            Quantity::TotalEnergy => "E",
+            Quantity::Area => "A",
+            Quantity::Volume => "V",
+        }
+    }
+}
+
+/// Why a study could not be loaded or run.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// The study file could not be read or parsed, or is invalid.
+    #[error("{path}: {reason}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The output could not be written.
+    #[error("{path}: cannot write the study output: {reason}")]
+    Output {
+        /// The path.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// One case: a problem at one rung.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// Index of the problem in the study.
+    pub problem: usize,
+    /// Index of the rung in the problem's ladder.
+    pub rung: usize,
+    /// The scene with the rung's settings applied.
+    pub scene: Scene,
+    /// The base scene's path (relative paths in the scene resolve from it).
+    pub scene_path: PathBuf,
+    /// Run directory, relative to the study's output directory.
+    pub dir: PathBuf,
+}
+
+impl Study {
+    /// Reads and checks a study file: every problem's scene loads, every
+    /// rung's settings apply, labels are unique directory names, `quick`
+    /// indices exist, and `FinestRung` problems give every rung an `h`.
+    pub fn load(path: &Path) -> Result<(Study, Vec<Case>), StudyError> {
+        let bad = |reason: String| StudyError::File {
+            path: path.to_owned(),
+            reason,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+        let study: Study = crate::sweep::ron_options().from_str(&text).map_err(|e| {
+            bad(format!(
+                "{}:{}: {}",
+                e.span.start.line, e.span.start.col, e.code
+            ))
+        })?;
+        if study.problems.is_empty() {
+            return Err(bad("field `problems`: the study declares no problem".into()));
+        }
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut cases = Vec::new();
+        let mut names = std::collections::HashSet::new();
+        for (p, problem) in study.problems.iter().enumerate() {
+            let field = |f: &str| format!("field `problems[{p}].{f}`");
+            if !crate::sweep::valid_name(&problem.name) || !names.insert(problem.name.as_str()) {
+                return Err(bad(format!(
+                    "{}: `{}` must be a unique name of letters, digits, `_`, `-` or `.`",
+                    field("name"),
+                    problem.name
+                )));
+            }
+            if problem.rungs.is_empty() {
+                return Err(bad(format!("{}: the problem has no rung", field("rungs"))));
+            }
+            if let Some(quick) = &problem.quick
+                && let Some(k) = quick.iter().find(|&&k| k >= problem.rungs.len())
+            {
+                return Err(bad(format!(
+                    "{}: rung {k} does not exist ({} rungs)",
+                    field("quick"),
+                    problem.rungs.len()
+                )));
+            }
+            let mut labels = std::collections::HashSet::new();
+            for (r, rung) in problem.rungs.iter().enumerate() {
+                if !crate::sweep::valid_name(&rung.label) || !labels.insert(rung.label.as_str()) {
+                    return Err(bad(format!(
+                        "{}: `{}` must be a unique name of letters, digits, `_`, `-` or `.`",
+                        field(&format!("rungs[{r}].label")),
+                        rung.label
+                    )));
+                }
+                if let Some(h) = rung.h
+                    && !(h.is_finite() && h > 0.0)
+                {
+                    return Err(bad(format!(
+                        "{}: must be positive and finite (got {h})",
+                        field(&format!("rungs[{r}].h"))
+                    )));
+                }
+                if rung.threads == Some(0) {
+                    return Err(bad(format!(
+                        "{}: must be at least 1",
+                        field(&format!("rungs[{r}].threads"))
+                    )));
+                }
+            }
+            let scene_path = base.join(&problem.scene);
+            let scene =
+                Scene::load(&scene_path).map_err(|e| bad(format!("{}: {e}", field("scene"))))?;
+            for (r, rung) in problem.rungs.iter().enumerate() {
+                let scene =
+                    crate::scene_override::set_parameters(&scene, &scene_path, &rung.set)
+                        .map_err(|e| bad(format!("{}: {e}", field(&format!("rungs[{r}].set")))))?;
+                check_reference(problem.reference, &scene).map_err(|reason| {
+                    bad(format!("{}: {reason}", field(&format!("rungs[{r}]"))))
+                })?;
+                cases.push(Case {
+                    problem: p,
+                    rung: r,
+                    scene,
+                    scene_path: scene_path.clone(),
+                    dir: Path::new("cases").join(&problem.name).join(&rung.label),
+                });
+            }
+        }
+        Ok((study, cases))
+    }
+}
+
+/// κ of the scene's bending term, if it has one.
+pub fn bending_kappa(scene: &Scene) -> Option<f64> {
+    scene.energy.iter().find_map(|t| match t {
+        crate::scene::EnergyTerm::Bending(p) => Some(p.kappa),
+        _ => None,
+    })
+}
+
+/// Whether the reference can be computed for the scene.
+fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
+    let bending = scene.energy.iter().find_map(|t| match t {
+        crate::scene::EnergyTerm::Bending(p) => Some(*p),
+        _ => None,
+    });
+    let needs_bending = !matches!(reference, Reference::FinestRung(_));
+    match bending {
+        None if needs_bending => return Err("the reference needs a Bending term".into()),
+        Some(p) if needs_bending && (p.kappa <= 0.0 || p.c0 != 0.0) => {
+            return Err("the reference needs κ > 0 and c0 = 0".into());
+        }
+        _ => {}
+    }
+    if reference == Reference::SpheroidBending {
+        match scene.membrane {
+            crate::scene::MembraneSource::Ellipsoid {
+                semi_axes: (a, b, _),
+                ..
+            } if a == b => {}
+            _ => {
+                return Err(
+                    "SpheroidBending needs `membrane: Ellipsoid(semi_axes: (a, a, c), ...)`".into(),
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Options of [`run_study`].
+#[derive(Clone, Debug)]
+pub struct StudyOptions {
+    /// Output directory.
+    pub out: PathBuf,
+    /// Cases at once (wall times are only comparable with 1).
+    pub jobs: usize,
+    /// Only the rungs each problem lists in `quick`.
+    pub quick: bool,
+    /// No per-case progress lines.
+    pub quiet: bool,
+}
+
+/// What [`run_study`] did.
+#[derive(Clone, Debug, Default)]
+pub struct StudyRunReport {
+    /// Cases in the study (after `--quick`).
+    pub cases: usize,
+    /// Cases already finished before this call.
+    pub skipped: usize,
+    /// Cases run now.
+    pub completed: usize,
+    /// Cases whose run failed, with the error.
+    pub failed: Vec<(PathBuf, String)>,
+}
+
+/// The cases `--quick` keeps (all of them without it).
+pub fn selected(study: &Study, cases: Vec<Case>, quick: bool) -> Vec<Case> {
+    cases
+        .into_iter()
+        .filter(|c| {
+            !quick
+                || study.problems[c.problem]
+                    .quick
+                    .as_ref()
+                    .is_none_or(|q| q.contains(&c.rung))
+        })
+        .collect()
+}
+
+/// Runs every case not yet finished, `options.jobs` at a time, each on its
+/// own pool of the rung's thread count.
+pub fn run_cases(
+    study: &Study,
+    cases: &[Case],
+    options: &StudyOptions,
+) -> Result<StudyRunReport, StudyError> {
+    std::fs::create_dir_all(&options.out).map_err(|e| StudyError::Output {
+        path: options.out.clone(),
+        reason: e.to_string(),
+    })?;
+    let mut report = StudyRunReport {
+        cases: cases.len(),
+        ..Default::default()
+    };
+    let todo: Vec<&Case> = cases
+        .iter()
+        .filter(|c| {
+            let done = options.out.join(&c.dir).join("summary.json").is_file();
+            report.skipped += usize::from(done);
+            !done
+        })
+        .collect();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::sync::Mutex::new(Vec::new());
+    let started = std::time::Instant::now();
+    let worker = || {
+        loop {
+            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let Some(case) = todo.get(k) else { break };
+            let rung = &study.problems[case.problem].rungs[case.rung];
+            let dir = options.out.join(&case.dir);
+            let opts = crate::run::RunOptions {
+                out: dir.clone(),
+                overwrite: true,
+                seed: None,
+                iterations: None,
+                frames: None,
+                from: None,
+                progress: crate::run::Progress::Quiet,
+                check_invariants: false,
+            };
+            let go = || {
+                let t = std::time::Instant::now();
+                let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)
+                    .map_err(|e| e.to_string())?;
+                crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false)
+                    .map(|s| s.wall_time_s)
+                    .map_err(|e| e.to_string())
+            };
+            let result = match rayon::ThreadPoolBuilder::new()
+                .num_threads(rung.threads.unwrap_or(1))
+                .build()
+            {
+                Ok(pool) => pool.install(go),
+                Err(e) => Err(format!("cannot start the thread pool: {e}")),
+            };
+            if !options.quiet {
+                let name = case.dir.display();
+                match &result {
+                    Ok(wall) => eprintln!(
+                        "[{}/{}] {name}: done in {wall:.2} s ({:.0} s elapsed)",
+                        k + 1,
+                        todo.len(),
+                        started.elapsed().as_secs_f64()
+                    ),
+                    Err(e) => eprintln!("[{}/{}] {name}: FAILED: {e}", k + 1, todo.len()),
+                }
+            }
+            results
+                .lock()
+                .expect("no worker panicked")
+                .push((case.dir.clone(), result));
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 0..options.jobs.max(1).min(todo.len().max(1)) {
+            s.spawn(worker);
+        }
+    });
+    for (dir, result) in results.into_inner().expect("no worker panicked") {
+        match result {
+            Ok(_) => report.completed += 1,
+            Err(e) => report.failed.push((dir, e)),
+        }
+    }
+    report.failed.sort();
+    Ok(report)
+}

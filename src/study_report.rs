@@ -1,0 +1,731 @@
+//! Measuring a study's cases against their references: relative errors,
+//! the observed convergence order, the cheapest setting per error target,
+//! and the outputs `study.csv`, `study.md`, `study.json` and the charts.
+
+use crate::plot::{Chart, Scale, Series};
+use crate::study::{Case, Quantity, Reference, Resolution, Study, StudyError, bending_kappa};
+use crate::study_reference::{Value, sphere_bending, spheroid_bending};
+use serde::Serialize;
+use std::collections::HashMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// Error targets the report answers "which setting, at what cost" for.
+pub const ERROR_TARGETS: [f64; 3] = [1e-2, 1e-3, 1e-4];
+
+/// One measured quantity of a case against its reference.
+#[derive(Clone, Debug, Serialize)]
+pub struct Measurement {
+    /// Name, e.g. `E_b/8πκ`.
+    pub quantity: String,
+    /// The case's value.
+    pub measured: f64,
+    /// The reference value.
+    pub reference: f64,
+    /// The reference's estimated absolute error.
+    pub reference_error: f64,
+    /// |measured − reference| / |reference|.
+    pub error: f64,
+}
+
+/// One case's outcome.
+#[derive(Clone, Debug, Serialize)]
+pub struct CaseResult {
+    /// Rung label.
+    pub rung: String,
+    /// Resolution of the rung (its `h`, else N^(-1/2)).
+    pub h: f64,
+    /// Vertices of the initial mesh.
+    pub vertices: usize,
+    /// Iterations run.
+    pub iterations: u64,
+    /// Simulated time (s).
+    pub simulated_time: f64,
+    /// Wall time of the whole run (s).
+    pub wall_s: f64,
+    /// The cost the charts use: the systems' time per iteration for a
+    /// static problem (building and output excluded), the whole wall time
+    /// otherwise (s).
+    pub cost_s: f64,
+    /// `completed`, `blew_up`, or `failed: reason`.
+    pub status: String,
+    /// The case is the problem's reference (its finest rung).
+    pub is_reference: bool,
+    /// The measurements, the primary one first (empty unless completed).
+    pub measurements: Vec<Measurement>,
+    /// What else the reference compared (the reduced volume it was solved
+    /// at, the shape classes), or empty.
+    pub note: String,
+}
+
+impl CaseResult {
+    /// The primary relative error, if the case completed and is not the
+    /// reference itself.
+    pub fn primary_error(&self) -> Option<f64> {
+        (!self.is_reference)
+            .then(|| self.measurements.first().map(|m| m.error))
+            .flatten()
+            .filter(|e| e.is_finite())
+    }
+}
+
+/// The observed order p of error ∝ h^p.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Order {
+    /// Least-squares slope of ln(error) against ln(h).
+    pub p: f64,
+    /// Its standard error (NaN with only two points).
+    pub std_error: f64,
+    /// Points in the fit.
+    pub points: usize,
+}
+
+/// The cheapest case that reaches an error target.
+#[derive(Clone, Debug, Serialize)]
+pub struct Cheapest {
+    /// The target relative error.
+    pub target: f64,
+    /// The rung and its cost (s), if any case reached the target.
+    pub rung: Option<(String, f64)>,
+}
+
+/// One problem's results.
+#[derive(Clone, Debug, Serialize)]
+pub struct ProblemResult {
+    /// Name.
+    pub name: String,
+    /// Description.
+    pub description: String,
+    /// What `cost_s` is.
+    pub cost_label: String,
+    /// What `h` is.
+    pub h_label: String,
+    /// The cases, in ladder order.
+    pub cases: Vec<CaseResult>,
+    /// Observed order of the primary error.
+    pub order: Option<Order>,
+    /// The cheapest rung per error target.
+    pub cheapest: Vec<Cheapest>,
+}
+
+/// A study's results.
+#[derive(Clone, Debug, Serialize)]
+pub struct StudyReport {
+    /// The study's name.
+    pub name: String,
+    /// Per problem.
+    pub problems: Vec<ProblemResult>,
+}
+
+/// A run directory's outputs needed here.
+struct RunData {
+    summary: serde_json::Value,
+    first_row: HashMap<String, f64>,
+}
+
+fn read_run(dir: &Path) -> Result<RunData, String> {
+    let text = std::fs::read_to_string(dir.join("summary.json"))
+        .map_err(|e| format!("no summary.json: {e}"))?;
+    let summary: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("summary.json: {e}"))?;
+    let series = std::fs::read_to_string(dir.join("series.csv"))
+        .map_err(|e| format!("no series.csv: {e}"))?;
+    let mut lines = series.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let row: Vec<f64> = lines
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(|v| v.parse().unwrap_or(f64::NAN))
+        .collect();
+    let first_row = header
+        .iter()
+        .zip(row)
+        .map(|(h, v)| (h.to_string(), v))
+        .collect();
+    Ok(RunData { summary, first_row })
+}
+
+fn number(v: &serde_json::Value, key: &str) -> f64 {
+    v.get(key).and_then(|x| x.as_f64()).unwrap_or(f64::NAN)
+}
+
+/// The final bending energy in a summary.
+fn final_bending(summary: &serde_json::Value) -> f64 {
+    summary
+        .get("energies")
+        .and_then(|e| e.as_array())
+        .and_then(|terms| {
+            terms
+                .iter()
+                .find(|t| t.get("term").and_then(|n| n.as_str()) == Some("bending"))
+        })
+        .map_or(f64::NAN, |t| number(t, "energy"))
+}
+
+fn quantity(summary: &serde_json::Value, q: Quantity) -> f64 {
+    match q {
+        Quantity::ReducedVolume => number(summary, "reduced_volume"),
+        Quantity::BendingEnergy => final_bending(summary),
+        Quantity::TotalEnergy => number(summary, "total_energy"),
+        Quantity::Area => number(summary, "area"),
+        Quantity::Volume => number(summary, "volume"),
+    }
+}
+
+fn measure(quantity: &str, measured: f64, reference: Value) -> Measurement {
+    Measurement {
+        quantity: quantity.into(),
+        measured,
+        reference: reference.value,
+        reference_error: reference.error,
+        error: ((measured - reference.value) / reference.value).abs(),
+    }
+}
+
+/// The axisymmetric reference's measurements of a final mesh.
+fn axisymmetric_measurements(
+    dir: &Path,
+    summary: &serde_json::Value,
+    kappa: f64,
+) -> Result<(Vec<Measurement>, String), String> {
+    let v = number(summary, "reduced_volume");
+    let area = number(summary, "area");
+    let r0 = (area / (4.0 * PI)).sqrt();
+    let exact =
+        crate::axisymmetric::converged(v).map_err(|e| format!("reference at v = {v}: {e}"))?;
+    let mesh = crate::mesh::io::read_mesh(&dir.join("final.ply")).map_err(|e| e.to_string())?;
+    let t = crate::shape::axial_thickness(&mesh.positions, &mesh.faces);
+    let value = |x: crate::axisymmetric::Extrapolated| Value {
+        value: x.value,
+        error: x.error,
+    };
+    let class = summary
+        .get("shape")
+        .and_then(|s| s.get("class"))
+        .and_then(|c| c.as_str())
+        .unwrap_or("unknown");
+    let note = format!(
+        "solved at the case's v = {v:.4}; shape: mesh {class}, reference {}",
+        if exact.biconcave {
+            "discocyte"
+        } else {
+            "convex"
+        }
+    );
+    let measurements = vec![
+        measure(
+            "E_b/8πκ",
+            final_bending(summary) / (8.0 * PI * kappa),
+            value(exact.energy_over_8pi_kappa),
+        ),
+        measure("D/R0", t.diameter / r0, value(exact.diameter)),
+        measure("t_max/R0", t.max / r0, value(exact.max_thickness)),
+        measure("t_centre/R0", t.centre / r0, value(exact.centre_thickness)),
+    ];
+    Ok((measurements, note))
+}
+
+/// Measures every case (finished ones; others are reported with their
+/// status) against its problem's reference.
+pub fn evaluate(study: &Study, cases: &[Case], out: &Path) -> Result<StudyReport, StudyError> {
+    let mut problems = Vec::new();
+    for (p, problem) in study.problems.iter().enumerate() {
+        let mine: Vec<&Case> = cases.iter().filter(|c| c.problem == p).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let mut runs = Vec::new();
+        for case in &mine {
+            let dir = out.join(&case.dir);
+            runs.push((case, dir.clone(), read_run(&dir)));
+        }
+        // Each case's resolution: the rung's h, else the problem's rule.
+        let h_of = |case: &Case, run: &Result<RunData, String>| {
+            problem.rungs[case.rung].h.unwrap_or_else(|| match run {
+                Ok(d) => match problem.resolution {
+                    Resolution::Vertices => {
+                        1.0 / d
+                            .first_row
+                            .get("vertices")
+                            .copied()
+                            .unwrap_or(f64::NAN)
+                            .sqrt()
+                    }
+                    Resolution::MeanStep => {
+                        number(&d.summary, "simulated_time") / number(&d.summary, "iterations")
+                    }
+                },
+                Err(_) => f64::NAN,
+            })
+        };
+        // FinestRung: the reference is the finished case with the smallest h.
+        let finest = match problem.reference {
+            Reference::FinestRung(q) => runs
+                .iter()
+                .filter(|(c, _, r)| {
+                    r.as_ref().is_ok_and(|d| status(d) == "completed") && h_of(c, r).is_finite()
+                })
+                .min_by(|a, b| h_of(a.0, &a.2).total_cmp(&h_of(b.0, &b.2)))
+                .map(|(c, _, r)| {
+                    let d = r.as_ref().expect("filtered to finished runs");
+                    (c.rung, quantity(&d.summary, q))
+                }),
+            _ => None,
+        };
+        let mut results = Vec::new();
+        for (case, dir, run) in &runs {
+            let rung = &problem.rungs[case.rung];
+            let (data, st) = match run {
+                Ok(d) => (Some(d), status(d)),
+                Err(e) => (None, format!("failed: {e}")),
+            };
+            let vertices = data
+                .map(|d| d.first_row.get("vertices").copied().unwrap_or(f64::NAN))
+                .unwrap_or(f64::NAN);
+            let iterations = data.map_or(0, |d| number(&d.summary, "iterations") as u64);
+            let wall = data.map_or(f64::NAN, |d| number(&d.summary, "wall_time_s"));
+            let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
+            let mut measurements = Vec::new();
+            let mut note = String::new();
+            if let Some(d) = data.filter(|_| st == "completed") {
+                match problem.reference {
+                    Reference::SphereBending => measurements.push(measure(
+                        "E_b",
+                        d.first_row
+                            .get("energy_bending")
+                            .copied()
+                            .unwrap_or(f64::NAN),
+                        sphere_bending(kappa),
+                    )),
+                    Reference::SpheroidBending => {
+                        if let crate::scene::MembraneSource::Ellipsoid {
+                            semi_axes: (a, _, c),
+                            ..
+                        } = case.scene.membrane
+                        {
+                            measurements.push(measure(
+                                "E_b",
+                                d.first_row
+                                    .get("energy_bending")
+                                    .copied()
+                                    .unwrap_or(f64::NAN),
+                                spheroid_bending(a, c, kappa),
+                            ));
+                        }
+                    }
+                    Reference::Axisymmetric => {
+                        (measurements, note) = axisymmetric_measurements(dir, &d.summary, kappa)
+                            .map_err(|reason| StudyError::File {
+                                path: dir.clone(),
+                                reason,
+                            })?;
+                    }
+                    Reference::FinestRung(q) => {
+                        if let Some((_, value)) = finest {
+                            measurements.push(measure(
+                                q.name(),
+                                quantity(&d.summary, q),
+                                Value { value, error: 0.0 },
+                            ));
+                        }
+                    }
+                }
+            }
+            let h = h_of(case, run);
+            results.push(CaseResult {
+                rung: rung.label.clone(),
+                h,
+                vertices: if vertices.is_finite() {
+                    vertices as usize
+                } else {
+                    0
+                },
+                iterations,
+                simulated_time: data.map_or(f64::NAN, |d| number(&d.summary, "simulated_time")),
+                wall_s: wall,
+                cost_s: match data {
+                    Some(d) if problem.reference.is_static() => {
+                        systems_time(&d.summary) / iterations.max(1) as f64
+                    }
+                    _ => wall,
+                },
+                status: st,
+                is_reference: finest.is_some_and(|(r, _)| r == case.rung),
+                measurements,
+                note,
+            });
+        }
+        let order = fit_order(&results);
+        let cheapest = ERROR_TARGETS
+            .iter()
+            .map(|&target| Cheapest {
+                target,
+                rung: results
+                    .iter()
+                    .filter(|c| c.primary_error().is_some_and(|e| e <= target))
+                    .min_by(|a, b| a.cost_s.total_cmp(&b.cost_s))
+                    .map(|c| (c.rung.clone(), c.cost_s)),
+            })
+            .collect();
+        problems.push(ProblemResult {
+            name: problem.name.clone(),
+            description: problem.description.clone(),
+            cost_label: if problem.reference.is_static() {
+                "systems' time per iteration (s)".into()
+            } else {
+                "wall time of the run (s)".into()
+            },
+            h_label: match problem.resolution {
+                _ if problem.rungs.iter().all(|r| r.h.is_some()) => {
+                    "h (as declared by the rungs)".into()
+                }
+                Resolution::Vertices => "h = N^(-1/2) (N vertices)".into(),
+                Resolution::MeanStep => "mean time step (s)".into(),
+            },
+            cases: results,
+            order,
+            cheapest,
+        });
+    }
+    Ok(StudyReport {
+        name: study.name.clone(),
+        problems,
+    })
+}
+
+/// Time spent in the systems over the run (s): the wall time without
+/// scene building and output.
+fn systems_time(summary: &serde_json::Value) -> f64 {
+    summary
+        .get("timings")
+        .and_then(|t| t.as_array())
+        .map_or(f64::NAN, |t| t.iter().map(|s| number(s, "total_s")).sum())
+}
+
+fn status(d: &RunData) -> String {
+    d.summary
+        .get("status")
+        .and_then(|s| s.as_str())
+        .unwrap_or("unknown")
+        .to_string()
+}
+
+/// Least-squares slope of ln(primary error) against ln(h).
+pub fn fit_order(cases: &[CaseResult]) -> Option<Order> {
+    let points: Vec<(f64, f64)> = cases
+        .iter()
+        .filter_map(|c| {
+            let e = c.primary_error()?;
+            (e > 0.0 && c.h > 0.0 && c.h.is_finite()).then(|| (c.h.ln(), e.ln()))
+        })
+        .collect();
+    let n = points.len();
+    if n < 2 {
+        return None;
+    }
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n as f64;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n as f64;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx;
+    let residual: f64 = points
+        .iter()
+        .map(|p| (p.1 - my - slope * (p.0 - mx)).powi(2))
+        .sum();
+    let std_error = if n > 2 {
+        (residual / (n - 2) as f64 / sxx).sqrt()
+    } else {
+        f64::NAN
+    };
+    Some(Order {
+        p: slope,
+        std_error,
+        points: n,
+    })
+}
+
+/// Points not dominated in (cost, error): no other case is both cheaper
+/// and at least as accurate. Sorted by cost.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut sorted: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut front: Vec<(f64, f64)> = Vec::new();
+    for p in sorted {
+        if front.last().is_none_or(|last| p.1 < last.1) {
+            front.push(p);
+        }
+    }
+    front
+}
+
+fn sig(v: f64) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    format!("{v:.3e}")
+}
+
+/// The Markdown report.
+pub fn markdown(report: &StudyReport) -> String {
+    let mut s = format!("# Study `{}`: speed against error\n\n", report.name);
+    for p in &report.problems {
+        s += &format!("## {}\n\n", p.name);
+        if !p.description.is_empty() {
+            s += &format!("{}\n\n", p.description);
+        }
+        let quantities: Vec<String> = p
+            .cases
+            .iter()
+            .find(|c| !c.measurements.is_empty())
+            .map(|c| c.measurements.iter().map(|m| m.quantity.clone()).collect())
+            .unwrap_or_default();
+        s += "| rung | N | h | iterations | wall (s) | cost (s) |";
+        for q in &quantities {
+            s += &format!(" {q} | error |");
+        }
+        s += " status |\n|---|---:|---:|---:|---:|---:|";
+        for _ in &quantities {
+            s += "---:|---:|";
+        }
+        s += "---|\n";
+        for c in &p.cases {
+            s += &format!(
+                "| {} | {} | {} | {} | {:.3} | {} |",
+                c.rung,
+                c.vertices,
+                sig(c.h),
+                c.iterations,
+                c.wall_s,
+                sig(c.cost_s)
+            );
+            for k in 0..quantities.len() {
+                match c.measurements.get(k) {
+                    Some(m) if c.is_reference => {
+                        s += &format!(" {:.6} | (reference) |", m.measured)
+                    }
+                    Some(m) => s += &format!(" {:.6} | {} |", m.measured, sig(m.error)),
+                    None => s += " – | – |",
+                }
+            }
+            s += &format!(" {} |\n", c.status);
+        }
+        let reference_line = |c: &CaseResult| {
+            c.measurements
+                .iter()
+                .map(|m| {
+                    if m.reference_error > 0.0 {
+                        format!(
+                            "{} = {:.6} ± {:.1e}",
+                            m.quantity, m.reference, m.reference_error
+                        )
+                    } else {
+                        format!("{} = {:.6}", m.quantity, m.reference)
+                    }
+                })
+                .collect::<Vec<String>>()
+                .join(", ")
+        };
+        let measured: Vec<&CaseResult> = p
+            .cases
+            .iter()
+            .filter(|c| !c.measurements.is_empty())
+            .collect();
+        let lines: Vec<String> = measured.iter().map(|c| reference_line(c)).collect();
+        if lines.windows(2).all(|w| w[0] == w[1]) {
+            if let Some(line) = lines.first() {
+                s += &format!("\nReference: {line}.\n");
+            }
+        } else {
+            s += "\nReference per case (each at the case's own state):\n";
+            for (c, line) in measured.iter().zip(&lines) {
+                let note = if c.note.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", c.note)
+                };
+                s += &format!("- `{}`: {line}{note}\n", c.rung);
+            }
+        }
+        match p.order {
+            Some(o) if o.std_error.is_finite() => {
+                s += &format!(
+                    "Observed order of the {} error: p = {:.2} ± {:.2} ({} points; error ∝ h^p, {}).\n",
+                    quantities.first().map_or("", String::as_str),
+                    o.p,
+                    o.std_error,
+                    o.points,
+                    p.h_label
+                )
+            }
+            Some(o) => {
+                s += &format!(
+                    "Observed order: p = {:.2} (2 points; {}).\n",
+                    o.p, p.h_label
+                )
+            }
+            None => s += "Observed order: not enough finished cases.\n",
+        }
+        for c in &p.cheapest {
+            match &c.rung {
+                Some((rung, cost)) => {
+                    s += &format!(
+                        "- error ≤ {:.0e}: `{rung}`, {} ({})\n",
+                        c.target,
+                        sig(*cost),
+                        p.cost_label
+                    )
+                }
+                None => s += &format!("- error ≤ {:.0e}: not reached\n", c.target),
+            }
+        }
+        s += "\n";
+    }
+    s
+}
+
+/// The long-format CSV: one row per (case, quantity).
+pub fn csv(report: &StudyReport) -> String {
+    let mut s = String::from(
+        "problem,rung,h,vertices,iterations,simulated_time_s,wall_s,cost_s,status,is_reference,quantity,measured,reference,reference_error,relative_error\n",
+    );
+    for p in &report.problems {
+        for c in &p.cases {
+            let head = format!(
+                "{},{},{:e},{},{},{:e},{:e},{:e},{},{}",
+                p.name,
+                c.rung,
+                c.h,
+                c.vertices,
+                c.iterations,
+                c.simulated_time,
+                c.wall_s,
+                c.cost_s,
+                c.status.replace(',', ";"),
+                c.is_reference
+            );
+            if c.measurements.is_empty() {
+                s += &format!("{head},,,,,\n");
+            }
+            for m in &c.measurements {
+                s += &format!(
+                    "{head},{},{:e},{:e},{:e},{:e}\n",
+                    m.quantity, m.measured, m.reference, m.reference_error, m.error
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The charts of one problem: error against cost with the Pareto front,
+/// and error against h with the fitted order.
+pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
+    let quantity = p
+        .cases
+        .iter()
+        .find_map(|c| c.measurements.first())
+        .map_or("error".to_string(), |m| {
+            format!("relative error of {}", m.quantity)
+        });
+    let points: Vec<(f64, f64)> = p
+        .cases
+        .iter()
+        .filter_map(|c| Some((c.cost_s, c.primary_error()?)))
+        .collect();
+    let cost = Chart {
+        title: format!("{}: error against cost", p.name),
+        x_label: p.cost_label.clone(),
+        y_label: quantity.clone(),
+        x_scale: Scale::Log,
+        y_scale: Scale::Log,
+        series: vec![
+            Series {
+                name: "cases".into(),
+                points: points.clone(),
+                markers: true,
+                ..Default::default()
+            },
+            Series {
+                name: "Pareto front".into(),
+                points: pareto_front(&points),
+                lines: true,
+                color: 3,
+                ..Default::default()
+            },
+        ],
+    };
+    let by_h: Vec<(f64, f64)> = p
+        .cases
+        .iter()
+        .filter_map(|c| Some((c.h, c.primary_error()?)))
+        .collect();
+    let mut series = vec![Series {
+        name: "cases".into(),
+        points: by_h.clone(),
+        markers: true,
+        ..Default::default()
+    }];
+    if let Some(o) = p.order {
+        // The fitted line through the points' centroid in log-log.
+        let n = by_h.len() as f64;
+        let mx = by_h.iter().map(|q| q.0.ln()).sum::<f64>() / n;
+        let my = by_h.iter().map(|q| q.1.ln()).sum::<f64>() / n;
+        let (lo, hi) = by_h.iter().fold((f64::INFINITY, 0.0f64), |(a, b), q| {
+            (a.min(q.0), b.max(q.0))
+        });
+        let line = |h: f64| (h, (my + o.p * (h.ln() - mx)).exp());
+        series.push(Series {
+            name: format!("fit: p = {:.2}", o.p),
+            points: vec![line(lo), line(hi)],
+            lines: true,
+            color: 1,
+            ..Default::default()
+        });
+    }
+    let resolution = Chart {
+        title: format!("{}: convergence", p.name),
+        x_label: p.h_label.clone(),
+        y_label: quantity,
+        x_scale: Scale::Log,
+        y_scale: Scale::Log,
+        series,
+    };
+    [
+        (
+            format!("{}_error_vs_cost.png", p.name),
+            crate::plot::chart(&cost),
+        ),
+        (
+            format!("{}_error_vs_h.png", p.name),
+            crate::plot::chart(&resolution),
+        ),
+    ]
+}
+
+/// Writes `study.csv`, `study.md`, `study.json` and the charts into `out`.
+pub fn write_report(report: &StudyReport, out: &Path) -> Result<(), StudyError> {
+    let write = |name: &str, bytes: &[u8]| {
+        let path = out.join(name);
+        crate::atomic_write(&path, bytes).map_err(|e| StudyError::Output {
+            path: path.clone(),
+            reason: e.to_string(),
+        })
+    };
+    write("study.csv", csv(report).as_bytes())?;
+    write("study.md", markdown(report).as_bytes())?;
+    let json = serde_json::to_string_pretty(report).expect("the report serialises");
+    write("study.json", json.as_bytes())?;
+    for p in &report.problems {
+        for (name, png) in charts(p) {
+            write(&name, &png)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,183 @@
+//! The speed-against-error study: `remembrane study` on the bundled
+//! accuracy study's `--quick` ladder (convergence orders, the RBC against
+//! the axisymmetric reference, time-step errors), resumption, and errors in
+//! study files.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn binary() -> &'static str {
+    env!("CARGO_BIN_EXE_remembrane")
+}
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+/// The problem `name` of a study.json.
+fn problem<'a>(report: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
+    report["problems"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == name)
+        .unwrap_or_else(|| panic!("no problem {name}"))
+}
+
+/// (rung, primary relative error) of each measured, non-reference case.
+fn errors(problem: &serde_json::Value) -> Vec<(String, f64)> {
+    problem["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["is_reference"] == false && !c["measurements"][0].is_null())
+        .map(|c| {
+            (
+                c["rung"].as_str().unwrap().to_string(),
+                c["measurements"][0]["error"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("accuracy");
+    let run = || {
+        Command::new(binary())
+            .args(["study", "scenes/studies/accuracy.ron", "--quick", "--out"])
+            .arg(&out)
+            .current_dir(repo(""))
+            .output()
+            .unwrap()
+    };
+    let first = run();
+    let stderr = String::from_utf8_lossy(&first.stderr);
+    assert!(first.status.success(), "{stderr}");
+    let table = String::from_utf8_lossy(&first.stdout);
+    assert!(
+        table.contains("## sphere") && table.contains("Observed order"),
+        "{table}"
+    );
+
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("study.json")).unwrap()).unwrap();
+
+    // The sphere's and the smooth spheroid's energies converge at second
+    // order in the edge length (levels 2-4).
+    for name in ["sphere", "spheroid"] {
+        let p = problem(&report, name);
+        let order = p["order"]["p"].as_f64().unwrap();
+        assert!((1.8..2.2).contains(&order), "{name}: order {order}");
+        let e = errors(p);
+        assert!(e.windows(2).all(|w| w[1].1 < w[0].1), "{name}: {e:?}");
+    }
+    // Level 3's sphere error is the known -4.74e-3 (README, peers).
+    let sphere = errors(problem(&report, "sphere"));
+    assert!((sphere[1].1 - 4.74e-3).abs() < 1e-5, "{sphere:?}");
+
+    // The red blood cell against the axisymmetric minimiser at its own v:
+    // every measure's error falls from level 3 to level 4, and both are
+    // discocytes like the reference.
+    let rbc = problem(&report, "rbc");
+    let cases = rbc["cases"].as_array().unwrap();
+    assert!(cases.len() >= 2, "{rbc}");
+    for k in 0..4 {
+        let e: Vec<f64> = cases
+            .iter()
+            .map(|c| c["measurements"][k]["error"].as_f64().unwrap())
+            .collect();
+        let q = &cases[0]["measurements"][k]["quantity"];
+        assert!(e.windows(2).all(|w| w[1] < w[0]), "{q}: {e:?}");
+    }
+    for c in cases {
+        let note = c["note"].as_str().unwrap();
+        assert!(
+            note.contains("mesh discocyte, reference discocyte"),
+            "{note}"
+        );
+    }
+
+    // The time-step error of the area after 5 ms falls with the mean step.
+    let steps = problem(&report, "time_step_area");
+    let e = errors(steps);
+    assert!(
+        e.len() >= 2 && e.windows(2).all(|w| w[1].1 < w[0].1),
+        "{e:?}"
+    );
+
+    for file in [
+        "study.csv",
+        "study.md",
+        "sphere_error_vs_cost.png",
+        "sphere_error_vs_h.png",
+        "rbc_error_vs_cost.png",
+    ] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    assert!(csv.lines().count() > 10, "{csv}");
+    assert!(out.join("cases/sphere/level3/summary.json").is_file());
+
+    // A second call finds every case done and runs none.
+    let second = run();
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert!(second.status.success(), "{stderr}");
+    assert!(stderr.contains(", 0 run now,"), "{stderr}");
+}
+
+#[test]
+fn bad_study_files_name_the_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo("scenes/studies/sphere_bending.ron");
+    let cases = [
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a", set: [("membrane.Icosphere.level", 99)])])])"#,
+                scene.display()
+            ),
+            "membrane.level",
+        ),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SpheroidBending, rungs: [(label: "a")])])"#,
+                scene.display()
+            ),
+            "problems[0].rungs[0]",
+        ),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a"), (label: "a")])])"#,
+                scene.display()
+            ),
+            "problems[0].rungs[1].label",
+        ),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a")], quick: Some([3]))])"#,
+                scene.display()
+            ),
+            "problems[0].quick",
+        ),
+        (r#"Study(name: "s", problems: [])"#.to_string(), "problems"),
+        (r#"Study(name: "s", problem: [])"#.to_string(), "problem"),
+    ];
+    for (k, (text, field)) in cases.iter().enumerate() {
+        let path = dir.path().join(format!("bad{k}.ron"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join(format!("out{k}"));
+        let result = Command::new(binary())
+            .arg("study")
+            .arg(&path)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert_eq!(result.status.code(), Some(2), "{k}: {stderr}");
+        assert!(stderr.contains(&format!("bad{k}.ron")), "{k}: {stderr}");
+        assert!(stderr.contains(field), "{k}: {stderr}");
+        assert!(!out.exists(), "{k}: output written for a bad study");
+    }
+}
