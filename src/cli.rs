@@ -158,6 +158,9 @@ enum Command {
         /// Only the rungs each problem lists in `quick` (the CI ladder).
         #[arg(long)]
         quick: bool,
+        /// Do not run the study's peer engines.
+        #[arg(long)]
+        no_peers: bool,
         /// No per-case progress lines.
         #[arg(long)]
         quiet: bool,
@@ -277,8 +280,9 @@ where
             out,
             jobs,
             quick,
+            no_peers,
             quiet,
-        } => study_command(&study, out, jobs, quick, quiet),
+        } => study_command(&study, out, jobs, quick, no_peers, quiet),
         other => match run(other) {
             Ok(()) => ExitCode::SUCCESS,
             Err(message) => {
@@ -779,6 +783,7 @@ fn study_command(
     out: Option<PathBuf>,
     jobs: usize,
     quick: bool,
+    no_peers: bool,
     quiet: bool,
 ) -> ExitCode {
     use crate::study::{Study, StudyOptions, run_cases, selected};
@@ -816,7 +821,12 @@ fn study_command(
     for (dir, e) in &ran.failed {
         eprintln!("error: {}: {e}", options.out.join(dir).display());
     }
-    let report = match crate::study_report::evaluate(&study, &cases, &options.out)
+    let peers = if no_peers {
+        Vec::new()
+    } else {
+        crate::study_peer::run_peers(&study, path, &cases, &options.out, quiet)
+    };
+    let report = match crate::study_report::evaluate(&study, &cases, &peers, &options.out)
         .and_then(|r| crate::study_report::write_report(&r, &options.out).map(|()| r))
     {
         Ok(r) => r,

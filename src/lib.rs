@@ -63,6 +63,7 @@ pub mod simulation;
 pub mod spectrum;
 pub mod state;
 pub mod study;
+pub mod study_peer;
 pub mod study_reference;
 pub mod study_report;
 pub mod sweep;

@@ -84,6 +84,18 @@ pub struct Chart {
     pub y_scale: Scale,
     /// The series, drawn in order.
     pub series: Vec<Series>,
+    /// Where the legend goes (default upper right).
+    pub legend: Legend,
+}
+
+/// Where a chart's legend goes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Legend {
+    /// Upper right (for falling data).
+    #[default]
+    UpperRight,
+    /// Lower right (for rising data).
+    LowerRight,
 }
 
 /// A panel of a bar chart: one bar per label, each labelled with its value.
@@ -198,6 +210,21 @@ fn tick_label(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
+/// A tick label; on a log axis only at 1, 2, 3 and 5 times a power of ten,
+/// so that the minor grid lines stay unlabelled.
+fn axis_label(v: f64, log: bool) -> String {
+    if log && v > 0.0 {
+        let mantissa = v / 10f64.powf(v.log10().floor());
+        if ![1.0, 2.0, 3.0, 5.0, 10.0]
+            .iter()
+            .any(|m| (mantissa - m).abs() < 1e-6 * m)
+        {
+            return String::new();
+        }
+    }
+    tick_label(v)
+}
+
 fn draw_chart(root: &DrawingArea<BitMapBackend<'_>, Shift>, spec: &Chart) -> Result<(), String> {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
@@ -241,6 +268,8 @@ where
     Y::CoordDescType: ValueFormatter<f64>,
 {
     let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+    let log_x = spec.x_scale == Scale::Log;
+    let log_y = spec.y_scale == Scale::Log;
     let mut chart = ChartBuilder::on(root)
         .caption(&spec.title, (FONT, 22))
         .margin(12)
@@ -254,14 +283,14 @@ where
         .y_desc(spec.y_label.as_str())
         .label_style((FONT, 15))
         .axis_desc_style((FONT, 17))
-        .x_label_formatter(&|v| tick_label(*v))
-        .y_label_formatter(&|v| tick_label(*v))
+        .x_labels(if log_x { 20 } else { 8 })
+        .y_labels(if log_y { 20 } else { 8 })
+        .x_label_formatter(&|v| axis_label(*v, log_x))
+        .y_label_formatter(&|v| axis_label(*v, log_y))
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(210, 210, 210))
         .draw()
         .map_err(err)?;
-    let log_x = spec.x_scale == Scale::Log;
-    let log_y = spec.y_scale == Scale::Log;
     let shown = |p: &(f64, f64)| {
         p.0.is_finite() && p.1.is_finite() && (!log_x || p.0 > 0.0) && (!log_y || p.1 > 0.0)
     };
@@ -330,7 +359,10 @@ where
     if named {
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(match spec.legend {
+                Legend::UpperRight => SeriesLabelPosition::UpperRight,
+                Legend::LowerRight => SeriesLabelPosition::LowerRight,
+            })
             .label_font((FONT, 15))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
@@ -447,6 +479,7 @@ mod tests {
                     ..Default::default()
                 },
             ],
+            legend: Legend::UpperRight,
         });
         let (w, h, pixels) = decode(&png);
         assert_eq!((w, h), (WIDTH, HEIGHT));

@@ -27,6 +27,10 @@ pub struct Study {
     pub name: String,
     /// The reference problems, in order.
     pub problems: Vec<Problem>,
+    /// Peer engines run on the same problems (default none; skipped with
+    /// `--no-peers`).
+    #[serde(default)]
+    pub peers: Vec<crate::study_peer::Peer>,
 }
 
 /// One reference problem and its ladder of settings.
@@ -194,6 +198,13 @@ impl Study {
                 e.span.start.line, e.span.start.col, e.code
             ))
         })?;
+        for (k, peer) in study.peers.iter().enumerate() {
+            if !crate::sweep::valid_name(&peer.name) || peer.command.is_empty() {
+                return Err(bad(format!(
+                    "field `peers[{k}]`: needs a plain directory name and a non-empty command"
+                )));
+            }
+        }
         if study.problems.is_empty() {
             return Err(bad("field `problems`: the study declares no problem".into()));
         }

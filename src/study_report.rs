@@ -2,8 +2,9 @@
 //! the observed convergence order, the cheapest setting per error target,
 //! and the outputs `study.csv`, `study.md`, `study.json` and the charts.
 
-use crate::plot::{Chart, Scale, Series};
+use crate::plot::{Chart, Legend, Marker, Scale, Series};
 use crate::study::{Case, Quantity, Reference, Resolution, Study, StudyError, bending_kappa};
+use crate::study_peer::{PeerOutput, PeerRun};
 use crate::study_reference::{Value, sphere_bending, spheroid_bending};
 use serde::Serialize;
 use std::collections::HashMap;
@@ -31,6 +32,8 @@ pub struct Measurement {
 /// One case's outcome.
 #[derive(Clone, Debug, Serialize)]
 pub struct CaseResult {
+    /// `remembrane`, or the peer's name.
+    pub engine: String,
     /// Rung label.
     pub rung: String,
     /// Resolution of the rung (its `h`, else N^(-1/2)).
@@ -102,6 +105,8 @@ pub struct ProblemResult {
     pub h_label: String,
     /// The cases, in ladder order.
     pub cases: Vec<CaseResult>,
+    /// The peers' cases, by peer and ladder order.
+    pub peers: Vec<CaseResult>,
     /// Observed order of the primary error.
     pub order: Option<Order>,
     /// The cheapest rung per error target.
@@ -183,30 +188,31 @@ fn measure(quantity: &str, measured: f64, reference: Value) -> Measurement {
     }
 }
 
-/// The axisymmetric reference's measurements of a final mesh.
+/// The axisymmetric reference's measurements of a final mesh: the
+/// reference is solved at the mesh's reduced volume `v`; R0 = √(A/4π).
 fn axisymmetric_measurements(
-    dir: &Path,
-    summary: &serde_json::Value,
+    mesh_path: &Path,
+    energy_bending: f64,
+    area: f64,
+    v: f64,
     kappa: f64,
 ) -> Result<(Vec<Measurement>, String), String> {
-    let v = number(summary, "reduced_volume");
-    let area = number(summary, "area");
     let r0 = (area / (4.0 * PI)).sqrt();
     let exact =
         crate::axisymmetric::converged(v).map_err(|e| format!("reference at v = {v}: {e}"))?;
-    let mesh = crate::mesh::io::read_mesh(&dir.join("final.ply")).map_err(|e| e.to_string())?;
+    let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
     let t = crate::shape::axial_thickness(&mesh.positions, &mesh.faces);
+    let class = crate::shape::shape_metrics(&mesh.positions, &mesh.faces).class;
     let value = |x: crate::axisymmetric::Extrapolated| Value {
         value: x.value,
         error: x.error,
     };
-    let class = summary
-        .get("shape")
-        .and_then(|s| s.get("class"))
-        .and_then(|c| c.as_str())
-        .unwrap_or("unknown");
     let note = format!(
-        "solved at the case's v = {v:.4}; shape: mesh {class}, reference {}",
+        "solved at the case's v = {v:.4}; shape: mesh {}, reference {}",
+        serde_json::to_value(class)
+            .ok()
+            .and_then(|c| c.as_str().map(str::to_string))
+            .unwrap_or_default(),
         if exact.biconcave {
             "discocyte"
         } else {
@@ -216,7 +222,7 @@ fn axisymmetric_measurements(
     let measurements = vec![
         measure(
             "E_b/8πκ",
-            final_bending(summary) / (8.0 * PI * kappa),
+            energy_bending / (8.0 * PI * kappa),
             value(exact.energy_over_8pi_kappa),
         ),
         measure("D/R0", t.diameter / r0, value(exact.diameter)),
@@ -226,9 +232,54 @@ fn axisymmetric_measurements(
     Ok((measurements, note))
 }
 
+/// A peer's measurements against the problem's reference.
+fn peer_measurements(
+    reference: Reference,
+    case: &Case,
+    output: &PeerOutput,
+) -> Result<(Vec<Measurement>, String), String> {
+    let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
+    match reference {
+        Reference::SphereBending => Ok((
+            vec![measure("E_b", output.energy_bending, sphere_bending(kappa))],
+            String::new(),
+        )),
+        Reference::SpheroidBending => match case.scene.membrane {
+            crate::scene::MembraneSource::Ellipsoid {
+                semi_axes: (a, _, c),
+                ..
+            } => Ok((
+                vec![measure(
+                    "E_b",
+                    output.energy_bending,
+                    spheroid_bending(a, c, kappa),
+                )],
+                String::new(),
+            )),
+            _ => Err("not an ellipsoid".into()),
+        },
+        Reference::Axisymmetric => {
+            let mesh = output.mesh.as_ref().ok_or("the peer wrote no final mesh")?;
+            axisymmetric_measurements(
+                mesh,
+                output.energy_bending,
+                output.area.unwrap_or(f64::NAN),
+                output.reduced_volume.unwrap_or(f64::NAN),
+                kappa,
+            )
+        }
+        Reference::FinestRung(_) => Err("a time-step problem has no peer version".into()),
+    }
+}
+
 /// Measures every case (finished ones; others are reported with their
 /// status) against its problem's reference.
-pub fn evaluate(study: &Study, cases: &[Case], out: &Path) -> Result<StudyReport, StudyError> {
+pub fn evaluate(
+    study: &Study,
+    cases: &[Case],
+    peers: &[PeerRun],
+    out: &Path,
+) -> Result<StudyReport, StudyError> {
     let mut problems = Vec::new();
     for (p, problem) in study.problems.iter().enumerate() {
         let mine: Vec<&Case> = cases.iter().filter(|c| c.problem == p).collect();
@@ -315,11 +366,17 @@ pub fn evaluate(study: &Study, cases: &[Case], out: &Path) -> Result<StudyReport
                         }
                     }
                     Reference::Axisymmetric => {
-                        (measurements, note) = axisymmetric_measurements(dir, &d.summary, kappa)
-                            .map_err(|reason| StudyError::File {
-                                path: dir.clone(),
-                                reason,
-                            })?;
+                        (measurements, note) = axisymmetric_measurements(
+                            &dir.join("final.ply"),
+                            final_bending(&d.summary),
+                            number(&d.summary, "area"),
+                            number(&d.summary, "reduced_volume"),
+                            kappa,
+                        )
+                        .map_err(|reason| StudyError::File {
+                            path: dir.clone(),
+                            reason,
+                        })?;
                     }
                     Reference::FinestRung(q) => {
                         if let Some((_, value)) = finest {
@@ -334,6 +391,7 @@ pub fn evaluate(study: &Study, cases: &[Case], out: &Path) -> Result<StudyReport
             }
             let h = h_of(case, run);
             results.push(CaseResult {
+                engine: "remembrane".into(),
                 rung: rung.label.clone(),
                 h,
                 vertices: if vertices.is_finite() {
@@ -368,6 +426,39 @@ pub fn evaluate(study: &Study, cases: &[Case], out: &Path) -> Result<StudyReport
                     .map(|c| (c.rung.clone(), c.cost_s)),
             })
             .collect();
+        let mut peer_results = Vec::new();
+        for run in peers.iter().filter(|r| r.problem == p) {
+            let Some(case) = mine.iter().find(|c| c.rung == run.rung) else {
+                continue;
+            };
+            let rung = &problem.rungs[run.rung];
+            let (status, measurements, note, output) = match &run.result {
+                Ok(o) => match peer_measurements(problem.reference, case, o) {
+                    Ok((m, note)) => ("completed".to_string(), m, note, Some(o)),
+                    Err(e) => (format!("failed: {e}"), Vec::new(), String::new(), Some(o)),
+                },
+                Err(e) => (format!("failed: {e}"), Vec::new(), String::new(), None),
+            };
+            let vertices = output.map_or(0, |o| o.vertices);
+            peer_results.push(CaseResult {
+                engine: run.peer.clone(),
+                rung: rung.label.clone(),
+                h: rung.h.unwrap_or(1.0 / (vertices as f64).sqrt()),
+                vertices,
+                iterations: 0,
+                simulated_time: f64::NAN,
+                wall_s: output.map_or(f64::NAN, |o| o.wall_s),
+                cost_s: output.map_or(f64::NAN, |o| o.cost_s),
+                status,
+                is_reference: false,
+                measurements,
+                note: [note, output.map(|o| o.notes.clone()).unwrap_or_default()]
+                    .into_iter()
+                    .filter(|n| !n.is_empty())
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            });
+        }
         problems.push(ProblemResult {
             name: problem.name.clone(),
             description: problem.description.clone(),
@@ -384,6 +475,7 @@ pub fn evaluate(study: &Study, cases: &[Case], out: &Path) -> Result<StudyReport
                 Resolution::MeanStep => "mean time step (s)".into(),
             },
             cases: results,
+            peers: peer_results,
             order,
             cheapest,
         });
@@ -486,18 +578,19 @@ pub fn markdown(report: &StudyReport) -> String {
             .find(|c| !c.measurements.is_empty())
             .map(|c| c.measurements.iter().map(|m| m.quantity.clone()).collect())
             .unwrap_or_default();
-        s += "| rung | N | h | iterations | wall (s) | cost (s) |";
+        s += "| engine | rung | N | h | iterations | wall (s) | cost (s) |";
         for q in &quantities {
             s += &format!(" {q} | error |");
         }
-        s += " status |\n|---|---:|---:|---:|---:|---:|";
+        s += " status |\n|---|---|---:|---:|---:|---:|---:|";
         for _ in &quantities {
             s += "---:|---:|";
         }
         s += "---|\n";
-        for c in &p.cases {
+        for c in p.cases.iter().chain(&p.peers) {
             s += &format!(
-                "| {} | {} | {} | {} | {:.3} | {} |",
+                "| {} | {} | {} | {} | {} | {:.3} | {} |",
+                c.engine,
                 c.rung,
                 c.vertices,
                 sig(c.h),
@@ -553,6 +646,12 @@ pub fn markdown(report: &StudyReport) -> String {
                 s += &format!("- `{}`: {line}{note}\n", c.rung);
             }
         }
+        let mut noted = std::collections::BTreeSet::new();
+        for c in &p.peers {
+            if !c.note.is_empty() && noted.insert((c.engine.clone(), c.note.clone())) {
+                s += &format!("- {} `{}`: {}\n", c.engine, c.rung, c.note);
+            }
+        }
         match p.order {
             Some(o) if o.std_error.is_finite() => {
                 s += &format!(
@@ -593,12 +692,13 @@ pub fn markdown(report: &StudyReport) -> String {
 /// The long-format CSV: one row per (case, quantity).
 pub fn csv(report: &StudyReport) -> String {
     let mut s = String::from(
-        "problem,rung,h,vertices,iterations,simulated_time_s,wall_s,cost_s,status,is_reference,quantity,measured,reference,reference_error,relative_error\n",
+        "engine,problem,rung,h,vertices,iterations,simulated_time_s,wall_s,cost_s,status,is_reference,quantity,measured,reference,reference_error,relative_error\n",
     );
     for p in &report.problems {
-        for c in &p.cases {
+        for c in p.cases.iter().chain(&p.peers) {
             let head = format!(
-                "{},{},{:e},{},{},{:e},{:e},{:e},{},{}",
+                "{},{},{},{:e},{},{},{:e},{:e},{:e},{},{}",
+                c.engine,
                 p.name,
                 c.rung,
                 c.h,
@@ -622,6 +722,33 @@ pub fn csv(report: &StudyReport) -> String {
         }
     }
     s
+}
+
+/// One triangle-marked series per peer: (x(case), primary error).
+fn peer_series(p: &ProblemResult, x: fn(&CaseResult) -> f64) -> Vec<Series> {
+    let mut names: Vec<&str> = Vec::new();
+    for c in &p.peers {
+        if !names.contains(&c.engine.as_str()) {
+            names.push(&c.engine);
+        }
+    }
+    names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| Series {
+            name: (*name).to_string(),
+            points: p
+                .peers
+                .iter()
+                .filter(|c| c.engine == *name)
+                .filter_map(|c| Some((x(c), c.primary_error()?)))
+                .collect(),
+            markers: true,
+            marker: Marker::Triangle,
+            color: 2 + k,
+            ..Default::default()
+        })
+        .collect()
 }
 
 /// The charts of one problem: error against cost with the Pareto front,
@@ -659,7 +786,11 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
                 color: 3,
                 ..Default::default()
             },
-        ],
+        ]
+        .into_iter()
+        .chain(peer_series(p, |c| c.cost_s))
+        .collect(),
+        ..Default::default()
     };
     let by_h: Vec<(f64, f64)> = p
         .cases
@@ -689,6 +820,7 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
             ..Default::default()
         });
     }
+    series.extend(peer_series(p, |c| c.h));
     let resolution = Chart {
         title: format!("{}: convergence", p.name),
         x_label: p.h_label.clone(),
@@ -696,6 +828,7 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
         x_scale: Scale::Log,
         y_scale: Scale::Log,
         series,
+        legend: Legend::LowerRight,
     };
     [
         (
