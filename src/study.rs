@@ -7,8 +7,9 @@
 //! to the scene by dotted path (`membrane.Icosphere.level`,
 //! `dynamics.dt_max`, ...), a label and optionally the resolution `h` the
 //! rung stands for. Every (problem, rung) is a case, run as a normal run
-//! directory `OUT/cases/<problem>/<rung>/`; a case whose directory exists
-//! has finished and is not run again, so an interrupted study resumes.
+//! directory `OUT/cases/<problem>/<rung>/`; a case that has finished from
+//! the same scene (its `case.json`) is not run again, so an interrupted
+//! study resumes and a changed rung runs anew.
 //! `--quick` keeps only the rungs each problem lists in `quick`.
 //!
 //! After the runs, [`crate::study_report`] measures each case against its
@@ -343,6 +344,28 @@ pub struct StudyRunReport {
     pub failed: Vec<(PathBuf, String)>,
 }
 
+/// The file in a case's run directory that records what it was run from.
+pub const CASE_FINGERPRINT: &str = "case.json";
+
+/// What a case's result depends on: the scene as run and the threads.
+fn fingerprint(study: &Study, case: &Case) -> String {
+    serde_json::json!({
+        "scene": case.scene.to_ron_string().unwrap_or_default(),
+        "threads": study.problems[case.problem].rungs[case.rung].threads.unwrap_or(1),
+    })
+    .to_string()
+}
+
+/// A case is done when its run directory exists (a run renames it into
+/// place when it ends) and was run from exactly this scene; a case whose
+/// rung changed runs again.
+pub fn is_done(study: &Study, case: &Case, out: &Path) -> bool {
+    let dir = out.join(&case.dir);
+    dir.join("summary.json").is_file()
+        && std::fs::read_to_string(dir.join(CASE_FINGERPRINT))
+            .is_ok_and(|f| f == fingerprint(study, case))
+}
+
 /// The cases `--quick` keeps (all of them without it).
 pub fn selected(study: &Study, cases: Vec<Case>, quick: bool) -> Vec<Case> {
     cases
@@ -375,7 +398,7 @@ pub fn run_cases(
     let todo: Vec<&Case> = cases
         .iter()
         .filter(|c| {
-            let done = options.out.join(&c.dir).join("summary.json").is_file();
+            let done = is_done(study, c, &options.out);
             report.skipped += usize::from(done);
             !done
         })
@@ -403,9 +426,15 @@ pub fn run_cases(
                 let t = std::time::Instant::now();
                 let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)
                     .map_err(|e| e.to_string())?;
-                crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false)
-                    .map(|s| s.wall_time_s)
-                    .map_err(|e| e.to_string())
+                let summary =
+                    crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false)
+                        .map_err(|e| e.to_string())?;
+                // Not fatal: without it the case just runs again next time.
+                let _ = crate::atomic_write(
+                    &dir.join(CASE_FINGERPRINT),
+                    fingerprint(study, case).as_bytes(),
+                );
+                Ok(summary.wall_time_s)
             };
             let result = match rayon::ThreadPoolBuilder::new()
                 .num_threads(rung.threads.unwrap_or(1))

@@ -4,8 +4,9 @@
 //!
 //! The command reads one JSON object on stdin describing the case (see
 //! [`peer_spec`]) and prints one JSON object on stdout ([`PeerOutput`]).
-//! Its result is kept in `OUT/peers/<peer>/<problem>/<rung>/result.json`;
-//! a case with a result is not run again. A peer that fails (or is not
+//! Its result is kept, with the case, in
+//! `OUT/peers/<peer>/<problem>/<rung>/result.json`, and reused only for
+//! the same case. A peer that fails (or is not
 //! installed) is reported with its reason in the study's tables; the
 //! study's own cases are not affected.
 
@@ -106,6 +107,14 @@ pub fn peer_spec(
     }
 }
 
+/// A peer's result as kept on disk, with the case it answers: a result
+/// is reused only for the same case.
+#[derive(Serialize, Deserialize)]
+struct KeptResult {
+    case: serde_json::Value,
+    output: PeerOutput,
+}
+
 /// One peer case's outcome.
 #[derive(Clone, Debug)]
 pub struct PeerRun {
@@ -146,14 +155,20 @@ pub fn run_peers(
                 continue;
             };
             let result_file = dir.join("result.json");
-            let result = if result_file.is_file() {
-                std::fs::read_to_string(&result_file)
-                    .map_err(|e| e.to_string())
-                    .and_then(|t| serde_json::from_str(&t).map_err(|e| e.to_string()))
+            let kept = std::fs::read_to_string(&result_file)
+                .ok()
+                .and_then(|t| serde_json::from_str::<KeptResult>(&t).ok())
+                .filter(|k| k.case == spec);
+            let result = if let Some(k) = kept {
+                Ok(k.output)
             } else {
                 let r = run_peer(peer, base, &spec);
                 if let Ok(output) = &r {
-                    let json = serde_json::to_string_pretty(output).expect("serialises");
+                    let kept = KeptResult {
+                        case: spec.clone(),
+                        output: output.clone(),
+                    };
+                    let json = serde_json::to_string_pretty(&kept).expect("serialises");
                     if let Err(e) = std::fs::create_dir_all(&dir)
                         .and_then(|()| crate::atomic_write(&result_file, json.as_bytes()))
                     {

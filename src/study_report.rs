@@ -631,7 +631,8 @@ pub fn markdown(report: &StudyReport) -> String {
             .filter(|c| !c.measurements.is_empty())
             .collect();
         let lines: Vec<String> = measured.iter().map(|c| reference_line(c)).collect();
-        if lines.windows(2).all(|w| w[0] == w[1]) {
+        let noted = measured.iter().any(|c| !c.note.is_empty());
+        if !noted && lines.windows(2).all(|w| w[0] == w[1]) {
             if let Some(line) = lines.first() {
                 s += &format!("\nReference: {line}.\n");
             }

@@ -257,3 +257,47 @@ print(json.dumps({"engine": "stand-in", "vertices": n,
             .is_file()
     );
 }
+
+#[test]
+fn a_changed_rung_runs_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let study = dir.path().join("s.ron");
+    let out = dir.path().join("out");
+    let write = |level: u32| {
+        std::fs::write(
+            &study,
+            format!(
+                r#"Study(name: "s", problems: [(name: "sphere", scene: "{}", reference: SphereBending,
+    rungs: [(label: "coarse", set: [("membrane.Icosphere.level", {level})])])])"#,
+                repo("scenes/studies/sphere_bending.ron").display()
+            ),
+        )
+        .unwrap();
+    };
+    let run = || {
+        let r = Command::new(binary())
+            .arg("study")
+            .arg(&study)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("study.json")).unwrap())
+                .unwrap();
+        let ran = String::from_utf8_lossy(&r.stderr).contains(", 1 run now,");
+        (
+            ran,
+            problem(&report, "sphere")["cases"][0]["vertices"]
+                .as_u64()
+                .unwrap(),
+        )
+    };
+    write(1);
+    assert_eq!(run(), (true, 42));
+    assert_eq!(run(), (false, 42));
+    // Same label, other level: the kept case no longer matches.
+    write(2);
+    assert_eq!(run(), (true, 162));
+}
