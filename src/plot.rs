@@ -287,7 +287,13 @@ where
         .y_labels(if log_y { 20 } else { 8 })
         .x_label_formatter(&|v| axis_label(*v, log_x))
         .y_label_formatter(&|v| axis_label(*v, log_y))
-        .light_line_style(RGBColor(235, 235, 235))
+        // Minor grid lines only on linear charts: on a log axis plotters
+        // draws them at every key point, which crowds short ranges.
+        .light_line_style(if log_x || log_y {
+            WHITE
+        } else {
+            RGBColor(235, 235, 235)
+        })
         .bold_line_style(RGBColor(210, 210, 210))
         .draw()
         .map_err(err)?;

@@ -56,6 +56,28 @@ pub struct Problem {
     /// Indices of the rungs `--quick` keeps (default: all).
     #[serde(default)]
     pub quick: Option<Vec<usize>>,
+    /// Published timings of other codes on this problem, shown in the
+    /// table as quoted, not measured, figures (default none).
+    #[serde(default)]
+    pub quoted: Vec<Quoted>,
+}
+
+/// A published timing, quoted in the study's table.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Quoted {
+    /// The code, e.g. "Matlab (authors' code)".
+    pub engine: String,
+    /// The rung it corresponds to.
+    pub rung: String,
+    /// Vertices.
+    pub vertices: usize,
+    /// Iterations.
+    pub iterations: u64,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Where the figure comes from.
+    pub source: String,
 }
 
 /// One setting of a problem's ladder.

@@ -84,6 +84,9 @@ pub fn peer_spec(
             _ => Err("the membrane is not an ellipsoid".into()),
         },
         Reference::Axisymmetric => {
+            if !matches!(scene.membrane, MembraneSource::Icosphere { .. }) {
+                return Err("the peer's deflation starts from a sphere; this rung does not".into());
+            }
             let penalty = |volume: bool| {
                 scene.energy.iter().find_map(|t| match t {
                     EnergyTerm::Volume(p) if volume => Some((p.k, p.target)),

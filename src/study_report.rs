@@ -111,6 +111,8 @@ pub struct ProblemResult {
     pub order: Option<Order>,
     /// The cheapest rung per error target.
     pub cheapest: Vec<Cheapest>,
+    /// Published timings of other codes, as declared.
+    pub quoted: Vec<crate::study::Quoted>,
 }
 
 /// A study's results.
@@ -476,6 +478,7 @@ pub fn evaluate(
             },
             cases: results,
             peers: peer_results,
+            quoted: problem.quoted.clone(),
             order,
             cheapest,
         });
@@ -608,6 +611,18 @@ pub fn markdown(report: &StudyReport) -> String {
                 }
             }
             s += &format!(" {} |\n", c.status);
+        }
+        for q in &p.quoted {
+            s += &format!(
+                "| {} | {} | {} | – | {} | {:.0} | – |{} quoted: {} |\n",
+                q.engine,
+                q.rung,
+                q.vertices,
+                q.iterations,
+                q.wall_s,
+                " – | – |".repeat(quantities.len()),
+                q.source
+            );
         }
         let reference_line = |c: &CaseResult| {
             c.measurements
@@ -775,7 +790,7 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
         y_scale: Scale::Log,
         series: vec![
             Series {
-                name: "cases".into(),
+                name: "remembrane".into(),
                 points: points.clone(),
                 markers: true,
                 ..Default::default()
@@ -799,7 +814,7 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
         .filter_map(|c| Some((c.h, c.primary_error()?)))
         .collect();
     let mut series = vec![Series {
-        name: "cases".into(),
+        name: "remembrane".into(),
         points: by_h.clone(),
         markers: true,
         ..Default::default()

@@ -71,10 +71,11 @@ TIMING_DT_FACTOR = 1e-3
 
 # RBC: dt = RBC_DT_BENDING * mean_edge^2 / kappa (0.01 at level 3 with
 # A_t = 553 and kappa = 5; 0.02 blew up there, so this is half the limit),
-# also capped so that the volume-penalty relaxation is resolved (see rbc_dt;
-# forward Euler on that mode is monotone below 1 and stable below 2).
+# also capped so that the volume-penalty relaxation is well resolved (see
+# rbc_dt; forward Euler on that mode alone is stable below 2, 0.1 stays far
+# from it; the cap binds only for stiff volume penalties, e.g. kV = 20).
 RBC_DT_BENDING = 0.05
-RBC_DT_VOLUME = 0.5
+RBC_DT_VOLUME = 0.1
 # RBC: amplitude of the symmetry-breaking perturbation, in mean edge lengths.
 RBC_PERTURBATION = 1e-3
 RBC_DEFAULT_SEED = 1
@@ -82,12 +83,18 @@ RBC_DEFAULT_SEED = 1
 # many steps. Without it the plain forward Euler degenerates the mesh (edges
 # grow to ~10 mean edge lengths and the bending energy drops below 8 pi kappa);
 # every 200 steps is too rare, every 10-50 steps holds the shape in a higher
-# bending-energy state (measured at level 3).
+# bending-energy state (measured at level 3). At levels 2 and 4 the mesh
+# degenerates even so (see RBC_MAX_EDGE_RATIO).
 RBC_MUTATE_PERIOD = 100
 # RBC: converged when |E(k) - E(k - 1000)| < 1e-7 |E(k)|, E the total potential
 # energy, checked every 1000 steps.
 RBC_CHECK_PERIOD = 1000
 RBC_REL_TOL = 1e-7
+# RBC: the run fails (exit 1) if, at a check, an edge is longer than this many
+# initial mean edge lengths. The level-3 run peaks near 2.6 while buckling and
+# ends at 1.3; runs that degenerate (level 4: a coarse tube grows out of the
+# cell, its edges exceed 9 and the dihedral energy falls) pass 4 on their way.
+RBC_MAX_EDGE_RATIO = 4.0
 
 
 class InputError(Exception):
@@ -256,9 +263,6 @@ def make_system(faces, vertices, params, regularise=False):
         mutator.isShiftVertex = True
         mutator.flipNonDelaunay = True
     system.initialize()
-    if regularise and (system.meshProcessor.meshMutator.isSplitEdge
-                       or system.meshProcessor.meshMutator.isCollapseEdge):
-        raise EngineError("Mem3DG enabled split/collapse although only shift/flip were asked")
     return geometry, system
 
 
@@ -297,6 +301,7 @@ def run_static(case):
         vertices = vertices * np.array(case["semi_axes"])
         notes.append("mapped to semi-axes [%s]" % ", ".join("%g" % a for a in case["semi_axes"]))
 
+    # `geometry` is not used below but must outlive `system` (see make_system).
     geometry, system = make_system(faces, vertices, bending_parameters(case["kappa"]))
     initial = measure(system)
 
@@ -375,6 +380,13 @@ def run_rbc(case):
             system.updateConfigurations()
         state = measure(system)  # raises on blow-up, at most one chunk late
         if steps % RBC_CHECK_PERIOD == 0:
+            longest = float(system.getGeometry().getEdgeLengths().max())
+            if longest > RBC_MAX_EDGE_RATIO * edge:
+                raise EngineError(
+                    f"mesh degenerated at step {steps} (t = {system.time:.4g}): longest edge "
+                    f"{longest:.3g} = {longest / edge:.3g} initial mean edges (limit "
+                    f"{RBC_MAX_EDGE_RATIO:g}); plain forward Euler, dt = {dt:.4g}, vertex shift + "
+                    f"flips every {RBC_MUTATE_PERIOD} steps")
             converged = abs(state["potential"] - last_check) < RBC_REL_TOL * abs(state["potential"])
             last_check = state["potential"]
 
@@ -409,7 +421,8 @@ def run_rbc(case):
         f"Mem3DG mesh mutation ON for stability: vertex shift + non-Delaunay flips every "
         f"{RBC_MUTATE_PERIOD} steps (no split/collapse/smoothing; without it the mesh degenerates); "
         "the end state depends on this period (measured at level 3: every 10-50 steps ends at "
-        "higher bending energy, every 200 degenerates)",
+        "higher bending energy, every 200 degenerates); at levels 2 and 4 the mesh degenerates "
+        f"anyway and the run fails once an edge exceeds {RBC_MAX_EDGE_RATIO:g} mean edges",
         stop,
         f"final: E_bending = {final['bending']:.6g} = {final['bending'] / (8 * math.pi * case['kappa']):.4f} "
         f"x 8 pi kappa, E_area = {energy.surfaceEnergy:.4g}, E_volume = {energy.pressureEnergy:.4g}, "
