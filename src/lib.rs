@@ -12,6 +12,7 @@ pub mod edit;
 pub mod energy;
 pub mod error;
 pub mod geometry;
+pub mod job_pool;
 pub mod membrane;
 pub mod mesh;
 pub mod output;

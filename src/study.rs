@@ -425,14 +425,19 @@ pub fn run_cases(
             !done
         })
         .collect();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    let started = std::time::Instant::now();
-    let worker = || {
-        loop {
-            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let Some(case) = todo.get(k) else { break };
-            let rung = &study.problems[case.problem].rungs[case.rung];
+    let results = crate::job_pool::run_jobs(
+        todo.len(),
+        options.jobs,
+        options.quiet,
+        &|| false,
+        &|k| todo[k].dir.clone(),
+        &|k| {
+            study.problems[todo[k].problem].rungs[todo[k].rung]
+                .threads
+                .unwrap_or(1)
+        },
+        &|k| {
+            let case = todo[k];
             let dir = options.out.join(&case.dir);
             let opts = crate::run::RunOptions {
                 out: dir.clone(),
@@ -444,51 +449,21 @@ pub fn run_cases(
                 progress: crate::run::Progress::Quiet,
                 check_invariants: false,
             };
-            let go = || {
-                let t = std::time::Instant::now();
-                let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)
+            let t = std::time::Instant::now();
+            let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)
+                .map_err(|e| e.to_string())?;
+            let summary =
+                crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false)
                     .map_err(|e| e.to_string())?;
-                let summary =
-                    crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false)
-                        .map_err(|e| e.to_string())?;
-                // Not fatal: without it the case just runs again next time.
-                let _ = crate::atomic_write(
-                    &dir.join(CASE_FINGERPRINT),
-                    fingerprint(study, case).as_bytes(),
-                );
-                Ok(summary.wall_time_s)
-            };
-            let result = match rayon::ThreadPoolBuilder::new()
-                .num_threads(rung.threads.unwrap_or(1))
-                .build()
-            {
-                Ok(pool) => pool.install(go),
-                Err(e) => Err(format!("cannot start the thread pool: {e}")),
-            };
-            if !options.quiet {
-                let name = case.dir.display();
-                match &result {
-                    Ok(wall) => eprintln!(
-                        "[{}/{}] {name}: done in {wall:.2} s ({:.0} s elapsed)",
-                        k + 1,
-                        todo.len(),
-                        started.elapsed().as_secs_f64()
-                    ),
-                    Err(e) => eprintln!("[{}/{}] {name}: FAILED: {e}", k + 1, todo.len()),
-                }
-            }
-            results
-                .lock()
-                .expect("no worker panicked")
-                .push((case.dir.clone(), result));
-        }
-    };
-    std::thread::scope(|s| {
-        for _ in 0..options.jobs.max(1).min(todo.len().max(1)) {
-            s.spawn(worker);
-        }
-    });
-    for (dir, result) in results.into_inner().expect("no worker panicked") {
+            // Not fatal: without it the case just runs again next time.
+            let _ = crate::atomic_write(
+                &dir.join(CASE_FINGERPRINT),
+                fingerprint(study, case).as_bytes(),
+            );
+            Ok(summary.wall_time_s)
+        },
+    );
+    for (dir, result) in results {
         match result {
             Ok(_) => report.completed += 1,
             Err(e) => report.failed.push((dir, e)),

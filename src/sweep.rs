@@ -722,75 +722,37 @@ pub fn run_sweep_with(
         })
         .collect();
     let scene_path = sweep.scene_path(sweep_path);
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results = std::sync::Mutex::new(Vec::new());
-    let started = std::time::Instant::now();
-    let worker = || {
-        // One thread per run: runs are independent, results do not depend
-        // on the thread count.
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
-        loop {
-            if cancel() {
-                break;
-            }
-            let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let Some(run) = todo.get(k) else { break };
-            let dir = out.join(&run.dir);
-            let result = sweep
-                .scene_for(sweep_path, out, &base, run)
-                .and_then(|(scene, from)| {
-                    let opts = crate::run::RunOptions {
-                        out: dir.clone(),
-                        overwrite: true,
-                        seed: None,
-                        iterations: options.iterations,
-                        frames: None,
-                        from,
-                        progress: crate::run::Progress::Quiet,
-                        check_invariants: false,
-                    };
-                    let go = || {
-                        let started = std::time::Instant::now();
-                        let mut prepared = crate::run::prepare_run(&scene, &scene_path, &opts)
-                            .map_err(|e| e.to_string())?;
-                        crate::run::drive_run(&mut prepared, &scene_path, &opts, started, cancel)
-                            .map(|s| s.wall_time_s)
-                            .map_err(|e| e.to_string())
-                    };
-                    match &pool {
-                        Ok(p) => p.install(go),
-                        Err(_) => go(),
-                    }
-                });
-            if !options.quiet {
-                match &result {
-                    Ok(wall) => eprintln!(
-                        "[{}/{}] {}: done in {wall:.1} s ({:.0} s elapsed)",
-                        k + 1,
-                        todo.len(),
-                        run.dir.display(),
-                        started.elapsed().as_secs_f64()
-                    ),
-                    Err(e) => eprintln!(
-                        "[{}/{}] {}: FAILED: {e}",
-                        k + 1,
-                        todo.len(),
-                        run.dir.display()
-                    ),
-                }
-            }
-            results
-                .lock()
-                .expect("no worker panicked")
-                .push((run.dir.clone(), result));
-        }
-    };
-    std::thread::scope(|s| {
-        for _ in 0..options.jobs.max(1).min(todo.len().max(1)) {
-            s.spawn(worker);
-        }
-    });
-    for (dir, result) in results.into_inner().expect("no worker panicked") {
+    // One thread per run: runs are independent, results do not depend on
+    // the thread count.
+    let results = crate::job_pool::run_jobs(
+        todo.len(),
+        options.jobs,
+        options.quiet,
+        cancel,
+        &|k| todo[k].dir.clone(),
+        &|_| 1,
+        &|k| {
+            let run = todo[k];
+            let (scene, from) = sweep.scene_for(sweep_path, out, &base, run)?;
+            let opts = crate::run::RunOptions {
+                out: out.join(&run.dir),
+                overwrite: true,
+                seed: None,
+                iterations: options.iterations,
+                frames: None,
+                from,
+                progress: crate::run::Progress::Quiet,
+                check_invariants: false,
+            };
+            let started = std::time::Instant::now();
+            let mut prepared =
+                crate::run::prepare_run(&scene, &scene_path, &opts).map_err(|e| e.to_string())?;
+            crate::run::drive_run(&mut prepared, &scene_path, &opts, started, cancel)
+                .map(|s| s.wall_time_s)
+                .map_err(|e| e.to_string())
+        },
+    );
+    for (dir, result) in results {
         match result {
             Ok(_) => report.completed += 1,
             Err(e) => report.failed.push((dir, e)),
