@@ -826,15 +826,11 @@ fn study_command(
     } else {
         crate::study_peer::run_peers(&study, path, &cases, &options.out, quiet)
     };
-    let report = match crate::study_report::evaluate(&study, &cases, &peers, &options.out)
-        .and_then(|r| crate::study_report::write_report(&r, &options.out).map(|()| r))
-    {
-        Ok(r) => r,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(1);
-        }
-    };
+    let report = crate::study_report::evaluate(&study, &cases, &peers, &options.out);
+    if let Err(e) = crate::study_report::write_report(&report, &options.out) {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
+    }
     say_raw!("{}", crate::study_report::markdown(&report));
     if ran.failed.is_empty() {
         ExitCode::SUCCESS

@@ -276,12 +276,7 @@ fn peer_measurements(
 
 /// Measures every case (finished ones; others are reported with their
 /// status) against its problem's reference.
-pub fn evaluate(
-    study: &Study,
-    cases: &[Case],
-    peers: &[PeerRun],
-    out: &Path,
-) -> Result<StudyReport, StudyError> {
+pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) -> StudyReport {
     let mut problems = Vec::new();
     for (p, problem) in study.problems.iter().enumerate() {
         let mine: Vec<&Case> = cases.iter().filter(|c| c.problem == p).collect();
@@ -329,7 +324,7 @@ pub fn evaluate(
         let mut results = Vec::new();
         for (case, dir, run) in &runs {
             let rung = &problem.rungs[case.rung];
-            let (data, st) = match run {
+            let (data, mut st) = match run {
                 Ok(d) => (Some(d), status(d)),
                 Err(e) => (None, format!("failed: {e}")),
             };
@@ -367,19 +362,18 @@ pub fn evaluate(
                             ));
                         }
                     }
-                    Reference::Axisymmetric => {
-                        (measurements, note) = axisymmetric_measurements(
-                            &dir.join("final.ply"),
-                            final_bending(&d.summary),
-                            number(&d.summary, "area"),
-                            number(&d.summary, "reduced_volume"),
-                            kappa,
-                        )
-                        .map_err(|reason| StudyError::File {
-                            path: dir.clone(),
-                            reason,
-                        })?;
-                    }
+                    Reference::Axisymmetric => match axisymmetric_measurements(
+                        &dir.join("final.ply"),
+                        final_bending(&d.summary),
+                        number(&d.summary, "area"),
+                        number(&d.summary, "reduced_volume"),
+                        kappa,
+                    ) {
+                        Ok((m, n)) => (measurements, note) = (m, n),
+                        // E.g. a run that ends outside the solver's range
+                        // of v: the case stays in the table, unmeasured.
+                        Err(reason) => st = format!("not measured: {reason}"),
+                    },
                     Reference::FinestRung(q) => {
                         if let Some((_, value)) = finest {
                             measurements.push(measure(
@@ -483,10 +477,10 @@ pub fn evaluate(
             cheapest,
         });
     }
-    Ok(StudyReport {
+    StudyReport {
         name: study.name.clone(),
         problems,
-    })
+    }
 }
 
 /// Time spent in the systems over the run (s): the wall time without
