@@ -776,8 +776,9 @@ struct SweepArgs {
 }
 
 /// `remembrane study`: runs the cases not yet finished, then measures and
-/// reports all of them. Exit 2 for a bad study file, 1 if a case could not
-/// run or be measured.
+/// reports all of them. Exit 2 for a bad study file, 1 if a case failed to
+/// run (a run that blew up is a result, not a failure) or the report could
+/// not be written.
 fn study_command(
     path: &Path,
     out: Option<PathBuf>,
@@ -798,7 +799,6 @@ fn study_command(
     let options = StudyOptions {
         out: out.unwrap_or_else(|| PathBuf::from("out").join(&study.name)),
         jobs,
-        quick,
         quiet,
     };
     let ran = match run_cases(&study, &cases, &options) {

@@ -45,8 +45,6 @@ pub enum Marker {
     Circle,
     /// A filled triangle (used for peer engines on the study charts).
     Triangle,
-    /// A cross.
-    Cross,
 }
 
 /// One series of a line chart (an empty name: no legend entry).
@@ -350,9 +348,6 @@ where
                     .map_err(err)?,
                 Marker::Triangle => chart
                     .draw_series(coords.map(|p| TriangleMarker::new(p, 6, color.filled())))
-                    .map_err(err)?,
-                Marker::Cross => chart
-                    .draw_series(coords.map(|p| Cross::new(p, 5, color.stroke_width(2))))
                     .map_err(err)?,
             };
             if !labelled && !s.name.is_empty() {

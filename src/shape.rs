@@ -157,7 +157,8 @@ pub fn shape_metrics(positions: &[DVec3], faces: &[[u32; 3]]) -> ShapeMetrics {
 pub struct AxialThickness {
     /// Largest distance of a vertex from the axis, doubled (l̄).
     pub diameter: f64,
-    /// Thickness along the axis itself (l̄).
+    /// Thickness along the axis itself (l̄; NaN if the axis misses the
+    /// mesh).
     pub centre: f64,
     /// Largest thickness over the distance from the axis, each the mean
     /// over 16 directions around it (l̄).
@@ -179,7 +180,10 @@ fn line_crossings(positions: &[DVec3], faces: &[[u32; 3]], o: DVec3, d: DVec3) -
         let u = s.dot(p) / det;
         let q = s.cross(e1);
         let v = d.dot(q) / det;
-        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 {
+        // A little slack, so that a line through a vertex or along an edge
+        // (icospheres have vertices on their axes) still hits.
+        const SLACK: f64 = 1e-9;
+        if u >= -SLACK && v >= -SLACK && u + v <= 1.0 + SLACK {
             hits.push(e2.dot(q) / det);
         }
     }
@@ -206,8 +210,10 @@ pub fn axial_thickness(positions: &[DVec3], faces: &[[u32; 3]]) -> AxialThicknes
         let hi = hits.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         (hits.len() >= 2).then_some(hi - lo)
     };
-    let centre = thickness(frame.centroid).unwrap_or(0.0);
-    let mut max = centre;
+    // No crossing at the centre (e.g. a shape that is not closed around its
+    // axis): not measurable.
+    let centre = thickness(frame.centroid).unwrap_or(f64::NAN);
+    let mut max = if centre.is_finite() { centre } else { 0.0 };
     for k in 1..RADII {
         let rho = radius * k as f64 / RADII as f64;
         let mut sum = 0.0;

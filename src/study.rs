@@ -56,6 +56,10 @@ pub struct Problem {
     /// Indices of the rungs `--quick` keeps (default: all).
     #[serde(default)]
     pub quick: Option<Vec<usize>>,
+    /// Fit a convergence order to the ladder (default true; false for a
+    /// ladder whose rungs differ in more than the resolution).
+    #[serde(default = "yes")]
+    pub fit_order: bool,
     /// Published timings of other codes on this problem, shown in the
     /// table as quoted, not measured, figures (default none).
     #[serde(default)]
@@ -78,6 +82,10 @@ pub struct Quoted {
     pub wall_s: f64,
     /// Where the figure comes from.
     pub source: String,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// One setting of a problem's ladder.
@@ -221,11 +229,23 @@ impl Study {
                 e.span.start.line, e.span.start.col, e.code
             ))
         })?;
+        if !crate::sweep::valid_name(&study.name) {
+            return Err(bad(format!(
+                "field `name`: `{}` must be a plain directory name",
+                study.name
+            )));
+        }
         for (k, peer) in study.peers.iter().enumerate() {
-            if !crate::sweep::valid_name(&peer.name) || peer.command.is_empty() {
+            if !crate::sweep::valid_name(&peer.name)
+                || study.peers[..k].iter().any(|o| o.name == peer.name)
+            {
                 return Err(bad(format!(
-                    "field `peers[{k}]`: needs a plain directory name and a non-empty command"
+                    "field `peers[{k}].name`: `{}` must be a unique plain directory name",
+                    peer.name
                 )));
+            }
+            if peer.command.is_empty() {
+                return Err(bad(format!("field `peers[{k}].command`: names no program")));
             }
         }
         if study.problems.is_empty() {
@@ -269,6 +289,15 @@ impl Study {
                 {
                     return Err(bad(format!(
                         "{}: must be positive and finite (got {h})",
+                        field(&format!("rungs[{r}].h"))
+                    )));
+                }
+                if matches!(problem.reference, Reference::FinestRung(_))
+                    && problem.resolution == Resolution::Vertices
+                    && rung.h.is_none()
+                {
+                    return Err(bad(format!(
+                        "{}: a FinestRung problem needs `h` on every rung or `resolution: MeanStep`, to know which rung is finest",
                         field(&format!("rungs[{r}].h"))
                     )));
                 }
@@ -324,6 +353,14 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
         }
         _ => {}
     }
+    if reference == Reference::SphereBending
+        && !matches!(
+            scene.membrane,
+            crate::scene::MembraneSource::Icosphere { jitter, .. } if jitter == 0.0
+        )
+    {
+        return Err("SphereBending needs `membrane: Icosphere(...)` without jitter".into());
+    }
     if reference == Reference::SpheroidBending {
         match scene.membrane {
             crate::scene::MembraneSource::Ellipsoid {
@@ -340,20 +377,18 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-/// Options of [`run_study`].
+/// Options of [`run_cases`].
 #[derive(Clone, Debug)]
 pub struct StudyOptions {
     /// Output directory.
     pub out: PathBuf,
     /// Cases at once (wall times are only comparable with 1).
     pub jobs: usize,
-    /// Only the rungs each problem lists in `quick`.
-    pub quick: bool,
     /// No per-case progress lines.
     pub quiet: bool,
 }
 
-/// What [`run_study`] did.
+/// What [`run_cases`] did.
 #[derive(Clone, Debug, Default)]
 pub struct StudyRunReport {
     /// Cases in the study (after `--quick`).
@@ -374,6 +409,7 @@ fn fingerprint(study: &Study, case: &Case) -> String {
     serde_json::json!({
         "scene": case.scene.to_ron_string().unwrap_or_default(),
         "threads": study.problems[case.problem].rungs[case.rung].threads.unwrap_or(1),
+        "engine": env!("CARGO_PKG_VERSION"),
     })
     .to_string()
 }
@@ -452,15 +488,18 @@ pub fn run_cases(
             let t = std::time::Instant::now();
             let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)
                 .map_err(|e| e.to_string())?;
-            let summary =
-                crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false)
-                    .map_err(|e| e.to_string())?;
-            // Not fatal: without it the case just runs again next time.
-            let _ = crate::atomic_write(
-                &dir.join(CASE_FINGERPRINT),
-                fingerprint(study, case).as_bytes(),
-            );
-            Ok(summary.wall_time_s)
+            let result =
+                crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false);
+            // A run that blew up still wrote its directory (status
+            // `blew_up`): a result like any other, not to be run again.
+            // Not fatal: without the fingerprint the case just runs again.
+            if dir.join("summary.json").is_file() {
+                let _ = crate::atomic_write(
+                    &dir.join(CASE_FINGERPRINT),
+                    fingerprint(study, case).as_bytes(),
+                );
+            }
+            result.map(|s| s.wall_time_s).map_err(|e| e.to_string())
         },
     );
     for (dir, result) in results {

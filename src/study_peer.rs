@@ -110,11 +110,12 @@ pub fn peer_spec(
     }
 }
 
-/// A peer's result as kept on disk, with the case it answers: a result
-/// is reused only for the same case.
+/// A peer's result as kept on disk, with the case it answers and the
+/// command that answered: reused only for the same case and command.
 #[derive(Serialize, Deserialize)]
 struct KeptResult {
     case: serde_json::Value,
+    command: Vec<String>,
     output: PeerOutput,
 }
 
@@ -161,7 +162,7 @@ pub fn run_peers(
             let kept = std::fs::read_to_string(&result_file)
                 .ok()
                 .and_then(|t| serde_json::from_str::<KeptResult>(&t).ok())
-                .filter(|k| k.case == spec);
+                .filter(|k| k.case == spec && k.command == peer.command);
             let result = if let Some(k) = kept {
                 Ok(k.output)
             } else {
@@ -169,6 +170,7 @@ pub fn run_peers(
                 if let Ok(output) = &r {
                     let kept = KeptResult {
                         case: spec.clone(),
+                        command: peer.command.clone(),
                         output: output.clone(),
                     };
                     let json = serde_json::to_string_pretty(&kept).expect("serialises");
@@ -227,9 +229,16 @@ fn run_peer(peer: &Peer, base: &Path, spec: &serde_json::Value) -> Result<PeerOu
         .spawn()
         .map_err(|e| format!("cannot start `{program}`: {e}"))?;
     if let Some(mut stdin) = child.stdin.take() {
-        stdin
-            .write_all(spec.to_string().as_bytes())
-            .map_err(|e| format!("cannot write the case to `{program}`: {e}"))?;
+        // A peer that exits before reading (e.g. not installed) closes the
+        // pipe: its exit status and stderr below say why.
+        match stdin.write_all(spec.to_string().as_bytes()) {
+            Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!("cannot write the case to `{program}`: {e}"));
+            }
+            _ => {}
+        }
     }
     let output = child.wait_with_output().map_err(|e| e.to_string())?;
     if !output.status.success() {

@@ -46,9 +46,9 @@ pub struct CaseResult {
     pub simulated_time: f64,
     /// Wall time of the whole run (s).
     pub wall_s: f64,
-    /// The cost the charts use: the systems' time per iteration for a
-    /// static problem (building and output excluded), the whole wall time
-    /// otherwise (s).
+    /// The cost the charts use: the stepping systems' time per iteration
+    /// for a static problem (building, frames and output excluded), the
+    /// whole wall time otherwise (s).
     pub cost_s: f64,
     /// `completed`, `blew_up`, or `failed: reason`.
     pub status: String,
@@ -81,6 +81,9 @@ pub struct Order {
     pub std_error: f64,
     /// Points in the fit.
     pub points: usize,
+    /// The fitted line passes through (exp(x̄), exp(ȳ)), the centroid of
+    /// the fitted points in ln-ln.
+    pub centroid: (f64, f64),
 }
 
 /// The cheapest case that reaches an error target.
@@ -286,7 +289,13 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
         let mut runs = Vec::new();
         for case in &mine {
             let dir = out.join(&case.dir);
-            runs.push((case, dir.clone(), read_run(&dir)));
+            // A directory left from other settings is not this case's result.
+            let run = if crate::study::is_done(study, case, out) {
+                read_run(&dir)
+            } else {
+                Err("not run with these settings".to_string())
+            };
+            runs.push((case, dir.clone(), run));
         }
         // Each case's resolution: the rung's h, else the problem's rule.
         let h_of = |case: &Case, run: &Result<RunData, String>| {
@@ -410,7 +419,11 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
                 note,
             });
         }
-        let order = fit_order(&results);
+        let order = if problem.fit_order {
+            fit_order(&results)
+        } else {
+            None
+        };
         let cheapest = ERROR_TARGETS
             .iter()
             .map(|&target| Cheapest {
@@ -483,13 +496,20 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
     }
 }
 
-/// Time spent in the systems over the run (s): the wall time without
-/// scene building and output.
+/// Time spent in the systems that step the membrane (s): every stage but
+/// Observe (frames, series rows), so scene building and output are left
+/// out. Concurrent force terms (meshes from 16384 elements on more than one
+/// thread) are counted by their own times, so there this is an upper bound.
 fn systems_time(summary: &serde_json::Value) -> f64 {
     summary
         .get("timings")
         .and_then(|t| t.as_array())
-        .map_or(f64::NAN, |t| t.iter().map(|s| number(s, "total_s")).sum())
+        .map_or(f64::NAN, |t| {
+            t.iter()
+                .filter(|s| s.get("stage").and_then(|x| x.as_str()) != Some("Observe"))
+                .map(|s| number(s, "total_s"))
+                .sum()
+        })
 }
 
 fn status(d: &RunData) -> String {
@@ -533,6 +553,7 @@ pub fn fit_order(cases: &[CaseResult]) -> Option<Order> {
         p: slope,
         std_error,
         points: n,
+        centroid: (mx.exp(), my.exp()),
     })
 }
 
@@ -586,13 +607,17 @@ pub fn markdown(report: &StudyReport) -> String {
         s += "---|\n";
         for c in p.cases.iter().chain(&p.peers) {
             s += &format!(
-                "| {} | {} | {} | {} | {} | {:.3} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} |",
                 c.engine,
                 c.rung,
                 c.vertices,
                 sig(c.h),
                 c.iterations,
-                c.wall_s,
+                if c.wall_s.is_finite() {
+                    format!("{:.3}", c.wall_s)
+                } else {
+                    "–".into()
+                },
                 sig(c.cost_s)
             );
             for k in 0..quantities.len() {
@@ -679,7 +704,9 @@ pub fn markdown(report: &StudyReport) -> String {
                     o.p, p.h_label
                 )
             }
-            None => s += "Observed order: not enough finished cases.\n",
+            None => {
+                s += "Observed order: not fitted (turned off, or fewer than two measured cases).\n"
+            }
         }
         for c in &p.cheapest {
             match &c.rung {
@@ -755,7 +782,8 @@ fn peer_series(p: &ProblemResult, x: fn(&CaseResult) -> f64) -> Vec<Series> {
                 .collect(),
             markers: true,
             marker: Marker::Triangle,
-            color: 2 + k,
+            // Not the Pareto front's colour (3).
+            color: [2, 4, 5][k % 3],
             ..Default::default()
         })
         .collect()
@@ -814,14 +842,15 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
         ..Default::default()
     }];
     if let Some(o) = p.order {
-        // The fitted line through the points' centroid in log-log.
-        let n = by_h.len() as f64;
-        let mx = by_h.iter().map(|q| q.0.ln()).sum::<f64>() / n;
-        let my = by_h.iter().map(|q| q.1.ln()).sum::<f64>() / n;
-        let (lo, hi) = by_h.iter().fold((f64::INFINITY, 0.0f64), |(a, b), q| {
-            (a.min(q.0), b.max(q.0))
-        });
-        let line = |h: f64| (h, (my + o.p * (h.ln() - mx)).exp());
+        // The fitted line through the fitted points' centroid in log-log.
+        let (cx, cy) = o.centroid;
+        let (lo, hi) = by_h
+            .iter()
+            .filter(|q| q.0 > 0.0 && q.1 > 0.0)
+            .fold((f64::INFINITY, 0.0f64), |(a, b), q| {
+                (a.min(q.0), b.max(q.0))
+            });
+        let line = |h: f64| (h, cy * (h / cx).powf(o.p));
         series.push(Series {
             name: format!("fit: p = {:.2}", o.p),
             points: vec![line(lo), line(hi)],

@@ -169,6 +169,27 @@ fn bad_study_files_name_the_file_and_field() {
         ),
         (r#"Study(name: "s", problems: [])"#.to_string(), "problems"),
         (r#"Study(name: "s", problem: [])"#.to_string(), "problem"),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: FinestRung(Area), rungs: [(label: "a")])])"#,
+                scene.display()
+            ),
+            "problems[0].rungs[0].h",
+        ),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a", set: [("membrane.Icosphere.jitter", 0.1)])])])"#,
+                scene.display()
+            ),
+            "problems[0].rungs[0]",
+        ),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a")])], peers: [(name: "m", command: ["x"]), (name: "m", command: ["y"])])"#,
+                scene.display()
+            ),
+            "peers[1].name",
+        ),
     ];
     for (k, (text, field)) in cases.iter().enumerate() {
         let path = dir.path().join(format!("bad{k}.ron"));
@@ -199,6 +220,8 @@ fn a_peer_engine_is_measured_against_the_same_reference() {
         &peer,
         r#"import json, math, sys
 case = json.load(sys.stdin)
+with open("calls.txt", "a") as f:
+    f.write(f"{case['level']}\n")
 if case["level"] == 3:
     sys.exit("pymem3dg is not importable: stand-in")
 n = 10 * 4 ** case["level"] + 2
@@ -220,13 +243,17 @@ print(json.dumps({"engine": "stand-in", "vertices": n,
     )
     .unwrap();
     let out = dir.path().join("out");
-    let result = Command::new(binary())
-        .arg("study")
-        .arg(&study)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = || {
+        Command::new(binary())
+            .arg("study")
+            .arg(&study)
+            .arg("--out")
+            .arg(&out)
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    let result = run();
     let stderr = String::from_utf8_lossy(&result.stderr);
     // The peer's failure is reported, not fatal.
     assert!(result.status.success(), "{stderr}");
@@ -251,11 +278,16 @@ print(json.dumps({"engine": "stand-in", "vertices": n,
         csv.lines().any(|l| l.starts_with("standin,sphere,level2,")),
         "{csv}"
     );
-    // The result is kept: the peer is not asked again.
+    // The answer is kept and the peer is not asked again for it; the
+    // failed case is asked again.
     assert!(
         out.join("peers/standin/sphere/level2/result.json")
             .is_file()
     );
+    assert!(run().status.success());
+    let calls = std::fs::read_to_string(dir.path().join("calls.txt")).unwrap();
+    assert_eq!(calls.lines().filter(|l| *l == "2").count(), 1, "{calls}");
+    assert_eq!(calls.lines().filter(|l| *l == "3").count(), 2, "{calls}");
 }
 
 #[test]

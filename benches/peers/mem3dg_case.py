@@ -18,7 +18,7 @@ Input, one of
   {"problem": "spheroid", "level": L, "kappa": k, "semi_axes": [a, b, c],
    "jitter": j, "seed": s}
       Mem3DG's unit icosphere; each vertex p is moved by a seeded tangential
-      offset (o uniform in [-1, 1)^3, t = o - (o.p)p, p <- normalize(p + j*l*t),
+      offset (o uniform in the unit ball, t = o - (o.p)p, p <- normalize(p + j*l*t),
       l the unit icosphere's mean edge length), then mapped to (a x, b y, c z).
   {"problem": "rbc", "level": L, "kappa": k, "area_target": A_t,
    "volume_target": V_t, "area_k": kA, "volume_k": kV, "iterations": n,
@@ -187,6 +187,16 @@ def parse_input(text):
 # --------------------------------------------------------------------------
 # meshes and measurements
 # --------------------------------------------------------------------------
+def unit_ball_points(rng, n):
+    """n points uniform in the unit ball, by rejection from the cube [-1, 1)^3
+    (as remembrane's Ellipsoid jitter: the tangential move is at most 1)."""
+    out = np.empty((0, 3))
+    while len(out) < n:
+        p = rng.uniform(-1.0, 1.0, (2 * n, 3))
+        out = np.vstack([out, p[np.einsum("ij,ij->i", p, p) <= 1.0]])
+    return out[:n]
+
+
 def mean_edge_length(faces, vertices):
     """Mean length of the unique edges of a triangle mesh."""
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
@@ -291,7 +301,7 @@ def run_static(case):
     else:
         if case["jitter"] > 0:
             edge = mean_edge_length(faces, vertices)
-            offsets = np.random.default_rng(case["seed"]).uniform(-1.0, 1.0, vertices.shape)
+            offsets = unit_ball_points(np.random.default_rng(case["seed"]), len(vertices))
             tangential = offsets - np.einsum("ij,ij->i", offsets, vertices)[:, None] * vertices
             vertices = vertices + case["jitter"] * edge * tangential
             vertices /= np.linalg.norm(vertices, axis=1)[:, None]

@@ -106,11 +106,18 @@ pub fn ellipsoid(level: u32, semi_axes: [f64; 3], jitter: f64, seed: u64) -> Sur
         let edge = mesh.mean_edge_length();
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
         for p in &mut mesh.positions {
-            let offset = DVec3::new(
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            );
+            // Uniform in the unit ball (rejection), so that the tangential
+            // part, the move, is at most 1.
+            let offset = loop {
+                let o = DVec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                if o.length_squared() <= 1.0 {
+                    break o;
+                }
+            };
             let tangential = offset - offset.dot(*p) * *p;
             *p = (*p + jitter * edge * tangential).normalize();
         }
