@@ -13,7 +13,8 @@ use std::time::Instant;
 /// job's wall time (s) or why it failed. Unless `quiet`, each finished job
 /// prints `[k/n] NAME: done in … s` (or `FAILED: …`) to stderr, its name
 /// being `name(k)`. No job starts once `cancel` returns true. Returns the
-/// finished jobs' names and results, sorted by name.
+/// count of jobs that finished and the failed ones with their errors,
+/// sorted by name.
 pub fn run_jobs(
     count: usize,
     workers: usize,
@@ -22,7 +23,7 @@ pub fn run_jobs(
     name: &(dyn Fn(usize) -> PathBuf + Sync),
     threads: &(dyn Fn(usize) -> usize + Sync),
     work: &(dyn Fn(usize) -> Result<f64, String> + Sync),
-) -> Vec<(PathBuf, Result<f64, String>)> {
+) -> (usize, Vec<(PathBuf, String)>) {
     let next = AtomicUsize::new(0);
     let results = Mutex::new(Vec::new());
     let started = Instant::now();
@@ -54,9 +55,14 @@ pub fn run_jobs(
             s.spawn(worker);
         }
     });
-    let mut results = results.into_inner().expect("no worker panicked");
-    results.sort_by(|a, b| a.0.cmp(&b.0));
-    results
+    let results = results.into_inner().expect("no worker panicked");
+    let completed = results.iter().filter(|r| r.1.is_ok()).count();
+    let mut failed: Vec<(PathBuf, String)> = results
+        .into_iter()
+        .filter_map(|(job, r)| r.err().map(|e| (job, e)))
+        .collect();
+    failed.sort();
+    (completed, failed)
 }
 
 fn report(k: usize, count: usize, job: &Path, result: &Result<f64, String>, started: Instant) {

@@ -502,12 +502,6 @@ pub fn run_cases(
             result.map(|s| s.wall_time_s).map_err(|e| e.to_string())
         },
     );
-    for (dir, result) in results {
-        match result {
-            Ok(_) => report.completed += 1,
-            Err(e) => report.failed.push((dir, e)),
-        }
-    }
-    report.failed.sort();
+    (report.completed, report.failed) = results;
     Ok(report)
 }

@@ -237,6 +237,23 @@ fn axisymmetric_measurements(
     Ok((measurements, note))
 }
 
+/// The exact bending energy of a static problem's initial shape (None for
+/// other references, or a spheroid problem whose membrane is not one).
+fn static_reference(reference: Reference, case: &Case) -> Option<Value> {
+    let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
+    match (reference, &case.scene.membrane) {
+        (Reference::SphereBending, _) => Some(sphere_bending(kappa)),
+        (
+            Reference::SpheroidBending,
+            crate::scene::MembraneSource::Ellipsoid {
+                semi_axes: (a, _, c),
+                ..
+            },
+        ) => Some(spheroid_bending(*a, *c, kappa)),
+        _ => None,
+    }
+}
+
 /// A peer's measurements against the problem's reference.
 fn peer_measurements(
     reference: Reference,
@@ -245,24 +262,13 @@ fn peer_measurements(
 ) -> Result<(Vec<Measurement>, String), String> {
     let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
     match reference {
-        Reference::SphereBending => Ok((
-            vec![measure("E_b", output.energy_bending, sphere_bending(kappa))],
-            String::new(),
-        )),
-        Reference::SpheroidBending => match case.scene.membrane {
-            crate::scene::MembraneSource::Ellipsoid {
-                semi_axes: (a, _, c),
-                ..
-            } => Ok((
-                vec![measure(
-                    "E_b",
-                    output.energy_bending,
-                    spheroid_bending(a, c, kappa),
-                )],
+        Reference::SphereBending | Reference::SpheroidBending => {
+            let exact = static_reference(reference, case).ok_or("not an ellipsoid")?;
+            Ok((
+                vec![measure("E_b", output.energy_bending, exact)],
                 String::new(),
-            )),
-            _ => Err("not an ellipsoid".into()),
-        },
+            ))
+        }
         Reference::Axisymmetric => {
             let mesh = output.mesh.as_ref().ok_or("the peer wrote no final mesh")?;
             axisymmetric_measurements(
@@ -347,28 +353,10 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
             let mut note = String::new();
             if let Some(d) = data.filter(|_| st == "completed") {
                 match problem.reference {
-                    Reference::SphereBending => measurements.push(measure(
-                        "E_b",
-                        d.first_row
-                            .get("energy_bending")
-                            .copied()
-                            .unwrap_or(f64::NAN),
-                        sphere_bending(kappa),
-                    )),
-                    Reference::SpheroidBending => {
-                        if let crate::scene::MembraneSource::Ellipsoid {
-                            semi_axes: (a, _, c),
-                            ..
-                        } = case.scene.membrane
-                        {
-                            measurements.push(measure(
-                                "E_b",
-                                d.first_row
-                                    .get("energy_bending")
-                                    .copied()
-                                    .unwrap_or(f64::NAN),
-                                spheroid_bending(a, c, kappa),
-                            ));
+                    Reference::SphereBending | Reference::SpheroidBending => {
+                        if let Some(exact) = static_reference(problem.reference, case) {
+                            let initial = d.first_row.get("energy_bending").copied();
+                            measurements.push(measure("E_b", initial.unwrap_or(f64::NAN), exact));
                         }
                     }
                     Reference::Axisymmetric => match axisymmetric_measurements(
