@@ -106,6 +106,17 @@ pub struct AreaParams {
     pub target: Target,
 }
 
+/// Constant surface tension E_σ = σ A: the membrane exchanges area with a
+/// reservoir at tension σ (tether pulling; no target area).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TensionParams {
+    /// σ, surface tension (Ē/l̄² = 10 k_BT/µm²; ≥ 0). A tube pulled from
+    /// such a membrane has radius √(κ/2σ) and force 2π√(2σκ).
+    #[serde(deserialize_with = "crate::validate::non_negative")]
+    pub sigma: f64,
+}
+
 /// Density-dependent local tension E_a = k Σ_i (A_i/ρ_i − a0)² / a0 with
 /// a0 = A_t / N_initial. Requires lipid density.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -86,6 +86,10 @@ fn default_docking_level() -> u32 {
     2
 }
 
+/// Largest capsule a scene may ask for (as many vertices as an icosphere of
+/// the largest level, 163842, times 6).
+const MAX_CAPSULE_VERTICES: usize = 1_000_000;
+
 /// Source of the initial mesh.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -119,6 +123,23 @@ pub enum MembraneSource {
         /// only the mesh quality changes (paper Fig 1).
         #[serde(default, deserialize_with = "crate::validate::non_negative")]
         jitter: f64,
+    },
+    /// A capsule along z, centred at the origin: a cylinder of `radius` and
+    /// `length` closed by hemispherical caps, in staggered rings of nearly
+    /// equilateral triangles (the tether study's tube).
+    Capsule {
+        /// Radius of the cylinder and the caps (l̄).
+        #[serde(deserialize_with = "crate::validate::positive")]
+        radius: f64,
+        /// Length of the cylindrical part; the caps add 2·radius (l̄).
+        #[serde(deserialize_with = "crate::validate::non_negative")]
+        length: f64,
+        /// Side of the triangles (l̄; default 1).
+        #[serde(
+            default = "default_edge_length",
+            deserialize_with = "crate::validate::positive"
+        )]
+        mean_edge_length: f64,
     },
     /// Two icospheres of `level` glued through one triangle (fusion; level 2
     /// gives 321 vertices).
@@ -170,6 +191,8 @@ pub enum EnergyTerm {
     Area(AreaParams),
     /// Density-dependent local tension (needs `lipid_density: true`).
     LocalTension(LocalTensionParams),
+    /// Constant surface tension σA.
+    Tension(crate::params::TensionParams),
     /// Springs from the control points.
     Springs(SpringParams),
     /// Repulsion between non-neighbouring vertices closer than a range.
@@ -195,6 +218,7 @@ impl EnergyTerm {
             EnergyTerm::Volume(_) => "Volume",
             EnergyTerm::Area(_) => "Area",
             EnergyTerm::LocalTension(_) => "LocalTension",
+            EnergyTerm::Tension(_) => "Tension",
             EnergyTerm::Springs(_) => "Springs",
             EnergyTerm::SelfAvoidance(_) => "SelfAvoidance",
             EnergyTerm::Custom(_) => "Custom",
@@ -203,7 +227,7 @@ impl EnergyTerm {
 }
 
 /// A control point as written in a scene.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ControlPointSpec {
     /// Fixed position (l̄).
@@ -212,6 +236,12 @@ pub struct ControlPointSpec {
     /// Spring constant (Ē/l̄²); default: the `Springs` term's `stiffness`.
     #[serde(default, deserialize_with = "crate::validate::optional_positive")]
     pub stiffness: Option<f64>,
+    /// With a name, every frame records the force this point's springs
+    /// exert on the membrane: `series.csv` columns `force_<name>` (its
+    /// magnitude) and `force_<name>_x`, `_y`, `_z` (Ē/l̄ = 10 k_BT/µm ≈
+    /// 41 pN at 300 K). Letters, digits and `_`.
+    #[serde(default)]
+    pub name: Option<String>,
 }
 
 /// A scene could not be loaded or built.
@@ -381,6 +411,21 @@ impl Scene {
                     format!("must be positive and finite (got ({a}, {b}, {c}))"),
                 ));
             }
+            MembraneSource::Capsule {
+                radius,
+                length,
+                mean_edge_length,
+            } if crate::mesh::capsule_vertex_count(*radius, *length, *mean_edge_length)
+                > MAX_CAPSULE_VERTICES =>
+            {
+                return Err(invalid(
+                    "membrane",
+                    format!(
+                        "a capsule of radius {radius} and length {length} with edges of \
+                         {mean_edge_length} has more than {MAX_CAPSULE_VERTICES} vertices"
+                    ),
+                ));
+            }
             MembraneSource::Ellipsoid { jitter, .. } if *jitter >= 0.5 => {
                 return Err(invalid(
                     "membrane.jitter",
@@ -447,6 +492,22 @@ impl Scene {
                     &format!("tube_radius[{i}].name"),
                     format!("`{}` is used twice", probe.name),
                 ));
+            }
+        }
+        for (i, cp) in self.control_points.iter().enumerate() {
+            let Some(name) = &cp.name else { continue };
+            let field = format!("control_points[{i}].name");
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(invalid(
+                    &field,
+                    format!("`{name}` must be letters, digits and `_` (it names series columns)"),
+                ));
+            }
+            if self.control_points[..i]
+                .iter()
+                .any(|p| p.name.as_deref() == Some(name))
+            {
+                return Err(invalid(&field, format!("`{name}` is used twice")));
             }
         }
         for (i, c) in self.control_point_schedule.iter().enumerate() {
@@ -596,6 +657,11 @@ impl Scene {
                 semi_axes: (a, b, c),
                 jitter,
             } => crate::mesh::ellipsoid(*level, [*a, *b, *c], *jitter, self.seed),
+            MembraneSource::Capsule {
+                radius,
+                length,
+                mean_edge_length,
+            } => crate::mesh::capsule(*radius, *length, *mean_edge_length),
             MembraneSource::DockedPair { level } => docked_pair(*level),
             MembraneSource::File { path, scale } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));
@@ -681,7 +747,14 @@ impl Scene {
                 remesh: self.remesh,
             }))
             .map_err(build_err)?
-            .add_plugin(plugins::recorders(self.tube_radius.clone()))
+            .add_plugin(plugins::recorders(
+                self.tube_radius.clone(),
+                self.control_points
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, cp)| Some((cp.name.clone()?, i as u32)))
+                    .collect(),
+            ))
             .map_err(build_err)?;
         let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
         let mut spring_stiffness = SpringParams::default().stiffness;
@@ -694,6 +767,7 @@ impl Scene {
                 EnergyTerm::Volume(p) => builder.add_plugin(plugins::volume(*p)),
                 EnergyTerm::Area(p) => builder.add_plugin(plugins::area(*p)),
                 EnergyTerm::LocalTension(p) => builder.add_plugin(plugins::local_tension(*p)),
+                EnergyTerm::Tension(p) => builder.add_plugin(plugins::tension(*p)),
                 EnergyTerm::Springs(p) => {
                     spring_stiffness = p.stiffness;
                     builder.add_plugin(plugins::springs(p.coupling))

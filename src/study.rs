@@ -139,6 +139,14 @@ pub enum Reference {
     /// end of the problem's finest finished case (smallest `h`), for
     /// time-step errors. The cost is the case's whole wall time.
     FinestRung(Quantity),
+    /// A tube held by named control points on a membrane at constant
+    /// tension σ (the scene's `Tension` term): Derényi, Jülicher & Prost
+    /// (PRL 88, 238101, 2002), radius r0 = √(κ/2σ) and force
+    /// f0 = 2π√(2σκ). Measured over the second half of the run's frames
+    /// (medians): the radius of the scene's one `tube_radius` probe and the
+    /// force of its named control points (their mean magnitude). The cost
+    /// is the case's whole wall time.
+    Tether,
 }
 
 impl Reference {
@@ -360,6 +368,23 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
         )
     {
         return Err("SphereBending needs `membrane: Icosphere(...)` without jitter".into());
+    }
+    if reference == Reference::Tether {
+        let sigma = scene.energy.iter().find_map(|t| match t {
+            crate::scene::EnergyTerm::Tension(p) => Some(p.sigma),
+            _ => None,
+        });
+        if !sigma.is_some_and(|s| s > 0.0) {
+            return Err("Tether needs a `Tension(sigma: ...)` term with sigma > 0".into());
+        }
+        if scene.tube_radius.len() != 1 {
+            return Err("Tether needs exactly one `tube_radius` probe".into());
+        }
+        if !scene.control_points.iter().any(|c| c.name.is_some()) {
+            return Err(
+                "Tether needs a control point with a `name` (its force is measured)".into(),
+            );
+        }
     }
     if reference == Reference::SpheroidBending {
         match scene.membrane {

@@ -131,6 +131,8 @@ pub struct StudyReport {
 struct RunData {
     summary: serde_json::Value,
     first_row: HashMap<String, f64>,
+    /// Every row of series.csv, the first included.
+    rows: Vec<HashMap<String, f64>>,
 }
 
 fn read_run(dir: &Path) -> Result<RunData, String> {
@@ -142,18 +144,21 @@ fn read_run(dir: &Path) -> Result<RunData, String> {
         .map_err(|e| format!("no series.csv: {e}"))?;
     let mut lines = series.lines();
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let row: Vec<f64> = lines
-        .next()
-        .unwrap_or_default()
-        .split(',')
-        .map(|v| v.parse().unwrap_or(f64::NAN))
+    let rows: Vec<HashMap<String, f64>> = lines
+        .map(|line| {
+            header
+                .iter()
+                .zip(line.split(','))
+                .map(|(h, v)| (h.to_string(), v.parse().unwrap_or(f64::NAN)))
+                .collect()
+        })
         .collect();
-    let first_row = header
-        .iter()
-        .zip(row)
-        .map(|(h, v)| (h.to_string(), v))
-        .collect();
-    Ok(RunData { summary, first_row })
+    let first_row = rows.first().cloned().unwrap_or_default();
+    Ok(RunData {
+        summary,
+        first_row,
+        rows,
+    })
 }
 
 fn number(v: &serde_json::Value, key: &str) -> f64 {
@@ -280,7 +285,68 @@ fn peer_measurements(
             )
         }
         Reference::FinestRung(_) => Err("a time-step problem has no peer version".into()),
+        Reference::Tether => Err("the tether problem has no peer version".into()),
     }
+}
+
+/// The tether's radius and force over the second half of the frames
+/// (medians) against Derényi-Jülicher-Prost, r0 = √(κ/2σ) and
+/// f0 = 2π√(2σκ).
+fn tether_measurements(scene: &crate::scene::Scene, d: &RunData) -> (Vec<Measurement>, String) {
+    let kappa = bending_kappa(scene).unwrap_or(f64::NAN);
+    let sigma = scene
+        .energy
+        .iter()
+        .find_map(|t| match t {
+            crate::scene::EnergyTerm::Tension(p) => Some(p.sigma),
+            _ => None,
+        })
+        .unwrap_or(f64::NAN);
+    let r0 = (kappa / (2.0 * sigma)).sqrt();
+    let f0 = 2.0 * std::f64::consts::PI * (2.0 * sigma * kappa).sqrt();
+    let late = &d.rows[d.rows.len() / 2..];
+    let median = |mut v: Vec<f64>| {
+        v.retain(|x| x.is_finite());
+        v.sort_by(f64::total_cmp);
+        match v.len() {
+            0 => f64::NAN,
+            n if n % 2 == 1 => v[n / 2],
+            n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+        }
+    };
+    let radius_column = scene
+        .tube_radius
+        .first()
+        .map(|p| format!("radius_{}", p.name))
+        .unwrap_or_default();
+    let force_columns: Vec<String> = scene
+        .control_points
+        .iter()
+        .filter_map(|c| c.name.as_ref().map(|n| format!("force_{n}")))
+        .collect();
+    let value = |row: &HashMap<String, f64>, c: &String| row.get(c).copied().unwrap_or(f64::NAN);
+    let radius = median(late.iter().map(|r| value(r, &radius_column)).collect());
+    let force = median(
+        late.iter()
+            .map(|r| {
+                force_columns.iter().map(|c| value(r, c)).sum::<f64>() / force_columns.len() as f64
+            })
+            .collect(),
+    );
+    let exact = |v: f64| Value {
+        value: v,
+        error: 0.0,
+    };
+    (
+        vec![
+            measure("r", radius, exact(r0)),
+            measure("f", force, exact(f0)),
+        ],
+        format!(
+            "sigma = {sigma}, r0 = {r0:.4}, f0 = {f0:.4}; medians over {} frames",
+            late.len()
+        ),
+    )
 }
 
 /// Measures every case (finished ones; others are reported with their
@@ -371,6 +437,7 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
                         // of v: the case stays in the table, unmeasured.
                         Err(reason) => st = format!("not measured: {reason}"),
                     },
+                    Reference::Tether => (measurements, note) = tether_measurements(&case.scene, d),
                     Reference::FinestRung(q) => {
                         if let Some((_, value)) = finest {
                             measurements.push(measure(

@@ -22,6 +22,7 @@ pub mod recorders;
 pub mod remesh;
 pub mod self_avoidance_forces;
 pub mod spring_forces;
+pub mod tension_forces;
 pub mod vin_forces;
 pub mod volume_forces;
 
@@ -30,5 +31,6 @@ pub use bending_forces::BendingForces;
 pub use local_tension_forces::LocalTensionForces;
 pub use self_avoidance_forces::SelfAvoidanceForces;
 pub use spring_forces::SpringForces;
+pub use tension_forces::TensionForces;
 pub use vin_forces::VinForces;
 pub use volume_forces::VolumeForces;

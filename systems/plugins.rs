@@ -145,6 +145,14 @@ pub fn area(params: AreaParams) -> impl Plugin {
     }
 }
 
+/// Constant surface tension σA.
+pub fn tension(params: crate::params::TensionParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.add_force_term(crate::systems::TensionForces::new(params.sigma))?;
+        Ok(())
+    }
+}
+
 /// Density-dependent local tension with a0 = A_t / Σρ: A_t / N_initial for a
 /// fresh mesh (ρ = 1), and the same lipid unit after remeshing or when
 /// starting from a saved state (Σρ is conserved).
@@ -209,7 +217,10 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
 
 /// The built-in recorders (state columns, force, mean curvature, lipid
 /// density) and one tube-radius recorder per probe.
-pub fn recorders(probes: Vec<crate::tube_radius::TubeProbe>) -> impl Plugin {
+pub fn recorders(
+    probes: Vec<crate::tube_radius::TubeProbe>,
+    named_points: Vec<(String, u32)>,
+) -> impl Plugin {
     move |b: &mut SimBuilder| {
         use crate::systems::recorders::*;
         b.add_recorder(StateColumns)
@@ -218,6 +229,9 @@ pub fn recorders(probes: Vec<crate::tube_radius::TubeProbe>) -> impl Plugin {
             .add_recorder(LipidDensityField);
         for probe in probes {
             b.add_recorder(TubeRadius::new(probe));
+        }
+        for (name, index) in named_points {
+            b.add_recorder(ControlPointForce::new(name, index));
         }
         Ok(())
     }

@@ -9,6 +9,8 @@
 //! - [`LipidDensityField`]: point data `density` (only with lipid density).
 //! - [`TubeRadius`]: `radius_<name>` and `radius_<name>_norm` (divided by
 //!   the first frame's radius) of one tube probe.
+//! - [`ControlPointForce`]: `force_<name>` and `force_<name>_x`, `_y`, `_z`,
+//!   the force one named control point's springs exert on the membrane.
 
 use crate::force::ForceBuffers;
 use crate::membrane::Membrane;
@@ -193,6 +195,66 @@ impl Recorder for TubeRadius {
         let name = &self.probe.name;
         frame.column(format!("radius_{name}"), r.unwrap_or(f64::NAN));
         frame.column(format!("radius_{name}_norm"), norm);
+        Ok(())
+    }
+}
+
+/// The force one control point's springs exert on the membrane, k Σ_j
+/// (x_c − x_j) over its nearest vertex and that vertex's 1-ring (the same
+/// total for both couplings; Ē/l̄).
+pub struct ControlPointForce {
+    name: String,
+    index: u32,
+}
+
+impl ControlPointForce {
+    /// A recorder for the control point declared `index`-th, columns named
+    /// after `name`.
+    pub fn new(name: String, index: u32) -> Self {
+        Self { name, index }
+    }
+}
+
+impl Recorder for ControlPointForce {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn access(&self) -> Access {
+        Access::default()
+            .read::<Membrane>()
+            .read::<DensePositions>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        use crate::components::{ControlPoint, ControlPointIndex};
+        let err = read_error(&self.name);
+        let membrane = s.get::<Membrane>().map_err(&err)?;
+        let p = &s.get::<DensePositions>().map_err(&err)?.0;
+        let t = membrane.cached_topology();
+        let point = membrane
+            .world
+            .query::<(&ControlPointIndex, &ControlPoint)>()
+            .iter()
+            .find(|(i, _)| i.0 == self.index)
+            .map(|(_, cp)| *cp);
+        let force = match point {
+            Some(cp) if !p.is_empty() => {
+                // The force stage's nearest vertex (its cell list gives the
+                // brute-force answer).
+                let i = crate::energy::springs::nearest_vertex(p, cp.position);
+                std::iter::once(i as u32)
+                    .chain(t.neighbours(i).iter().copied())
+                    .map(|j| cp.stiffness * (cp.position - p[j as usize]))
+                    .sum()
+            }
+            _ => glam::DVec3::NAN,
+        };
+        let name = &self.name;
+        frame.column(format!("force_{name}"), force.length());
+        frame.column(format!("force_{name}_x"), force.x);
+        frame.column(format!("force_{name}_y"), force.y);
+        frame.column(format!("force_{name}_z"), force.z);
         Ok(())
     }
 }

@@ -164,6 +164,15 @@ fn area_force_matches_finite_differences() {
 }
 
 #[test]
+fn tension_force_matches_finite_differences() {
+    for (level, seed) in [(2, 65), (3, 66)] {
+        let mesh = perturbed(level, seed);
+        let mut term = TensionForces::new(0.125);
+        check("tension", &mesh, &mut term, false, opts(1e-8));
+    }
+}
+
+#[test]
 fn local_tension_force_matches_finite_differences() {
     for (level, seed) in [(2, 71), (3, 72)] {
         let mesh = perturbed(level, seed);

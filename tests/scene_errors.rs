@@ -179,6 +179,32 @@ fn inconsistent_scenes_name_the_field() {
             GOOD.replace("level: 2)", "level: 2), valence: (min: 6, max: 8)"),
             "valence",
         ),
+        (
+            GOOD.replace(
+                "Icosphere(level: 2)",
+                "Capsule(radius: 1e6, length: 1e6)",
+            ),
+            "membrane",
+        ),
+        (
+            GOOD.replace("Bending(kappa: 1.0),", "Tension(sigma: -0.1),"),
+            "energy[0].Tension.sigma",
+        ),
+        (
+            GOOD.replace("Bending(kappa: 1.0),", "Springs(),").replace(
+                "name: \"t\",",
+                "name: \"t\", control_points: [(position: (0.0, 0.0, 9.0), name: Some(\"tip top\"))],",
+            ),
+            "control_points[0].name",
+        ),
+        (
+            GOOD.replace("Bending(kappa: 1.0),", "Springs(),").replace(
+                "name: \"t\",",
+                "name: \"t\", control_points: [(position: (0.0, 0.0, 9.0), name: Some(\"tip\")), \
+                 (position: (0.0, 0.0, -9.0), name: Some(\"tip\"))],",
+            ),
+            "control_points[1].name",
+        ),
     ];
     for (text, field) in cases {
         let (_, msg) = error_of(&text);

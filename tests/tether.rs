@@ -146,3 +146,68 @@ fn time_scheduled_moves_follow_simulated_time() {
         "the test spans several intervals"
     );
 }
+
+#[test]
+fn a_named_control_point_records_the_force_its_springs_exert() {
+    // A capsule under constant tension; the points sit 0.5 l̄ beyond the
+    // poles. At iteration 0 the bottom spring's force on the membrane is
+    // k Σ_j (c − x_j) over the pole and its ring, computed here from the
+    // generated mesh.
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"Scene(
+        name: "capsule_force",
+        membrane: Capsule(radius: 2.0, length: 10.0),
+        energy: [
+            Bending(kappa: 1.0),
+            Tension(sigma: 0.125),
+            Springs(stiffness: 3.0),
+        ],
+        control_points: [
+            (position: (0.0, 0.0, -7.5), name: Some("bottom")),
+            (position: (0.0, 0.0, 7.5), name: Some("top")),
+        ],
+        dynamics: (iterations: 10, frames: 2),
+    )"#;
+    let path = dir.path().join("capsule.ron");
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let out = dir.path().join("run");
+    run_scene(&scene, &path, &options(&out, 10, None), |_| Ok(())).unwrap();
+
+    let mesh = remembrane::mesh::capsule(2.0, 10.0, 1.0);
+    let pole = 0; // the generator's first vertex is the bottom pole
+    assert!((mesh.positions[pole].z + 7.0).abs() < 1e-12);
+    let mut patch: Vec<u32> = vec![pole as u32];
+    for f in &mesh.faces {
+        if f.contains(&(pole as u32)) {
+            patch.extend(f.iter().filter(|&&v| v != pole as u32));
+        }
+    }
+    patch.sort();
+    patch.dedup();
+    let c = glam::DVec3::new(0.0, 0.0, -7.5);
+    let expected: glam::DVec3 = patch
+        .iter()
+        .map(|&j| 3.0 * (c - mesh.positions[j as usize]))
+        .sum();
+
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let mut lines = series.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let first: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let col = |name: &str| first[header.iter().position(|h| *h == name).unwrap()];
+    assert_eq!(col("iteration"), 0.0);
+    for (axis, want) in [("x", expected.x), ("y", expected.y), ("z", expected.z)] {
+        let got = col(&format!("force_bottom_{axis}"));
+        assert!((got - want).abs() < 1e-9, "{axis}: {got} vs {want}");
+    }
+    assert!((col("force_bottom") - expected.length()).abs() < 1e-9);
+    // Pulling outward, and the top point mirrors the bottom one.
+    assert!(expected.z < -1.0);
+    assert!((col("force_top_z") + col("force_bottom_z")).abs() < 1e-9);
+}

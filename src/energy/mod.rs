@@ -5,4 +5,5 @@ pub mod bending;
 pub mod penalty;
 pub mod self_avoidance;
 pub mod springs;
+pub mod tension;
 pub mod vin;

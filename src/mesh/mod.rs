@@ -3,11 +3,13 @@
 //! [`SurfaceMesh`] is the exchange format between files, generators and the
 //! hecs world ([`crate::membrane::Membrane`]). It is not used in hot loops.
 
+mod capsule;
 mod docking;
 mod icosphere;
 pub mod invariants;
 pub mod io;
 
+pub use capsule::{capsule, capsule_vertex_count};
 pub use docking::docked_pair;
 pub use icosphere::{
     MAX_ICOSPHERE_LEVEL, ellipsoid, icosphere, icosphere_unit, vertex_count_for_level,
