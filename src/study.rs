@@ -402,6 +402,15 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
     Ok(())
 }
 
+/// Whether the run in `dir` stopped on a numerical blow-up and wrote its
+/// summary saying so.
+fn blew_up(dir: &Path) -> bool {
+    std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .is_some_and(|v| v["status"] == "blew_up")
+}
+
 /// Options of [`run_cases`].
 #[derive(Clone, Debug)]
 pub struct StudyOptions {
@@ -524,7 +533,12 @@ pub fn run_cases(
                     fingerprint(study, case).as_bytes(),
                 );
             }
-            result.map(|s| s.wall_time_s).map_err(|e| e.to_string())
+            match result {
+                Ok(s) => Ok(s.wall_time_s),
+                // Kept as a result: the report lists it as `blew_up`.
+                Err(_) if blew_up(&dir) => Ok(t.elapsed().as_secs_f64()),
+                Err(e) => Err(e.to_string()),
+            }
         },
     );
     (report.completed, report.failed) = results;

@@ -87,6 +87,12 @@ pub fn peer_spec(
             if !matches!(scene.membrane, MembraneSource::Icosphere { .. }) {
                 return Err("the peer's deflation starts from a sphere; this rung does not".into());
             }
+            if scene.dynamics.duration.is_some() {
+                // The peer takes its own steps for the scene's iterations.
+                return Err(
+                    "the peer runs the scene's iterations; this rung sets a duration".into(),
+                );
+            }
             let penalty = |volume: bool| {
                 scene.energy.iter().find_map(|t| match t {
                     EnergyTerm::Volume(p) if volume => Some((p.k, p.target)),

@@ -242,6 +242,47 @@ fn axisymmetric_measurements(
     Ok((measurements, note))
 }
 
+/// Equilibrium tolerance on the bending energy: within this fraction of its
+/// final value (the RBC's E_b moves by ±0.4 % between frames at rest).
+const EQUILIBRIUM_ENERGY_TOLERANCE: f64 = 0.01;
+/// Equilibrium tolerance on the reduced volume (absolute).
+const EQUILIBRIUM_V_TOLERANCE: f64 = 1e-3;
+
+/// When a run reached equilibrium: the first frame from which on every frame
+/// has E_b within [`EQUILIBRIUM_ENERGY_TOLERANCE`] and v within
+/// [`EQUILIBRIUM_V_TOLERANCE`] of the final frame's, as a sentence with its
+/// simulated time and iteration.
+fn equilibration(rows: &[HashMap<String, f64>]) -> String {
+    let get = |r: &HashMap<String, f64>, k: &str| r.get(k).copied().unwrap_or(f64::NAN);
+    let Some(last) = rows.last() else {
+        return String::new();
+    };
+    let (e_end, v_end) = (get(last, "energy_bending"), get(last, "reduced_volume"));
+    let settled = |r: &HashMap<String, f64>| {
+        (get(r, "energy_bending") - e_end).abs() <= EQUILIBRIUM_ENERGY_TOLERANCE * e_end.abs()
+            && (get(r, "reduced_volume") - v_end).abs() <= EQUILIBRIUM_V_TOLERANCE
+    };
+    let first = rows.len() - rows.iter().rev().take_while(|r| settled(r)).count();
+    let tolerance = format!(
+        "E_b within {} % and v within {EQUILIBRIUM_V_TOLERANCE:e} of their final values",
+        EQUILIBRIUM_ENERGY_TOLERANCE * 100.0
+    );
+    if first + 1 >= rows.len() {
+        return format!("not shown at equilibrium: only the last frame has {tolerance}");
+    }
+    format!(
+        "at equilibrium ({tolerance} from then on) from t = {:.4} s, iteration {} (of {} frames, {})",
+        get(&rows[first], "time"),
+        get(&rows[first], "iteration"),
+        rows.len(),
+        if first == 0 {
+            "already at the first"
+        } else {
+            "resolution one frame"
+        }
+    )
+}
+
 /// The exact bending energy of a static problem's initial shape (None for
 /// other references, or a spheroid problem whose membrane is not one).
 fn static_reference(reference: Reference, case: &Case) -> Option<Value> {
@@ -432,7 +473,9 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
                         number(&d.summary, "reduced_volume"),
                         kappa,
                     ) {
-                        Ok((m, n)) => (measurements, note) = (m, n),
+                        Ok((m, n)) => {
+                            (measurements, note) = (m, format!("{n}; {}", equilibration(&d.rows)))
+                        }
                         // E.g. a run that ends outside the solver's range
                         // of v: the case stays in the table, unmeasured.
                         Err(reason) => st = format!("not measured: {reason}"),

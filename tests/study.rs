@@ -128,6 +128,24 @@ fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
             > 0.0
     );
 
+    // The explicit bending step: with the stability bound (on by default,
+    // nothing hand-picked) the spheroid's relaxation is within 1e-4 of the
+    // run with a 26x smaller step; without bound and cap it blows up, and
+    // the study keeps that as a result.
+    let bending = problem(&report, "bending_step");
+    let case = |label: &str| {
+        bending["cases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["rung"] == label)
+            .unwrap_or_else(|| panic!("no rung {label}"))
+            .clone()
+    };
+    let bound = case("bound")["measurements"][0]["error"].as_f64().unwrap();
+    assert!(bound < 1e-4, "bound: {bound}");
+    assert_eq!(case("no_bound_no_cap")["status"], "blew_up");
+
     // The time-step error of the area after 5 ms falls with the mean step.
     let steps = problem(&report, "time_step_area");
     let e = errors(steps);
