@@ -208,21 +208,6 @@ fn tick_label(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
-/// A tick label; on a log axis only at 1, 2, 3 and 5 times a power of ten,
-/// so that the minor grid lines stay unlabelled.
-fn axis_label(v: f64, log: bool) -> String {
-    if log && v > 0.0 {
-        let mantissa = v / 10f64.powf(v.log10().floor());
-        if ![1.0, 2.0, 3.0, 5.0, 10.0]
-            .iter()
-            .any(|m| (mantissa - m).abs() < 1e-6 * m)
-        {
-            return String::new();
-        }
-    }
-    tick_label(v)
-}
-
 fn draw_chart(root: &DrawingArea<BitMapBackend<'_>, Shift>, spec: &Chart) -> Result<(), String> {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
@@ -243,14 +228,54 @@ fn draw_chart(root: &DrawingArea<BitMapBackend<'_>, Shift>, spec: &Chart) -> Res
     }
     let (x0, x1) = axis_range(&xs, spec.x_scale);
     let (y0, y1) = axis_range(&ys, spec.y_scale);
+    // Log axes get their ticks from `log_ticks`: plotters' own log key
+    // points leave a range shorter than a decade without any.
+    let log_x = || (x0..x1).log_scale().with_key_points(log_ticks(x0, x1));
+    let log_y = || (y0..y1).log_scale().with_key_points(log_ticks(y0, y1));
     match (spec.x_scale, spec.y_scale) {
         (Scale::Linear, Scale::Linear) => draw_series(root, spec, x0..x1, y0..y1),
-        (Scale::Linear, Scale::Log) => draw_series(root, spec, x0..x1, (y0..y1).log_scale()),
-        (Scale::Log, Scale::Linear) => draw_series(root, spec, (x0..x1).log_scale(), y0..y1),
-        (Scale::Log, Scale::Log) => {
-            draw_series(root, spec, (x0..x1).log_scale(), (y0..y1).log_scale())
+        (Scale::Linear, Scale::Log) => draw_series(root, spec, x0..x1, log_y()),
+        (Scale::Log, Scale::Linear) => draw_series(root, spec, log_x(), y0..y1),
+        (Scale::Log, Scale::Log) => draw_series(root, spec, log_x(), log_y()),
+    }
+}
+
+/// Ticks of a log axis over [lo, hi]: the values 1, 2 and 5 times a power of
+/// ten inside it, or, when fewer than three are, 1 to 9 times (a range
+/// shorter than a decade), or else 10 steps of the range's own order.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    // m·10^k rounded once (0.3, not 3 × 0.1).
+    let scaled = |m: f64, k: i32| {
+        if k < 0 {
+            m / 10f64.powi(-k)
+        } else {
+            m * 10f64.powi(k)
+        }
+    };
+    let within = |mantissas: &[f64]| -> Vec<f64> {
+        let (first, last) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        let mut ticks: Vec<f64> = (first..=last)
+            .flat_map(|k| mantissas.iter().map(move |&m| scaled(m, k)))
+            .filter(|v| *v >= lo * (1.0 - 1e-12) && *v <= hi * (1.0 + 1e-12))
+            .collect();
+        ticks.dedup();
+        ticks
+    };
+    for mantissas in [
+        &[1.0, 2.0, 5.0][..],
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
+    ] {
+        let ticks = within(mantissas);
+        if ticks.len() >= 3 {
+            return ticks;
         }
     }
+    let order = ((hi - lo) / 10.0).log10().floor() as i32;
+    let first = (lo / scaled(1.0, order)).ceil() as i64;
+    (first..first + 40)
+        .map(|n| scaled(n as f64, order))
+        .take_while(|v| *v <= hi)
+        .collect()
 }
 
 fn draw_series<X, Y>(
@@ -281,10 +306,10 @@ where
         .y_desc(spec.y_label.as_str())
         .label_style((FONT, 15))
         .axis_desc_style((FONT, 17))
-        .x_labels(if log_x { 20 } else { 8 })
-        .y_labels(if log_y { 20 } else { 8 })
-        .x_label_formatter(&|v| axis_label(*v, log_x))
-        .y_label_formatter(&|v| axis_label(*v, log_y))
+        .x_labels(if log_x { 40 } else { 8 })
+        .y_labels(if log_y { 40 } else { 8 })
+        .x_label_formatter(&|v| tick_label(*v))
+        .y_label_formatter(&|v| tick_label(*v))
         // Minor grid lines only on linear charts: on a log axis plotters
         // draws them at every key point, which crowds short ranges.
         .light_line_style(if log_x || log_y {
@@ -435,6 +460,24 @@ pub fn bar_chart(panels: &[BarPanel]) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_axes_get_ticks_on_short_and_long_ranges() {
+        // Shorter than a decade (the tether ladder's h): 1-9 times 0.1.
+        assert_eq!(log_ticks(0.23, 0.66), vec![0.3, 0.4, 0.5, 0.6]);
+        // Several decades: 1, 2 and 5 times each power of ten.
+        let t = log_ticks(4e-5, 1.1e-3);
+        assert_eq!(t.len(), 5, "{t:?}");
+        for (got, want) in t.iter().zip([5e-5, 1e-4, 2e-4, 5e-4, 1e-3]) {
+            assert!((got / want - 1.0).abs() < 1e-12, "{t:?}");
+        }
+        // Within one step of 1-9 (2.05..2.95): tenths of the range's order.
+        let t = log_ticks(2.05, 2.95);
+        assert!(
+            t.len() >= 3 && t.iter().all(|v| (2.05..=2.95).contains(v)),
+            "{t:?}"
+        );
+    }
 
     /// Decodes a PNG into (width, height, RGB pixels).
     fn decode(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
