@@ -94,6 +94,8 @@ pub enum Legend {
     UpperRight,
     /// Lower right (for rising data).
     LowerRight,
+    /// Lower left (error against cost: no point is both cheap and exact).
+    LowerLeft,
 }
 
 /// A panel of a bar chart: one bar per label, each labelled with its value.
@@ -388,6 +390,7 @@ where
             .position(match spec.legend {
                 Legend::UpperRight => SeriesLabelPosition::UpperRight,
                 Legend::LowerRight => SeriesLabelPosition::LowerRight,
+                Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
             })
             .label_font((FONT, 15))
             .background_style(WHITE.mix(0.85))

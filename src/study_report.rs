@@ -926,6 +926,8 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
         .into_iter()
         .chain(peer_series(p, |c| c.cost_s))
         .collect(),
+        // Dominated points (expensive and inexact) sit upper right.
+        legend: Legend::LowerLeft,
         ..Default::default()
     };
     let by_h: Vec<(f64, f64)> = p
