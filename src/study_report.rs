@@ -928,7 +928,6 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
         .collect(),
         // Dominated points (expensive and inexact) sit upper right.
         legend: Legend::LowerLeft,
-        ..Default::default()
     };
     let by_h: Vec<(f64, f64)> = p
         .cases
