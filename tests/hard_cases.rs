@@ -231,3 +231,21 @@ fn a_thin_tether_pulled_fast_grows_by_splits_and_keeps_its_radius() {
         assert!((radius / 1.1524 - 1.0).abs() < 0.1, "radius {radius}");
     }
 }
+
+#[test]
+fn thermal_noise_ten_times_300_k_with_remeshing_keeps_a_valid_mesh() {
+    // 150 iterations here (the burst of the first ticks); the scene's
+    // header has the 10^5-iteration run.
+    let (outcome, scene, _dir, out) = run_hard("thermal_noise_hot", Some(150));
+    assert!(outcome.is_ok(), "{}", outcome.err().unwrap());
+    let s = checked_summary(&out);
+    let q = &s["quality"];
+    assert!(q["min_angle_deg"].as_f64().unwrap() > MIN_ANGLE_DEG, "{q}");
+    for (valence, _) in q["valence_histogram"].as_object().unwrap() {
+        let v: u32 = valence.parse().unwrap();
+        assert!((scene.valence.min..=scene.valence.max).contains(&v));
+    }
+    // The noise keeps remeshing busy: over a thousand events in 150 ticks.
+    let events = s["remesh"]["events"].as_u64().unwrap();
+    assert!(events > 1000, "{events} events");
+}
