@@ -40,7 +40,8 @@ fn rings(radius: f64, length: f64, edge: f64) -> Vec<Ring> {
     // Rows of equilateral triangles with side = the ring's chord.
     let chord = 2.0 * radius * (PI / n as f64).sin();
     let row = chord * 3f64.sqrt() / 2.0;
-    let cylinder_rows = ((length / row).round() as usize).max(1);
+    // 0 rows: one ring joins the two caps (a sphere for length 0).
+    let cylinder_rows = (length / row).round() as usize;
     let cap_rows = ((FRAC_PI_2 * radius / row).round() as usize).max(1);
     let mut out = Vec::new();
     let stagger = |k: usize, count: usize| (k % 2) as f64 * PI / count as f64;
@@ -57,19 +58,30 @@ fn rings(radius: f64, length: f64, edge: f64) -> Vec<Ring> {
         out.push((z, r, count));
     }
     for k in 0..=cylinder_rows {
-        let z = -0.5 * length + length * k as f64 / cylinder_rows as f64;
+        let z = if cylinder_rows == 0 {
+            0.0
+        } else {
+            -0.5 * length + length * k as f64 / cylinder_rows as f64
+        };
         out.push((z, radius, n));
     }
     for j in 1..cap_rows {
         out.push(cap_ring(j, true));
     }
+    // With a single ring between the caps, its two neighbours would share a
+    // phase and leave some of its vertices one link on each side: turn the
+    // top cap by half a step.
+    let top_cap_start = out.len() + 1 - cap_rows;
     out.into_iter()
         .enumerate()
         .map(|(k, (z, radius, count))| Ring {
             z,
             radius,
             count,
-            phase: stagger(k, count),
+            phase: stagger(
+                k + usize::from(cylinder_rows == 0 && k >= top_cap_start),
+                count,
+            ),
         })
         .collect()
 }
@@ -159,7 +171,14 @@ mod tests {
 
     #[test]
     fn capsules_are_closed_outward_and_regular() {
-        for (radius, length) in [(1.0, 4.0), (2.0, 20.0), (3.3, 17.0), (6.0, 0.5)] {
+        for (radius, length) in [
+            (1.0, 4.0),
+            (2.0, 20.0),
+            (3.3, 17.0),
+            (6.0, 0.5),
+            (2.0, 0.0),
+            (2.0, 0.2),
+        ] {
             let mesh = capsule(radius, length, 1.0);
             let report = check_mesh(
                 &mesh.positions,
