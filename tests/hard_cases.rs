@@ -8,7 +8,7 @@ use remembrane::scene::Scene;
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{frame_is_finite, quiet_options};
+use common::{frame_is_finite, quiet_options, series_column};
 
 /// Runs `scenes/hard/NAME.ron` (for `iterations` if given, 3 frames then)
 /// into a temporary directory; returns the outcome, the scene and the run
@@ -221,13 +221,9 @@ fn a_thin_tether_pulled_fast_grows_by_splits_and_keeps_its_radius() {
     // 34 moves of 0.25 l̄ in 0.034 s: the splits keep up with the pull.
     let splits = s["remesh"]["split"]["success"].as_u64().unwrap();
     assert!(splits > 50, "{splits} splits");
-    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
-    let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
-    let r = header.iter().position(|h| *h == "radius_tube").unwrap();
     // The tube stays a tube at about its DJP radius (1.1524 l̄) while
     // stretched by 74 %: within 10 % on every frame, no pinch.
-    for line in series.lines().skip(1) {
-        let radius: f64 = line.split(',').nth(r).unwrap().parse().unwrap();
+    for radius in series_column(&out, "radius_tube") {
         assert!((radius / 1.1524 - 1.0).abs() < 0.1, "radius {radius}");
     }
 }

@@ -7,6 +7,9 @@ use remembrane::scene::Scene;
 use remembrane::state::SavedState;
 use std::path::{Path, PathBuf};
 
+mod common;
+use common::series_column;
+
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
@@ -191,16 +194,8 @@ fn a_named_control_point_records_the_force_its_springs_exert() {
         .map(|&j| 3.0 * (c - mesh.positions[j as usize]))
         .sum();
 
-    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
-    let mut lines = series.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let first: Vec<f64> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(|x| x.parse().unwrap())
-        .collect();
-    let col = |name: &str| first[header.iter().position(|h| *h == name).unwrap()];
+    // The first frame, at iteration 0.
+    let col = |name: &str| series_column(&out, name)[0];
     assert_eq!(col("iteration"), 0.0);
     for (axis, want) in [("x", expected.x), ("y", expected.y), ("z", expected.z)] {
         let got = col(&format!("force_bottom_{axis}"));
