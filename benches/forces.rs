@@ -53,6 +53,7 @@ fn terms(initial: &InitialState) -> Vec<Box<dyn ForceTerm>> {
         })),
         Box::new(VolumeForces::new(4.0, 0.6 * initial.volume)),
         Box::new(AreaForces::new(8.0, 1.005 * initial.area)),
+        Box::new(TensionForces::new(0.1)),
         Box::new(LocalTensionForces::new(
             12.0,
             initial.area / initial.vertices as f64,
