@@ -325,39 +325,56 @@ struct RunArgs {
     /// instead of the scene's membrane.
     #[arg(long, value_name = "STATE.json")]
     from: Option<PathBuf>,
+    /// Write a checkpoint every N iterations (DIR.incomplete/checkpoint.json,
+    /// atomically), from which `--resume DIR` continues a killed run with
+    /// the same outputs, byte for byte.
+    #[arg(long, value_name = "N")]
+    checkpoint_every: Option<u64>,
+    /// Continue the killed or interrupted run whose --out was DIR from its
+    /// last checkpoint (give no scene; --threads, --quiet and
+    /// --checkpoint-every may be given).
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
 }
 
 fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
-    use crate::run::{Progress, RunOptions, run_scene};
+    use crate::run::{CheckpointSettings, Progress, RunOptions, run_scene};
+    if args.checkpoint_every == Some(0) {
+        eprintln!("error: --checkpoint-every: must be at least 1");
+        return ExitCode::from(2);
+    }
+    if let Some(dir) = &args.resume {
+        return resume_command(scene_path, dir, &args);
+    }
     if let Some(p) = scene_path
         && std::fs::read_to_string(p).is_ok_and(|t| crate::protocol::is_protocol(&t))
     {
         return protocol_command(p, args);
     }
-    let loaded = match scene_path {
-        Some(p) => Scene::load(p).map(|s| (s, p.to_path_buf())),
-        None => Scene::from_ron_str(BUNDLED_SCENE, Path::new(BUNDLED_SCENE_NAME))
-            .map(|s| (s, PathBuf::from(BUNDLED_SCENE_NAME))),
+    let path = scene_path.map_or_else(|| PathBuf::from(BUNDLED_SCENE_NAME), Path::to_path_buf);
+    let text = match scene_path {
+        Some(p) => std::fs::read_to_string(p).map_err(|source| crate::scene::SceneError::Read {
+            path: p.to_path_buf(),
+            source,
+        }),
+        None => Ok(BUNDLED_SCENE.to_string()),
     };
-    let (scene, path) = match loaded {
+    let scene = match text.and_then(|t| Scene::from_ron_str(&t, &path).map(|s| (s, t))) {
         Ok(x) => x,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    let pool = args.threads.map(|n| {
-        (
-            n,
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build_global(),
-        )
-    });
-    if let Some((n, Err(e))) = pool {
-        eprintln!("error: --threads {n}: {e}");
-        return ExitCode::from(2);
+    let (scene, text) = scene;
+    if let Err(code) = set_threads(args.threads) {
+        return code;
     }
+    // Checkpoints keep the text the scene was parsed from.
+    let checkpoint = args.checkpoint_every.map(|every| CheckpointSettings {
+        every,
+        scene_text: text,
+    });
     let name = crate::run::run_name(&scene, &path);
     let out = args
         .out
@@ -372,10 +389,66 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         from: args.from,
         progress,
         check_invariants: args.check_invariants,
+        checkpoint,
     };
-    match crate::parallel::on_pool(|| run_scene(&scene, &path, &options, |_| Ok(()))) {
+    let result = crate::parallel::on_pool(|| run_scene(&scene, &path, &options, |_| Ok(())));
+    report_run(&path, &options.out, args.quiet, result)
+}
+
+/// Sets the global thread pool's size (`--threads`); a bad value is
+/// reported with exit code 2.
+fn set_threads(threads: Option<usize>) -> Result<(), ExitCode> {
+    if let Some(n) = threads
+        && let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+    {
+        eprintln!("error: --threads {n}: {e}");
+        return Err(ExitCode::from(2));
+    }
+    Ok(())
+}
+
+/// `remembrane run --resume DIR`: continues a run from its checkpoint.
+fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunArgs) -> ExitCode {
+    let fixed = [
+        (scene_path.is_some(), "a scene"),
+        (args.out.is_some(), "--out"),
+        (args.overwrite, "--overwrite"),
+        (args.seed.is_some(), "--seed"),
+        (args.iterations.is_some(), "--iterations"),
+        (args.frames.is_some(), "--frames"),
+        (args.from.is_some(), "--from"),
+        (args.check_invariants, "--check-invariants"),
+    ];
+    if let Some((_, what)) = fixed.iter().find(|(given, _)| *given) {
+        eprintln!(
+            "error: --resume {}: {what} cannot be given; a resumed run keeps the scene and options it was started with",
+            dir.display()
+        );
+        return ExitCode::from(2);
+    }
+    if let Err(code) = set_threads(args.threads) {
+        return code;
+    }
+    let progress = crate::run::Progress::for_stderr(args.quiet);
+    let result =
+        crate::parallel::on_pool(|| crate::run::resume_run(dir, progress, args.checkpoint_every));
+    let out = crate::checkpoint::run_dir_of(dir);
+    report_run(dir, &out, args.quiet, result)
+}
+
+/// Prints a run's outcome (its summary line and timing table, or its
+/// error) and gives the exit code.
+fn report_run(
+    path: &Path,
+    out: &Path,
+    quiet: bool,
+    result: Result<crate::run::RunSummary, crate::run::RunError>,
+) -> ExitCode {
+    match result {
         Ok(summary) => {
-            if !args.quiet {
+            if !quiet {
                 eprintln!(
                     "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}, V = {:.3}, v = {:.4}",
                     summary.last.scene,
@@ -387,7 +460,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
                     summary.last.volume,
                     summary.last.reduced_volume
                 );
-                eprintln!("outputs in {}", options.out.display());
+                eprintln!("outputs in {}", out.display());
                 let table = crate::schedule::format_timings(&summary.timings);
                 eprint!("{table}");
             }
@@ -421,6 +494,15 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
                 2,
             );
         }
+    }
+    if args.checkpoint_every.is_some() {
+        return fail(
+            format!(
+                "{}: --checkpoint-every is not available for protocols yet (checkpoint a phase by running its scene)",
+                path.display()
+            ),
+            2,
+        );
     }
     let loaded = match Protocol::load(path) {
         Ok(l) => l,
@@ -524,6 +606,7 @@ fn compare_command(
                 Progress::Lines
             },
             check_invariants: false,
+            checkpoint: None,
         };
         match run_scene(scene, path, &options, |_| Ok(())) {
             Ok(summary) => rows.push(ComparisonRow::from_summary(&summary)),

@@ -5,7 +5,7 @@
 use glam::DVec3;
 
 /// Quantities of the initial mesh that targets are resolved against.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct InitialState {
     /// Vertex count N_initial.
     pub vertices: usize,
@@ -19,7 +19,7 @@ pub struct InitialState {
 }
 
 /// Simulated time and iteration count.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Clock {
     /// Completed iterations (accepted ticks).
     pub iteration: u64,

@@ -83,6 +83,10 @@ pub enum SimError {
     /// A plugin could not be registered.
     #[error(transparent)]
     Build(#[from] BuildError),
+    /// A checkpoint could not be written, or its state does not fit the
+    /// simulation it is restored into.
+    #[error("checkpoint: {0}")]
+    Checkpoint(String),
 }
 
 /// What turned a face over within one step.

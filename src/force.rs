@@ -88,6 +88,18 @@ pub trait ForceTerm: Send {
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64;
     /// Adds −∇E to `force` (Ē/l̄) and returns the energy (Ē).
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64;
+    /// State the term carries from one evaluation to the next, for
+    /// checkpoints; `None` (the default) means none (caches that do not
+    /// change results do not count). See
+    /// [`crate::schedule::System::save_state`].
+    fn save_state(&self) -> Option<serde_json::Value> {
+        None
+    }
+    /// Takes back what `save_state` returned (on resuming a run).
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let _ = state;
+        Err("this force term keeps no state".into())
+    }
 }
 
 /// Energies and forces of one evaluation of a [`ForceSet`].

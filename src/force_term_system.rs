@@ -29,6 +29,9 @@ pub const FORCE_TERMS: &str = "force_terms";
 pub struct ForceTermsSystem {
     terms: Vec<Box<dyn ForceTerm>>,
     timings: Vec<Duration>,
+    /// Terms' states from a checkpoint, given back once the terms are taken
+    /// from [`ForceBuffers`] on the first tick.
+    restored: Option<serde_json::Value>,
 }
 
 /// One term's evaluation: where its force, energy and time go.
@@ -58,6 +61,15 @@ impl System for ForceTermsSystem {
     ) -> Result<(), SimError> {
         self.terms.extend(buffers.take_pending_terms());
         self.timings.resize(self.terms.len(), Duration::ZERO);
+        if let Some(state) = self.restored.take() {
+            crate::persisted::restore_named(
+                &mut self.terms,
+                |_, t| t.name().to_string(),
+                |t, v| t.restore_state(v),
+                state,
+            )
+            .map_err(|e| SimError::Checkpoint(format!("force term {e}")))?;
+        }
         let ctx = ForceContext {
             world: &membrane.world,
             topology: membrane.cached_topology(),
@@ -96,6 +108,19 @@ impl System for ForceTermsSystem {
         } else {
             jobs.into_iter().for_each(evaluate);
         }
+        Ok(())
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        crate::persisted::save_named(
+            self.terms
+                .iter()
+                .map(|t| (t.name().to_string(), t.save_state())),
+        )
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        self.restored = Some(state);
         Ok(())
     }
 

@@ -19,6 +19,7 @@ pub mod output;
 pub mod parallel;
 pub mod topology;
 pub mod topology_update;
+pub mod world_snapshot;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
 /// then a rename, so readers never see a partial file.
@@ -38,10 +39,12 @@ pub fn atomic_write(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()>
     })
 }
 
+pub mod checkpoint;
 pub mod fd;
 pub mod force;
 pub mod force_term_system;
 pub mod params;
+pub mod persisted;
 pub mod protocol;
 
 pub mod plot;

@@ -48,7 +48,7 @@ fn write_err(path: &Path, e: impl std::fmt::Display) -> OutputError {
 }
 
 /// One written frame.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameRecord {
     /// Iteration of the frame.
     pub iteration: u64,
@@ -81,6 +81,59 @@ impl RunOutput {
             series_header: None,
             series: String::new(),
         })
+    }
+
+    /// Reopens the staging directory of `dir` to continue a run from a
+    /// checkpoint: frames written after it are removed (the resumed run
+    /// writes them again), so are temporary files of a killed write, and
+    /// `run.pvd` and `series.csv` are set back to the checkpoint's.
+    pub fn reopen(
+        dir: &Path,
+        progress: &crate::checkpoint::OutputProgress,
+    ) -> Result<Self, OutputError> {
+        let staging = crate::checkpoint::staging_of(dir);
+        let kept: std::collections::HashSet<&str> =
+            progress.frames.iter().map(|f| f.file.as_str()).collect();
+        for (folder, prefix) in [(staging.join("frames"), "frames/"), (staging.clone(), "")] {
+            let entries = std::fs::read_dir(&folder).map_err(|e| write_err(&folder, e))?;
+            for entry in entries.flatten() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let stale_frame =
+                    !prefix.is_empty() && !kept.contains(format!("{prefix}{name}").as_str());
+                let temporary = name.starts_with('.') && name.ends_with(".tmp");
+                if stale_frame || temporary {
+                    std::fs::remove_file(entry.path()).map_err(|e| write_err(&entry.path(), e))?;
+                }
+            }
+        }
+        let out = Self {
+            dir: crate::checkpoint::run_dir_of(&staging),
+            staging,
+            frames: progress.frames.clone(),
+            series_header: progress.series_header.clone(),
+            series: progress.series.clone(),
+        };
+        if !out.frames.is_empty() {
+            out.write("run.pvd", pvd(&out.frames).as_bytes())?;
+        }
+        if out.series_header.is_some() {
+            out.write("series.csv", out.series.as_bytes())?;
+        }
+        Ok(out)
+    }
+
+    /// The outputs so far, for a checkpoint.
+    pub fn progress(&self) -> crate::checkpoint::OutputProgress {
+        crate::checkpoint::OutputProgress {
+            frames: self.frames.clone(),
+            series_header: self.series_header.clone(),
+            series: self.series.clone(),
+        }
+    }
+
+    /// Writes the checkpoint (atomically) into the staging directory.
+    pub fn write_checkpoint(&self, json: &str) -> Result<(), OutputError> {
+        self.write(crate::checkpoint::CHECKPOINT_FILE, json.as_bytes())
     }
 
     /// Removes the staging directory of a run that never started.
@@ -219,6 +272,11 @@ impl RunOutput {
             self.write("state.json", state.as_bytes())?;
         }
         self.write("summary.json", summary_json.as_bytes())?;
+        // A finished run is not resumed: its checkpoint goes.
+        let checkpoint = self.staging.join(crate::checkpoint::CHECKPOINT_FILE);
+        if checkpoint.exists() {
+            std::fs::remove_file(&checkpoint).map_err(|e| write_err(&checkpoint, e))?;
+        }
         std::fs::rename(&self.staging, &self.dir).map_err(|e| write_err(&self.dir, e))?;
         Ok(self.dir)
     }
@@ -342,6 +400,19 @@ impl FrameSchedule {
         }
     }
 
+    /// The next frame time of a `frame_time` schedule (s); `None` for a
+    /// schedule by iterations. What a checkpoint keeps.
+    pub fn next_frame_time(&self) -> Option<f64> {
+        self.frame_time.map(|_| self.next_frame_time)
+    }
+
+    /// Continues a schedule at `next` (from [`FrameSchedule::next_frame_time`]).
+    pub fn resume_at(&mut self, next: Option<f64>) {
+        if let (Some(_), Some(next)) = (self.frame_time, next) {
+            self.next_frame_time = next;
+        }
+    }
+
     /// Whether the state after `iteration` iterations at `time` gets a frame.
     pub fn due(&mut self, iteration: u64, time: f64) -> bool {
         if iteration == 0 {
@@ -399,9 +470,49 @@ impl FrameWriter {
     }
 }
 
+/// What a checkpoint keeps of the frame writer.
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FrameWriterState {
+    next_frame_time: Option<f64>,
+    recorders: Option<serde_json::Value>,
+}
+
+fn recorder_key(index: usize, recorder: &dyn Recorder) -> String {
+    format!("{index}:{}", recorder.name())
+}
+
 impl DynamicSystem for FrameWriter {
     fn name(&self) -> &str {
         FRAMES
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        let state = FrameWriterState {
+            next_frame_time: self.schedule.next_frame_time(),
+            recorders: crate::persisted::save_named(
+                self.recorders
+                    .iter()
+                    .enumerate()
+                    .map(|(i, r)| (recorder_key(i, r.as_ref()), r.save_state())),
+            ),
+        };
+        serde_json::to_value(state).ok()
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let state: FrameWriterState = serde_json::from_value(state).map_err(|e| e.to_string())?;
+        self.schedule.resume_at(state.next_frame_time);
+        if let Some(recorders) = state.recorders {
+            crate::persisted::restore_named(
+                &mut self.recorders,
+                |i, r| recorder_key(i, r.as_ref()),
+                |r, v| r.restore_state(v),
+                recorders,
+            )
+            .map_err(|e| format!("recorder {e}"))?;
+        }
+        Ok(())
     }
 
     fn access(&self) -> Access {

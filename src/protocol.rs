@@ -390,6 +390,7 @@ pub fn run_phases(
             from: from.clone(),
             progress: options.progress,
             check_invariants: options.check_invariants,
+            checkpoint: None,
         };
         if options.progress != Progress::Quiet {
             eprintln!("phase {} of {}: {}", i + 1, phases.len(), phase.name);

@@ -84,6 +84,17 @@ pub trait Recorder: Send + 'static {
         state: &CheckedResources<'_>,
         frame: &mut FrameData,
     ) -> Result<(), SimError>;
+    /// State the recorder carries from one frame to the next (e.g. a first
+    /// frame's value that later frames are divided by), for checkpoints;
+    /// `None` (the default) means none.
+    fn save_state(&self) -> Option<serde_json::Value> {
+        None
+    }
+    /// Takes back what `save_state` returned (on resuming a run).
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let _ = state;
+        Err("this recorder keeps no state".into())
+    }
 }
 
 /// The recorders registered so far, in order; the run's frame writer takes

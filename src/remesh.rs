@@ -294,7 +294,7 @@ fn position(m: &Membrane, v: Entity) -> DVec3 {
 /// edit ([`EdgeOp::check_feasible`], [`EdgeOp::apply`]); statistics, events
 /// and the remesh system are keyed by it, so an edge flip would be one more
 /// variant with its own pair.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EdgeOp {
     /// Insert a vertex at the midpoint of a too-long edge.
@@ -440,7 +440,7 @@ pub fn merge_edge(
 }
 
 /// Counts of one operation's outcomes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct OutcomeCounts {
     /// Relaxed past the goal and re-triangulated.
     pub success: u64,
@@ -454,7 +454,7 @@ pub struct OutcomeCounts {
 }
 
 /// Remeshing statistics of a run.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RemeshStats {
     /// Split outcomes ([`RemeshStats::counts`] of [`EdgeOp::Split`]).
     pub split: OutcomeCounts,
@@ -473,7 +473,7 @@ pub struct RemeshStats {
 }
 
 /// Relaxation iterations of a run by phase (where remeshing time goes).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RelaxIterations {
     /// Pre-relaxations that reached their goal (including those whose
     /// edit then proved impossible).
@@ -489,7 +489,7 @@ pub struct RelaxIterations {
 }
 
 /// One successful split or merge.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RemeshEvent {
     /// Iteration during which it happened.
     pub iteration: u64,

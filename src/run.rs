@@ -1,6 +1,7 @@
 //! Running a scene to completion with outputs: the driver behind
 //! `remembrane run`.
 
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::output::{FrameSchedule, FrameWriter, OutputError, RunOutput};
 use crate::recorder::Recorders;
 use crate::remesh::RemeshStats;
@@ -8,7 +9,9 @@ use crate::report::EnergyReport;
 use crate::scene::{Scene, SceneError};
 use crate::schedule::Stage;
 use crate::schedule::SystemTiming;
-use crate::simulation::{CheckInvariants, DenseLipid, DensePositions, SimError, Simulation};
+use crate::simulation::{
+    CheckInvariants, DenseLipid, DensePositions, InitialState, SimError, Simulation,
+};
 use crate::systems::barrier_check::AbnormalEdges;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -59,6 +62,18 @@ pub struct RunOptions {
     /// Check every mesh invariant after each topology edit (slow; always on
     /// in debug builds).
     pub check_invariants: bool,
+    /// Write a checkpoint every so many iterations (`--checkpoint-every`).
+    pub checkpoint: Option<CheckpointSettings>,
+}
+
+/// Checkpointing of a run (see [`crate::checkpoint`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckpointSettings {
+    /// Iterations between checkpoints (at least 1).
+    pub every: u64,
+    /// The scene file's text, kept in the checkpoint so that a resumed run
+    /// rebuilds exactly the scene that was started.
+    pub scene_text: String,
 }
 
 /// How a run ended.
@@ -146,6 +161,9 @@ pub enum RunError {
     /// The simulation could not start (e.g. an invalid schedule).
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// A checkpoint could not be read or does not fit its scene.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
     /// The run was interrupted (Ctrl-C); its outputs so far stay in the
     /// staging directory, which does not look like a result.
     #[error("interrupted at iteration {iteration}; partial outputs are in {}", staging.display())]
@@ -167,7 +185,7 @@ impl RunError {
     /// Exit code: 2 for bad input, 1 for a run that failed.
     pub fn exit_code(&self) -> u8 {
         match self {
-            RunError::Scene(_) => 2,
+            RunError::Scene(_) | RunError::Checkpoint(_) => 2,
             RunError::Output(OutputError::Exists(_)) => 2,
             _ => 1,
         }
@@ -197,6 +215,8 @@ pub struct PreparedRun {
     pub name: String,
     /// The simulation; systems and force terms may still be added.
     pub sim: Simulation,
+    /// The checkpoint this run continues from ([`resume_run`]), if any.
+    pub resume: Option<Box<Checkpoint>>,
 }
 
 /// The scene's name, or the file stem of `scene_path` when it has none.
@@ -236,7 +256,63 @@ pub fn prepare_run(
     let name = run_name(&scene, scene_path);
     let mut sim = scene.build(scene_path)?;
     sim.resource_mut::<CheckInvariants>().0 |= options.check_invariants;
-    Ok(PreparedRun { scene, name, sim })
+    Ok(PreparedRun {
+        scene,
+        name,
+        sim,
+        resume: None,
+    })
+}
+
+/// Continues the run whose output directory is `dir` from the checkpoint
+/// in its staging directory (`dir.incomplete/checkpoint.json`): rebuilds
+/// its scene from the saved text and overrides, restores the saved state
+/// and runs to the end, writing exactly what the uninterrupted run would
+/// have written. `every` replaces the checkpoint interval.
+pub fn resume_run(
+    dir: &Path,
+    progress: Progress,
+    every: Option<u64>,
+) -> Result<RunSummary, RunError> {
+    let started = Instant::now();
+    let checkpoint = Checkpoint::read(dir)?;
+    let source = &checkpoint.run;
+    // Relative paths inside the scene resolve against the scene file.
+    let load_path = source.working_dir.join(&source.scene_path);
+    let scene = Scene::from_ron_str(&source.scene_text, &load_path)?;
+    let options = RunOptions {
+        out: crate::checkpoint::run_dir_of(dir),
+        overwrite: false,
+        seed: source.seed,
+        iterations: source.iterations,
+        frames: source.frames,
+        from: source.from.clone(),
+        progress,
+        check_invariants: source.check_invariants,
+        checkpoint: Some(CheckpointSettings {
+            every: every.unwrap_or(source.every),
+            scene_text: source.scene_text.clone(),
+        }),
+    };
+    let mut run = prepare_run(&scene, &load_path, &options)?;
+    let initial = *run.sim.resource::<InitialState>();
+    if initial != checkpoint.initial {
+        return Err(RunError::Checkpoint(CheckpointError {
+            path: crate::checkpoint::staging_of(dir).join(crate::checkpoint::CHECKPOINT_FILE),
+            reason: format!(
+                "the scene's membrane now starts with {} vertices, area {} and volume {}, the checkpointed run with {}, {} and {}: a mesh or state file it reads has changed",
+                initial.vertices,
+                initial.area,
+                initial.volume,
+                checkpoint.initial.vertices,
+                checkpoint.initial.area,
+                checkpoint.initial.volume
+            ),
+        }));
+    }
+    let scene_path = source.scene_path.clone();
+    run.resume = Some(Box::new(checkpoint));
+    drive_run(&mut run, &scene_path, &options, started, &|| false)
 }
 
 /// Runs a prepared, not yet started simulation to the end of its scene
@@ -252,7 +328,13 @@ pub fn drive_run(
     started: Instant,
     interrupted: &dyn Fn() -> bool,
 ) -> Result<RunSummary, RunError> {
-    let PreparedRun { scene, name, sim } = run;
+    let PreparedRun {
+        scene,
+        name,
+        sim,
+        resume,
+    } = run;
+    let resume = resume.take();
     let name = name.as_str();
     let iterations = scene.dynamics.iterations;
     let duration = scene.dynamics.duration.unwrap_or(f64::INFINITY);
@@ -267,17 +349,70 @@ pub fn drive_run(
         .map(|r| r.0)
         .unwrap_or_default();
     sim.add_dynamic_system(Stage::Observe, FrameWriter::new(name, frames, recorders))?;
-    sim.insert_resource(RunOutput::create(&options.out, options.overwrite)?)?;
-    if let Err(e) = sim.start() {
+    let earlier_wall = resume.as_ref().map_or(0.0, |c| c.wall_time_s);
+    match &resume {
+        None => {
+            sim.insert_resource(RunOutput::create(&options.out, options.overwrite)?)?;
+            if let Err(e) = sim.start() {
+                if let Some(out) = sim.remove_resource::<RunOutput>() {
+                    out.discard();
+                }
+                return Err(e.into());
+            }
+        }
+        // A failed resume leaves the staging directory and its checkpoint
+        // as they were.
+        Some(checkpoint) => {
+            sim.insert_resource(RunOutput::reopen(&options.out, &checkpoint.output)?)?;
+            sim.start()?;
+            checkpoint.restore_into(sim)?;
+        }
+    }
+    let source = options
+        .checkpoint
+        .as_ref()
+        .map(|c| crate::checkpoint::RunSource {
+            scene_path: scene_path.to_owned(),
+            working_dir: std::env::current_dir().unwrap_or_default(),
+            scene_text: c.scene_text.clone(),
+            seed: options.seed,
+            iterations: options.iterations,
+            frames: options.frames,
+            from: options
+                .from
+                .as_ref()
+                .map(|f| std::path::absolute(f).unwrap_or_else(|_| f.clone())),
+            check_invariants: options.check_invariants,
+            every: c.every.max(1),
+        });
+
+    let write_checkpoint = |sim: &Simulation, source| -> Result<(), RunError> {
+        let wall = earlier_wall + started.elapsed().as_secs_f64();
+        let checkpoint = Checkpoint::capture(sim, source, wall)?;
+        Ok(sim
+            .resource::<RunOutput>()
+            .write_checkpoint(&checkpoint.to_json())?)
+    };
+    // A first checkpoint before the first tick: a scene whose state cannot
+    // be saved (a plugin's own entities) fails here, not hours later.
+    if let Some(source) = &source
+        && resume.is_none()
+        && let Err(e) = write_checkpoint(sim, source)
+    {
         if let Some(out) = sim.remove_resource::<RunOutput>() {
             out.discard();
         }
-        return Err(e.into());
+        return Err(e);
     }
-
     let bar = progress_bar(options.progress, iterations);
     let mut stop: Option<SimError> = None;
-    let mut next_line = iterations / 10;
+    // Lines every 10 % of the run, from where it starts (a resumed run
+    // starts at its checkpoint).
+    let tenth = (iterations / 10).max(1);
+    let mut next_line = (sim.clock().iteration / tenth + 1) * tenth;
+    if let Some(b) = &bar {
+        b.set_position(sim.clock().iteration);
+    }
     while sim.clock().iteration < iterations && sim.clock().time < duration {
         // Each tick's Observe stage writes the frame of the state before it
         // (with the forces the step applies) when one is due.
@@ -301,6 +436,13 @@ pub fn drive_run(
             stop = Some(e);
             break;
         }
+        if let Some(source) = &source
+            && it.is_multiple_of(source.every)
+            && it < iterations
+            && sim.clock().time < duration
+        {
+            write_checkpoint(sim, source)?;
+        }
         if let Some(b) = &bar {
             b.set_position(it);
         } else if options.progress == Progress::Lines && it >= next_line && iterations >= 10 {
@@ -308,7 +450,7 @@ pub fn drive_run(
                 "{name}: iteration {it}/{iterations} ({:.0} s)",
                 started.elapsed().as_secs_f64()
             );
-            next_line += iterations / 10;
+            next_line += tenth;
         }
     }
     if let Some(b) = bar {
@@ -328,7 +470,8 @@ pub fn drive_run(
     let out = sim
         .remove_resource::<RunOutput>()
         .expect("the run's output stays a resource");
-    let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), started);
+    let wall = earlier_wall + started.elapsed().as_secs_f64();
+    let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), wall);
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
     let mesh = sim.membrane_mut().to_mesh()?;
@@ -380,7 +523,7 @@ fn summarize(
     sim: &Simulation,
     out: &RunOutput,
     stop: Option<&SimError>,
-    started: Instant,
+    wall_time_s: f64,
 ) -> RunSummary {
     let membrane = sim.membrane();
     let t = membrane.cached_topology();
@@ -400,7 +543,7 @@ fn summarize(
         last_good_frame: out.frames.last().map(|f| f.file.clone()),
         iterations: clock.iteration,
         simulated_time: clock.time,
-        wall_time_s: started.elapsed().as_secs_f64(),
+        wall_time_s,
         last: EnergyReport::new(name, sim),
         shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),

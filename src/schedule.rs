@@ -147,6 +147,20 @@ pub trait System: Send + 'static {
     fn sub_timings(&self) -> Vec<(String, Duration)> {
         Vec::new()
     }
+    /// The system's own state that carries over from one tick to the next,
+    /// for checkpoints (`remembrane run --checkpoint-every`). `None` (the
+    /// default) means it keeps none; scratch buffers refilled every tick do
+    /// not count. A system that keeps state must return it here and take it
+    /// back in `restore_state`, or a resumed run would differ from an
+    /// uninterrupted one.
+    fn save_state(&self) -> Option<serde_json::Value> {
+        None
+    }
+    /// Takes back what `save_state` returned (on resuming a run).
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let _ = state;
+        Err("this system keeps no state".into())
+    }
 }
 
 /// A system whose access is known only at run time (a scripted term, a
@@ -160,6 +174,20 @@ pub trait DynamicSystem: Send + 'static {
     fn access(&self) -> Access;
     /// Runs the system.
     fn run(&mut self, resources: &CheckedResources<'_>) -> Result<(), SimError>;
+    /// The system's own state that carries over from one tick to the next,
+    /// for checkpoints (`remembrane run --checkpoint-every`). `None` (the
+    /// default) means it keeps none; scratch buffers refilled every tick do
+    /// not count. A system that keeps state must return it here and take it
+    /// back in `restore_state`, or a resumed run would differ from an
+    /// uninterrupted one.
+    fn save_state(&self) -> Option<serde_json::Value> {
+        None
+    }
+    /// Takes back what `save_state` returned (on resuming a run).
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let _ = state;
+        Err("this system keeps no state".into())
+    }
 }
 
 /// A system as the schedule stores it.
@@ -170,11 +198,19 @@ pub(crate) trait ErasedSystem: Send {
     fn sub_timings(&self) -> Vec<(String, Duration)> {
         Vec::new()
     }
+    fn save_state(&self) -> Option<serde_json::Value>;
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String>;
 }
 
 pub(crate) struct Typed<S>(pub S);
 
 impl<S: System> ErasedSystem for Typed<S> {
+    fn save_state(&self) -> Option<serde_json::Value> {
+        self.0.save_state()
+    }
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        self.0.restore_state(state)
+    }
     fn name(&self) -> &str {
         self.0.name()
     }
@@ -200,6 +236,12 @@ impl<S: System> ErasedSystem for Typed<S> {
 pub(crate) struct Dynamic<S>(pub S);
 
 impl<S: DynamicSystem> ErasedSystem for Dynamic<S> {
+    fn save_state(&self) -> Option<serde_json::Value> {
+        self.0.save_state()
+    }
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        self.0.restore_state(state)
+    }
     fn name(&self) -> &str {
         self.0.name()
     }
@@ -452,6 +494,47 @@ impl Schedule {
             let result = entry.system.run(resources, &entry.access);
             *time += start.elapsed();
             result?;
+        }
+        Ok(())
+    }
+
+    /// The state every stateful system keeps between ticks, by system name
+    /// (see [`System::save_state`]).
+    pub fn save_states(&self) -> std::collections::BTreeMap<String, serde_json::Value> {
+        self.entries
+            .iter()
+            .filter_map(|e| Some((e.system.name().to_string(), e.system.save_state()?)))
+            .collect()
+    }
+
+    /// Gives every stateful system its saved state back. `saved` must name
+    /// only systems of this schedule, and every system that keeps state.
+    pub fn restore_states(
+        &mut self,
+        saved: &std::collections::BTreeMap<String, serde_json::Value>,
+    ) -> Result<(), String> {
+        for e in &mut self.entries {
+            let name = e.system.name().to_string();
+            match saved.get(&name) {
+                Some(state) => e
+                    .system
+                    .restore_state(state.clone())
+                    .map_err(|err| format!("system `{name}`: {err}"))?,
+                None if e.system.save_state().is_some() => {
+                    return Err(format!(
+                        "system `{name}` keeps state, but the checkpoint holds none for it"
+                    ));
+                }
+                None => {}
+            }
+        }
+        if let Some(unknown) = saved
+            .keys()
+            .find(|k| self.entries.iter().all(|e| e.system.name() != k.as_str()))
+        {
+            return Err(format!(
+                "the checkpoint holds the state of system `{unknown}`, which this scene does not have"
+            ));
         }
         Ok(())
     }

@@ -9,6 +9,7 @@ pub use crate::core_resources::{
 pub use crate::error::{BuildError, SimError};
 use crate::force::{ForceBuffers, ForceTerm, TermInfo};
 use crate::membrane::Membrane;
+use crate::persisted::PersistedResources;
 use crate::resources::{Res, Resource, Resources};
 use crate::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
 use glam::DVec3;
@@ -56,6 +57,23 @@ impl SimBuilder {
     /// Inserts (or replaces) a resource.
     pub fn insert_resource<T: Resource>(&mut self, value: T) -> &mut Self {
         self.resources.insert(value);
+        self
+    }
+
+    /// Declares resource `T` part of the run's state that carries from one
+    /// tick to the next, so checkpoints save it and a resumed run gets it
+    /// back (see [`crate::persisted`]). Resources that the scene sets up or
+    /// that are recomputed every tick need no declaration.
+    pub fn persist_resource<T>(&mut self) -> &mut Self
+    where
+        T: Resource + serde::Serialize + serde::de::DeserializeOwned,
+    {
+        if !self.resources.contains::<PersistedResources>() {
+            self.resources.insert(PersistedResources::default());
+        }
+        if let Some(p) = self.resources.value_mut::<PersistedResources>() {
+            p.add::<T>();
+        }
         self
     }
 
@@ -244,6 +262,11 @@ impl Simulation {
     /// The schedule (after [`Simulation::start`]).
     pub fn schedule(&self) -> Option<&Schedule> {
         self.schedule.as_ref()
+    }
+
+    /// The schedule, once started (to restore its systems' states).
+    pub fn schedule_mut(&mut self) -> Option<&mut Schedule> {
+        self.schedule.as_mut()
     }
 
     /// Evaluates the forces of the current state by running the schedule's

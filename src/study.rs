@@ -518,6 +518,7 @@ pub fn run_cases(
                 from: None,
                 progress: crate::run::Progress::Quiet,
                 check_invariants: false,
+                checkpoint: None,
             };
             let t = std::time::Instant::now();
             let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)

@@ -743,6 +743,7 @@ pub fn run_sweep_with(
                 from,
                 progress: crate::run::Progress::Quiet,
                 check_invariants: false,
+                checkpoint: None,
             };
             let started = std::time::Instant::now();
             let mut prepared =

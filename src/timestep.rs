@@ -11,7 +11,7 @@ use crate::energy::vin::Segmentation;
 use glam::DVec3;
 
 /// What limited the chosen time step.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Limiter {
     /// The cap dt_max.
     #[default]
@@ -26,7 +26,7 @@ pub enum Limiter {
 }
 
 /// A chosen time step.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TimeStepChoice {
     /// The step (s).
     pub dt: f64,

@@ -55,6 +55,9 @@ pub trait FieldTransfer: Send + Sync + 'static {
     fn get(&self, world: &World, vertex: Entity) -> f64;
     /// Sets the value at `vertex` (no-op if it has none).
     fn set(&self, world: &mut World, vertex: Entity, value: f64);
+    /// The type of the field's component (checkpoints tell vertices by
+    /// their component set).
+    fn component_type(&self) -> std::any::TypeId;
 }
 
 /// The transfer of a [`ScalarComponent`] `C`.
@@ -92,5 +95,8 @@ impl<C: ScalarComponent> FieldTransfer for ScalarField<C> {
         if let Ok(mut c) = world.get::<&mut C>(vertex) {
             *c = C::from_value(value);
         }
+    }
+    fn component_type(&self) -> std::any::TypeId {
+        std::any::TypeId::of::<C>()
     }
 }

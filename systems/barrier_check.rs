@@ -12,7 +12,7 @@ use crate::simulation::{DensePositions, SimError};
 
 /// Edges (slots) outside [l_−, l_+] after the last integration (or, after
 /// remeshing, those it left abnormal).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct AbnormalEdges(pub Vec<u32>);
 
 /// The barrier-check system.

@@ -137,6 +137,37 @@ impl System for ControlPointSchedule {
         "control_point_schedule"
     }
 
+    fn save_state(&self) -> Option<serde_json::Value> {
+        // Next due times of the time-based changes (`null` for the others).
+        let next: Vec<Option<f64>> = self
+            .next_time
+            .iter()
+            .map(|t| t.is_finite().then_some(*t))
+            .collect();
+        Some(serde_json::json!({ "next_time": next }))
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let next: Vec<Option<f64>> = state
+            .get("next_time")
+            .cloned()
+            .map(serde_json::from_value)
+            .ok_or("no `next_time`")?
+            .map_err(|e| e.to_string())?;
+        if next.len() != self.next_time.len() {
+            return Err(format!(
+                "{} scheduled changes saved, the scene has {}",
+                next.len(),
+                self.next_time.len()
+            ));
+        }
+        self.next_time = next
+            .into_iter()
+            .map(|t| t.unwrap_or(f64::INFINITY))
+            .collect();
+        Ok(())
+    }
+
     fn run(&mut self, (clock, mut membrane): Self::Data<'_>) -> Result<(), SimError> {
         let (iteration, time) = (clock.iteration, clock.time);
         for (change, next) in self.changes.iter().zip(&mut self.next_time) {

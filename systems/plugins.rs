@@ -65,7 +65,10 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             .insert_resource(settings.remesh)
             .insert_resource(AbnormalEdges::default())
             .insert_resource(Seed(settings.seed))
-            .insert_resource(CheckInvariants::default());
+            .insert_resource(CheckInvariants::default())
+            .persist_resource::<Clock>()
+            .persist_resource::<TimeStepChoice>()
+            .persist_resource::<AbnormalEdges>();
         use crate::systems::{adaptive_time_step, face_geometry, force_total, gather_state};
         b.add_system(Stage::Gather, gather_state::GatherState);
         b.add_system(Stage::Gather, face_geometry::FaceGeometrySystem)
@@ -209,7 +212,9 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
     move |b: &mut SimBuilder| {
         b.insert_resource(valence)
             .insert_resource(RemeshStats::default())
-            .insert_resource(RemeshTriggered::default());
+            .insert_resource(RemeshTriggered::default())
+            .persist_resource::<RemeshStats>()
+            .persist_resource::<RemeshTriggered>();
         b.add_system(Stage::Remesh, Remesh::default());
         Ok(())
     }

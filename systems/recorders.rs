@@ -177,6 +177,21 @@ impl Recorder for TubeRadius {
             .read::<DensePositions>()
     }
 
+    fn save_state(&self) -> Option<serde_json::Value> {
+        // The first frame's radius, which later frames are divided by
+        // (`null` until a frame measured one).
+        Some(serde_json::json!({ "first": self.first.filter(|r| r.is_finite()) }))
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        match state.get("first") {
+            Some(serde_json::Value::Null) => self.first = None,
+            Some(v) => self.first = Some(v.as_f64().ok_or("`first` is not a number")?),
+            None => return Err("no `first`".into()),
+        }
+        Ok(())
+    }
+
     fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         let err = read_error(&self.probe.name);
         let membrane = s.get::<Membrane>().map_err(&err)?;

@@ -49,7 +49,7 @@ pub struct Remesh {
 
 /// Whether this tick's remeshing was triggered (abnormal edges existed);
 /// diffusion runs only after such ticks.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RemeshTriggered(pub bool);
 
 /// What the remesh steps below work on: borrowed resources.

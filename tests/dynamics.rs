@@ -367,6 +367,7 @@ fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
 fn options(out: &Path) -> RunOptions {
     RunOptions {
         check_invariants: true,
+        checkpoint: None,
         ..common::quiet_options(out)
     }
 }

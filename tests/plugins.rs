@@ -476,6 +476,7 @@ fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
         from: None,
         progress: Progress::Quiet,
         check_invariants: false,
+        checkpoint: None,
     };
     let calls = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     let counter = calls.clone();

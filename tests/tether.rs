@@ -26,6 +26,7 @@ fn options(out: &Path, iterations: u64, from: Option<PathBuf>) -> RunOptions {
         from,
         progress: Progress::Quiet,
         check_invariants: true,
+        checkpoint: None,
     }
 }
 

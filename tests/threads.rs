@@ -13,7 +13,6 @@
 mod common;
 
 use remembrane::scene::Scene;
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// The scaled red blood cell (level 5) with k_BT = 0.02 Ē: noisy enough
@@ -25,32 +24,6 @@ fn noisy_scene() -> (Scene, PathBuf) {
     assert!(text.contains("temperature: 0.0,"));
     let text = text.replace("temperature: 0.0,", "temperature: 0.02,");
     (Scene::from_ron_str(&text, &path).unwrap(), path)
-}
-
-/// Every file under `dir` by relative path; `summary.json` without the
-/// fields that measure wall time.
-fn contents(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-                continue;
-            }
-            let mut bytes = std::fs::read(&path).unwrap();
-            if path.file_name().is_some_and(|n| n == "summary.json") {
-                let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
-                let map = v.as_object_mut().unwrap();
-                map.remove("timings");
-                map.remove("wall_time_s");
-                bytes = serde_json::to_vec(&v).unwrap();
-            }
-            out.insert(path.strip_prefix(dir).unwrap().to_path_buf(), bytes);
-        }
-    }
-    out
 }
 
 #[test]
@@ -72,7 +45,7 @@ fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
             .install(|| remembrane::run::run_scene(&scene, &path, &opts, |_| Ok(())))
             .unwrap();
         assert_eq!(summary.iterations, 120);
-        runs.push((threads, contents(&out)));
+        runs.push((threads, common::run_contents(&out)));
     }
     let summary: serde_json::Value =
         serde_json::from_slice(&runs[0].1[Path::new("summary.json")]).unwrap();

@@ -50,6 +50,7 @@ fn run_options(
         from: None,
         progress,
         check_invariants,
+        checkpoint: None,
     }
 }
 

@@ -16,6 +16,7 @@ pub fn quiet_options(out: &Path) -> RunOptions {
         from: None,
         progress: Progress::Quiet,
         check_invariants: false,
+        checkpoint: None,
     }
 }
 
@@ -54,4 +55,31 @@ pub fn series_column(run_dir: &Path, name: &str) -> Vec<f64> {
     lines
         .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
         .collect()
+}
+
+/// Every file under `dir` by relative path; `summary.json` without the
+/// fields that measure wall time.
+#[allow(dead_code)]
+pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+                continue;
+            }
+            let mut bytes = std::fs::read(&path).unwrap();
+            if path.file_name().is_some_and(|n| n == "summary.json") {
+                let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+                let map = v.as_object_mut().unwrap();
+                map.remove("timings");
+                map.remove("wall_time_s");
+                bytes = serde_json::to_vec(&v).unwrap();
+            }
+            out.insert(path.strip_prefix(dir).unwrap().to_path_buf(), bytes);
+        }
+    }
+    out
 }

@@ -1,0 +1,316 @@
+//! Checkpoint and resume: a run killed with SIGKILL at random moments,
+//! three times, and resumed each time with `remembrane run --resume`,
+//! writes the same bytes as the same run left alone (every file;
+//! `summary.json` without its wall-clock timings). The scene exercises
+//! every piece of carried state: thermal noise, free-energy remeshing (hecs'
+//! free list decides the handles of new entities), lipid density with
+//! finite diffusion, a control point moved on a simulated-time schedule,
+//! a named control point's force and a tube radius normalised by its first
+//! frame, frames by simulated time.
+
+mod common;
+
+use rand::{RngExt, SeedableRng};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_remembrane");
+
+/// About 1500 iterations with a few hundred remesh events.
+const SCENE: &str = r#"Scene(
+    name: "checkpointed",
+    seed: 3,
+    membrane: Icosphere(level: 3, mean_edge_length: 1.0, jitter: 6.6e-4),
+    valence: (min: 5, max: 8),
+    lipid_density: true,
+    energy: [
+        Vin(),
+        Bending(kappa: 5.0),
+        Volume(k: 4.0, target: Absolute(1223.0)),
+        LocalTension(k: 12.0, target_area: Absolute(553.0)),
+        Springs(stiffness: 5.0),
+    ],
+    penalty_smoothing: 4,
+    control_points: [
+        (position: (-10.0, 10.0, 0.0), name: Some("puller")),
+        (position: (4.67, -4.67, 0.0)),
+    ],
+    control_point_schedule: [
+        (when: EveryTime(interval: 2.5e-5), points: [0], change: MoveBy(-0.1, 0.1, 0.0)),
+    ],
+    tube_radius: [
+        (name: "left", first: (-7.5, 7.5, 0.0), step: (-0.5, 0.5, 0.0), planes: 5),
+    ],
+    dynamics: (max_displacement: 0.01, iterations: 1500, temperature: 0.05, frame_time: 2.5e-5),
+    remesh: (mode: FreeEnergy),
+    diffusion: (rate: Finite(0.1), sweeps: 20),
+)
+"#;
+
+fn scene_file(dir: &Path) -> PathBuf {
+    let path = dir.join("checkpointed.ron");
+    std::fs::write(&path, SCENE).unwrap();
+    path
+}
+
+fn remembrane(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().unwrap()
+}
+
+fn spawn(args: &[&str]) -> Child {
+    Command::new(BIN)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap()
+}
+
+/// The iteration of the checkpoint in `staging`, if one can be read.
+fn checkpoint_iteration(staging: &Path) -> Option<u64> {
+    let text = std::fs::read_to_string(staging.join("checkpoint.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["iteration"].as_u64()
+}
+
+#[test]
+fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = scene_file(tmp.path());
+    let scene = scene.to_str().unwrap();
+    let whole = tmp.path().join("whole");
+    let out = remembrane(&["run", scene, "--out", whole.to_str().unwrap(), "--quiet"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let killed = tmp.path().join("killed");
+    let dir = killed.to_str().unwrap();
+    let staging = tmp.path().join("killed.incomplete");
+    let seed = std::env::var("REMEMBRANE_KILL_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2026u64);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut child = spawn(&[
+        "run",
+        scene,
+        "--out",
+        dir,
+        "--quiet",
+        "--checkpoint-every",
+        "25",
+        "--threads",
+        "1",
+    ]);
+    let mut last = None;
+    let mut at = Vec::new();
+    for kill in 0..3 {
+        // Wait for a checkpoint newer than the one this segment started
+        // from, then kill at a random moment after it (possibly while a
+        // frame or the next checkpoint is being written).
+        let waited = Instant::now();
+        loop {
+            let now = checkpoint_iteration(&staging);
+            if now.is_some() && now > last {
+                break;
+            }
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "kill {kill}: the run ended before a new checkpoint (seed {seed})"
+            );
+            assert!(waited.elapsed() < Duration::from_secs(300));
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        std::thread::sleep(Duration::from_millis(rng.random_range(0..400)));
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "kill {kill}: the run ended before it could be killed (seed {seed}); make the scene longer"
+        );
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        last = checkpoint_iteration(&staging);
+        at.push(last.unwrap());
+        assert!(!killed.exists(), "a killed run must not look like a result");
+        // Resume on another thread count: results do not depend on it.
+        let threads = ["2", "3", "1"][kill];
+        child = spawn(&["run", "--resume", dir, "--quiet", "--threads", threads]);
+    }
+    let status = child.wait().unwrap();
+    assert!(status.success(), "the last resume failed (seed {seed})");
+    assert!(!staging.exists());
+    assert!(!killed.join("checkpoint.json").exists());
+    eprintln!("killed after the checkpoints of iterations {at:?} (seed {seed})");
+
+    let a = common::run_contents(&whole);
+    let b = common::run_contents(&killed);
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "the same files"
+    );
+    for (file, bytes) in &a {
+        assert!(
+            bytes == &b[file],
+            "{} differs (seed {seed})",
+            file.display()
+        );
+    }
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(killed.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        summary["remesh"]["events"].as_u64().unwrap() > 50,
+        "the scene remeshes"
+    );
+}
+
+#[test]
+fn resuming_what_cannot_be_resumed_fails_cleanly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = scene_file(tmp.path());
+    let scene = scene.to_str().unwrap();
+
+    // No such run.
+    let missing = tmp.path().join("missing");
+    let out = remembrane(&["run", "--resume", missing.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("checkpoint.json") && err.contains("staging"),
+        "{err}"
+    );
+
+    // Options that would change the run.
+    let out = remembrane(&["run", "--resume", "x", "--seed", "4"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--seed cannot be given"));
+    let out = remembrane(&["run", scene, "--resume", "x"]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = remembrane(&["run", scene, "--checkpoint-every", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+
+    // A finished run.
+    let done = tmp.path().join("done");
+    let done_dir = done.to_str().unwrap();
+    let out = remembrane(&[
+        "run",
+        scene,
+        "--out",
+        done_dir,
+        "--quiet",
+        "--iterations",
+        "30",
+        "--checkpoint-every",
+        "10",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!done.join("checkpoint.json").exists());
+    let out = remembrane(&["run", "--resume", done_dir]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has ended"));
+
+    // A damaged checkpoint: the error names the file and the run directory
+    // is left as it was.
+    let staging = tmp.path().join("cut.incomplete");
+    std::fs::create_dir_all(staging.join("frames")).unwrap();
+    let cp = staging.join("checkpoint.json");
+    std::fs::write(&cp, "{\"format\": \"remembrane-checkpoint-1\", \"engine\"").unwrap();
+    let out = remembrane(&["run", "--resume", tmp.path().join("cut").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cut.incomplete/checkpoint.json") && err.contains("not a checkpoint"),
+        "{err}"
+    );
+    assert!(cp.exists());
+
+    // A scene whose mesh file changed since the checkpoint is refused.
+    let mesh_scene = tmp.path().join("mesh.ron");
+    let mesh = tmp.path().join("ball.obj");
+    write_icosahedron(&mesh, 1.0);
+    std::fs::write(
+        &mesh_scene,
+        r#"Scene(name: "mesh", membrane: File(path: "ball.obj", scale: 1.0),
+                energy: [Bending(kappa: 1.0)], dynamics: (iterations: 100000))"#,
+    )
+    .unwrap();
+    let run = tmp.path().join("mesh_run");
+    let mut child = spawn(&[
+        "run",
+        mesh_scene.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "--checkpoint-every",
+        "1",
+        "--quiet",
+    ]);
+    let staging = tmp.path().join("mesh_run.incomplete");
+    while checkpoint_iteration(&staging).is_none_or(|i| i < 1) {
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!run.exists(), "killed long before its 10^5 iterations");
+    write_icosahedron(&mesh, 1.5);
+    let out = remembrane(&["run", "--resume", run.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("has changed"), "{err}");
+}
+
+/// A regular icosahedron of circumradius `r` as an OBJ file.
+fn write_icosahedron(path: &Path, r: f64) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let s = r / (1.0 + t * t).sqrt();
+    let v = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ];
+    let f = [
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    let mut text = String::new();
+    for (x, y, z) in v {
+        text += &format!("v {} {} {}\n", x * s, y * s, z * s);
+    }
+    for [a, b, c] in f {
+        text += &format!("f {} {} {}\n", a + 1, b + 1, c + 1);
+    }
+    std::fs::write(path, text).unwrap();
+}
