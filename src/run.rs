@@ -275,6 +275,34 @@ pub fn resume_run(
     every: Option<u64>,
 ) -> Result<RunSummary, RunError> {
     let started = Instant::now();
+    let mut resumed = prepare_resume(dir, progress, every)?;
+    drive_run(
+        &mut resumed.run,
+        &resumed.scene_path,
+        &resumed.options,
+        started,
+        &|| false,
+    )
+}
+
+/// A run rebuilt from its checkpoint, not yet restored or started
+/// ([`drive_run`] restores the checkpoint in `run.resume`).
+pub struct ResumedRun {
+    /// The rebuilt run, with the checkpoint in `resume`.
+    pub run: PreparedRun,
+    /// Its options, as the run was started (the interval may differ).
+    pub options: RunOptions,
+    /// The scene file as the run was given it.
+    pub scene_path: PathBuf,
+}
+
+/// Reads the checkpoint of the run in `dir` and rebuilds its scene with the
+/// run's overrides; checks that the scene's membrane starts as it did.
+pub fn prepare_resume(
+    dir: &Path,
+    progress: Progress,
+    every: Option<u64>,
+) -> Result<ResumedRun, RunError> {
     let checkpoint = Checkpoint::read(dir)?;
     let source = &checkpoint.run;
     // Relative paths inside the scene resolve against the scene file.
@@ -312,7 +340,11 @@ pub fn resume_run(
     }
     let scene_path = source.scene_path.clone();
     run.resume = Some(Box::new(checkpoint));
-    drive_run(&mut run, &scene_path, &options, started, &|| false)
+    Ok(ResumedRun {
+        run,
+        options,
+        scene_path,
+    })
 }
 
 /// Runs a prepared, not yet started simulation to the end of its scene
@@ -365,7 +397,13 @@ pub fn drive_run(
         Some(checkpoint) => {
             sim.insert_resource(RunOutput::reopen(&options.out, &checkpoint.output)?)?;
             sim.start()?;
-            checkpoint.restore_into(sim)?;
+            checkpoint.restore_into(sim).map_err(|e| {
+                RunError::Checkpoint(CheckpointError {
+                    path: crate::checkpoint::staging_of(&options.out)
+                        .join(crate::checkpoint::CHECKPOINT_FILE),
+                    reason: e.to_string(),
+                })
+            })?;
         }
     }
     let source = options

@@ -1,5 +1,6 @@
 //! Fuzzing on stable Rust, in process: a seeded mutation fuzzer over every
-//! input reader (scene, protocol, sweep, state.json, PLY, OBJ), and random
+//! input reader (scene, protocol, sweep, state.json, checkpoint, PLY, OBJ;
+//! a checkpoint is also restored into a membrane), and random
 //! split/merge sequences on random meshes with every invariant checked.
 //!
 //! Mutations: byte and bit flips, truncation, splicing of two corpus files,
@@ -14,6 +15,8 @@
 //!
 //! which runs 10^6 inputs and 10^5 remesh operations and prints the counts
 //! and times. `REMEMBRANE_FUZZ_SEED` changes the seed.
+
+mod common;
 
 use rand::{RngExt, SeedableRng};
 use remembrane::mesh::io::{VertexScalar, read_mesh, write_obj_to, write_ply_to};
@@ -34,9 +37,13 @@ enum Kind {
     Protocol,
     Sweep,
     State,
+    Checkpoint,
     Ply,
     Obj,
 }
+
+/// The run directory whose staging directory holds the fuzzed checkpoint.
+const CHECKPOINT_RUN: &str = "fuzz_run";
 
 impl Kind {
     /// Where a mutated input of this kind is written: next to the copied
@@ -47,6 +54,9 @@ impl Kind {
             Kind::Protocol => root.join("scenes/protocols/fuzz_protocol.ron"),
             Kind::Sweep => root.join("scenes/fuzz_sweep.ron"),
             Kind::State => root.join("fuzz_state.json"),
+            Kind::Checkpoint => root
+                .join(format!("{CHECKPOINT_RUN}.incomplete"))
+                .join(remembrane::checkpoint::CHECKPOINT_FILE),
             Kind::Ply => root.join("fuzz_mesh.ply"),
             Kind::Obj => root.join("fuzz_mesh.obj"),
         }
@@ -59,9 +69,51 @@ impl Kind {
             Kind::Protocol => remembrane::protocol::Protocol::load(path).is_ok(),
             Kind::Sweep => remembrane::sweep::Sweep::parse(path).is_ok(),
             Kind::State => remembrane::state::SavedState::read(path).is_ok(),
+            Kind::Checkpoint => read_checkpoint(path),
             Kind::Ply | Kind::Obj => read_mesh(path).is_ok(),
         }
     }
+}
+
+/// Reads the checkpoint at `path` and restores its world into a membrane
+/// with lipid density (building its scene is the scene reader's part).
+fn read_checkpoint(path: &Path) -> bool {
+    let run = path.parent().unwrap().with_extension("");
+    let Ok(checkpoint) = remembrane::checkpoint::Checkpoint::read(&run) else {
+        return false;
+    };
+    let mut membrane = remembrane::membrane::Membrane::from_mesh(&icosphere(1, 1.0), true).unwrap();
+    checkpoint.world.restore(&mut membrane).is_ok()
+}
+
+/// A checkpoint of a short noisy remeshing run with lipid density and
+/// diffusion on a 42-vertex icosphere (stopped after 12 iterations).
+fn checkpoint_corpus(root: &Path) -> Vec<u8> {
+    use remembrane::run::{CheckpointSettings, RunError, drive_run, prepare_run};
+    let text = r#"Scene(name: "fuzz", seed: 2, membrane: Icosphere(level: 1), lipid_density: true,
+        energy: [Vin(), Bending(kappa: 1.0)],
+        dynamics: (iterations: 100, temperature: 0.02, dt_max: 1e-5),
+        remesh: (mode: FreeEnergy), diffusion: (rate: Finite(0.1)))"#;
+    let scene_path = root.join("fuzz_run.ron");
+    let scene = remembrane::scene::Scene::from_ron_str(text, &scene_path).unwrap();
+    let mut options = common::quiet_options(&root.join(CHECKPOINT_RUN));
+    options.checkpoint = Some(CheckpointSettings {
+        every: 5,
+        scene_text: text.into(),
+    });
+    let mut run = prepare_run(&scene, &scene_path, &options).unwrap();
+    let ticks = std::cell::Cell::new(0);
+    let stop = || {
+        ticks.set(ticks.get() + 1);
+        ticks.get() > 12
+    };
+    let result = drive_run(&mut run, &scene_path, &options, Instant::now(), &stop);
+    assert!(
+        matches!(result, Err(RunError::Interrupted { .. })),
+        "{:?}",
+        result.err()
+    );
+    std::fs::read(Kind::Checkpoint.file(root)).unwrap()
 }
 
 /// The corpus: every bundled scene, protocol and sweep file, and a state,
@@ -97,6 +149,7 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
             out.push((kind, bytes));
         }
     }
+    out.push((Kind::Checkpoint, checkpoint_corpus(root)));
     let small = icosphere(1, 1.0);
     let pair = docked_pair(1);
     for mesh in [&small, &pair] {

@@ -22,10 +22,16 @@ struct Ring {
 /// Number of vertices of [`capsule`] with these arguments (without building
 /// it), for size limits.
 pub fn capsule_vertex_count(radius: f64, length: f64, edge: f64) -> usize {
-    // Area over the area per vertex (√3/2 edge²), before building anything
-    // that size: saturates instead of enumerating absurd ring counts.
-    let estimate = 2.0 * PI * radius * (length + 2.0 * radius) / (0.8 * edge * edge);
-    if estimate.is_nan() || estimate >= 1e8 {
+    // Rings × vertices per ring in floating point, as `rings` will lay
+    // them out, before building anything that size: saturates instead of
+    // enumerating absurd ring counts (a thin, long capsule has few
+    // vertices per ring but very many rings).
+    let n = (2.0 * PI * radius / edge)
+        .round()
+        .max((MIN_RING + 1) as f64);
+    let row = 2.0 * radius * (PI / n).sin() * 3f64.sqrt() / 2.0;
+    let rows = (length / row).round() + 2.0 * (FRAC_PI_2 * radius / row).round().max(1.0);
+    if !(rows * n < 1e8) {
         return usize::MAX;
     }
     rings(radius, length, edge)
