@@ -31,7 +31,8 @@ pub fn capsule_vertex_count(radius: f64, length: f64, edge: f64) -> usize {
         .max((MIN_RING + 1) as f64);
     let row = 2.0 * radius * (PI / n).sin() * 3f64.sqrt() / 2.0;
     let rows = (length / row).round() + 2.0 * (FRAC_PI_2 * radius / row).round().max(1.0);
-    if !(rows * n < 1e8) {
+    let count = rows * n;
+    if count.is_nan() || count >= 1e8 {
         return usize::MAX;
     }
     rings(radius, length, edge)
