@@ -225,8 +225,8 @@ fn centroid_coupling_removes_the_merge_churn_around_holders() {
         println!("{name}: merge {m:?}");
         m.success + m.cancel + m.impossible + m.failure
     };
-    let as_run = merges("filopodium.ron");
-    let centroid = merges("filopodium_centroid.ron");
+    let as_run = merges("filopodium_one_ring.ron");
+    let centroid = merges("filopodium.ron");
     assert!(as_run > 100, "as run: {as_run} merges");
     assert!(
         4 * centroid < as_run,
