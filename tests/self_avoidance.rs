@@ -38,23 +38,6 @@ fn the_cell_list_sums_the_same_pairs_as_a_brute_force_search() {
     }
 }
 
-/// The closest distance between two vertices that are not 1-ring
-/// neighbours in a run's final mesh (l̄).
-fn closest_non_neighbours(out: &Path) -> f64 {
-    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
-    let mut m = Membrane::from_mesh(&mesh, false).unwrap();
-    let t = m.topology().unwrap().clone();
-    let mut closest = f64::INFINITY;
-    for i in 0..mesh.positions.len() {
-        for j in i + 1..mesh.positions.len() {
-            if !t.neighbours(i).contains(&(j as u32)) {
-                closest = closest.min(mesh.positions[i].distance(mesh.positions[j]));
-            }
-        }
-    }
-    closest
-}
-
 /// A vesicle deflated suddenly to a quarter of its volume at fixed area:
 /// its walls fold in and meet. Without self-avoidance they pass through
 /// each other; with it they stop at about the repulsion's range.
@@ -80,7 +63,7 @@ fn deflate(self_avoidance: bool, dir: &Path) -> f64 {
     let summary =
         remembrane::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| Ok(()));
     assert!(summary.is_ok(), "{:?}", summary.err());
-    closest_non_neighbours(&out)
+    common::closest_non_neighbours(&out)
 }
 
 #[test]

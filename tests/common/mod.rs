@@ -83,3 +83,21 @@ pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf
     }
     out
 }
+
+/// The closest distance between two vertices that are not 1-ring
+/// neighbours in a run's final mesh (l̄).
+#[allow(dead_code)]
+pub fn closest_non_neighbours(out: &Path) -> f64 {
+    let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
+    let mut m = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let t = m.topology().unwrap().clone();
+    let mut closest = f64::INFINITY;
+    for i in 0..mesh.positions.len() {
+        for j in i + 1..mesh.positions.len() {
+            if !t.neighbours(i).contains(&(j as u32)) {
+                closest = closest.min(mesh.positions[i].distance(mesh.positions[j]));
+            }
+        }
+    }
+    closest
+}
