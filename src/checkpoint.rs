@@ -145,9 +145,11 @@ impl Checkpoint {
             reason,
         };
         if !staging.is_dir() {
-            let finished = run_dir_of(&staging).join("summary.json").is_file();
+            let dir = run_dir_of(&staging);
+            let finished =
+                dir.join("summary.json").is_file() || dir.join("protocol.json").is_file();
             return Err(err(if finished {
-                "the run has ended (its directory has a summary.json); nothing to resume".into()
+                "the run has ended (its directory has a summary.json or protocol.json); nothing to resume".into()
             } else {
                 "no such staging directory: is this the --out of a run started with --checkpoint-every?".into()
             }));

@@ -428,6 +428,14 @@ fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunArgs) -> Exit
         );
         return ExitCode::from(2);
     }
+    match crate::protocol::ProtocolRun::read(dir) {
+        Some(Ok(record)) => return resume_protocol_command(dir, record, args),
+        Some(Err(e)) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+        None => {}
+    }
     if let Err(code) = set_threads(args.threads) {
         return code;
     }
@@ -495,25 +503,12 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
             );
         }
     }
-    if args.checkpoint_every.is_some() {
-        return fail(
-            format!(
-                "{}: --checkpoint-every is not available for protocols yet (checkpoint a phase by running its scene)",
-                path.display()
-            ),
-            2,
-        );
-    }
     let loaded = match Protocol::load(path) {
         Ok(l) => l,
         Err(e) => return fail(e.to_string(), e.exit_code()),
     };
-    if let Some(n) = args.threads
-        && let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-    {
-        return fail(format!("--threads {n}: {e}"), 2);
+    if let Err(code) = set_threads(args.threads) {
+        return code;
     }
     let out = args
         .out
@@ -525,10 +520,56 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
         frames: args.frames,
         check_invariants: args.check_invariants,
         skip_completed: false,
+        checkpoint_every: args.checkpoint_every,
+        resume: false,
     };
-    match crate::parallel::on_pool(|| run_protocol(&loaded, &out, args.overwrite, &options)) {
+    let result = crate::parallel::on_pool(|| run_protocol(&loaded, &out, args.overwrite, &options));
+    report_protocol(path, &out, args.quiet, result)
+}
+
+/// `remembrane run --resume DIR` of a protocol run started with
+/// `--checkpoint-every`: continues it from its record.
+fn resume_protocol_command(
+    dir: &Path,
+    record: crate::protocol::ProtocolRun,
+    args: &RunArgs,
+) -> ExitCode {
+    use crate::protocol::{PhaseRunOptions, Protocol, run_protocol};
+    let loaded = match Protocol::load(&record.protocol) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(e.exit_code());
+        }
+    };
+    if let Err(code) = set_threads(args.threads) {
+        return code;
+    }
+    let options = PhaseRunOptions {
+        progress: crate::run::Progress::for_stderr(args.quiet),
+        iterations: record.iterations,
+        frames: record.frames,
+        check_invariants: record.check_invariants,
+        skip_completed: false,
+        checkpoint_every: Some(args.checkpoint_every.unwrap_or(record.checkpoint_every)),
+        resume: true,
+    };
+    let out = crate::checkpoint::run_dir_of(dir);
+    let result = crate::parallel::on_pool(|| run_protocol(&loaded, &out, false, &options));
+    report_protocol(&record.protocol, &out, args.quiet, result)
+}
+
+/// Prints a protocol's outcome (a line per phase, or its error) and gives
+/// the exit code.
+fn report_protocol(
+    path: &Path,
+    out: &Path,
+    quiet: bool,
+    result: Result<crate::protocol::ProtocolSummary, crate::protocol::ProtocolError>,
+) -> ExitCode {
+    match result {
         Ok(summary) => {
-            if !args.quiet {
+            if !quiet {
                 for p in &summary.phases {
                     eprintln!(
                         "{}: {} iterations, t = {:.4} s, {:.1} s wall",
@@ -539,7 +580,10 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(e) => fail(format!("{}: {e}", path.display()), e.exit_code()),
+        Err(e) => {
+            eprintln!("error: {}: {e}", path.display());
+            ExitCode::from(e.exit_code())
+        }
     }
 }
 

@@ -322,6 +322,46 @@ pub struct PhaseRunOptions {
     /// Keep phases that completed before (their `summary.json` says so)
     /// instead of running them again.
     pub skip_completed: bool,
+    /// Checkpoint every phase every so many iterations (see
+    /// [`crate::checkpoint`]).
+    pub checkpoint_every: Option<u64>,
+    /// Continue a killed protocol run in its staging directory: phases that
+    /// completed are kept (and recorded as completed), the phase that was
+    /// running resumes from its checkpoint.
+    pub resume: bool,
+}
+
+/// What a protocol run records in its staging directory so that
+/// `remembrane run --resume DIR` can continue it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProtocolRun {
+    /// The protocol file (absolute).
+    pub protocol: PathBuf,
+    /// `--iterations`.
+    pub iterations: Option<u64>,
+    /// `--frames`.
+    pub frames: Option<u32>,
+    /// `--check-invariants`.
+    pub check_invariants: bool,
+    /// `--checkpoint-every`.
+    pub checkpoint_every: u64,
+}
+
+/// The file in a protocol's staging directory that holds its [`ProtocolRun`].
+pub const PROTOCOL_RUN: &str = "protocol_run.json";
+
+impl ProtocolRun {
+    /// The protocol run being staged for `dir`, if it was started with
+    /// checkpoints.
+    pub fn read(dir: &Path) -> Option<Result<Self, ProtocolError>> {
+        let path = crate::checkpoint::staging_of(dir).join(PROTOCOL_RUN);
+        let text = std::fs::read_to_string(&path).ok()?;
+        Some(serde_json::from_str(&text).map_err(|e| ProtocolError::Io {
+            path,
+            reason: format!("not a protocol run record: {e}"),
+        }))
+    }
 }
 
 /// The file in a phase's directory that records what it was run from
@@ -372,15 +412,29 @@ pub fn run_phases(
         })
         .to_string();
         let fingerprint_file = out.join(PHASE_FINGERPRINT);
-        if options.skip_completed
+        if (options.skip_completed || options.resume)
             && !ran_one
             && std::fs::read_to_string(&fingerprint_file).is_ok_and(|f| f == fingerprint)
-            && let Some(done) = completed_record(phase, scene_path, from_record.clone(), &out)
+            && let Some(done) =
+                completed_record(phase, scene_path, from_record.clone(), &out, options.resume)
         {
             records.push(done);
             continue;
         }
+        let resume_phase = options.resume
+            && !ran_one
+            && crate::checkpoint::staging_of(&out)
+                .join(crate::checkpoint::CHECKPOINT_FILE)
+                .exists();
         ran_one = true;
+        let checkpoint = options
+            .checkpoint_every
+            .map(|every| crate::run::CheckpointSettings {
+                every,
+                // The phase's scene with its changes: RON writes floats
+                // in their shortest round-trip form.
+                scene_text: scene.to_ron_string().unwrap_or_default(),
+            });
         let run_options = RunOptions {
             out: out.clone(),
             overwrite: true,
@@ -390,12 +444,23 @@ pub fn run_phases(
             from: from.clone(),
             progress: options.progress,
             check_invariants: options.check_invariants,
-            checkpoint: None,
+            checkpoint,
         };
         if options.progress != Progress::Quiet {
-            eprintln!("phase {} of {}: {}", i + 1, phases.len(), phase.name);
+            let resumed = if resume_phase { " (resumed)" } else { "" };
+            eprintln!(
+                "phase {} of {}: {}{resumed}",
+                i + 1,
+                phases.len(),
+                phase.name
+            );
         }
-        match run_scene(scene, scene_path, &run_options, |_| Ok(())) {
+        let outcome = if resume_phase {
+            crate::run::resume_run(&out, options.progress, options.checkpoint_every)
+        } else {
+            run_scene(scene, scene_path, &run_options, |_| Ok(()))
+        };
+        match outcome {
             Ok(s) => {
                 // Not fatal: without it the phase just runs again next time.
                 let _ = crate::atomic_write(&fingerprint_file, fingerprint.as_bytes());
@@ -434,12 +499,15 @@ pub fn run_phases(
     Ok(records)
 }
 
-/// The record of a phase whose directory holds a completed run.
+/// The record of a phase whose directory holds a completed run: `skipped`
+/// (reused by a sweep), or `completed` with its wall time when a resumed
+/// protocol run keeps what it completed before it was stopped.
 fn completed_record(
     phase: &Phase,
     scene: &Path,
     from: Option<PathBuf>,
     out: &Path,
+    resumed: bool,
 ) -> Option<PhaseRecord> {
     let text = std::fs::read_to_string(out.join("summary.json")).ok()?;
     let v: serde_json::Value = serde_json::from_str(&text).ok()?;
@@ -447,10 +515,14 @@ fn completed_record(
         name: phase.name.clone(),
         scene: scene.to_owned(),
         from,
-        status: "skipped".into(),
+        status: if resumed { "completed" } else { "skipped" }.into(),
         iterations: v["iterations"].as_u64().unwrap_or(0),
         simulated_time: v["simulated_time"].as_f64().unwrap_or(0.0),
-        wall_time_s: 0.0,
+        wall_time_s: if resumed {
+            v["wall_time_s"].as_f64().unwrap_or(0.0)
+        } else {
+            0.0
+        },
     })
 }
 
@@ -478,10 +550,31 @@ pub fn run_protocol(
         path: path.to_owned(),
         reason: e.to_string(),
     };
-    let staging = crate::output::prepare_staging(out, overwrite).map_err(|e| match e {
-        crate::output::OutputError::Exists(dir) => ProtocolError::Exists(dir),
-        crate::output::OutputError::Write { path, reason } => ProtocolError::Io { path, reason },
-    })?;
+    let staging = if options.resume {
+        // The staging directory of the stopped run, as it was left.
+        crate::checkpoint::staging_of(out)
+    } else {
+        crate::output::prepare_staging(out, overwrite).map_err(|e| match e {
+            crate::output::OutputError::Exists(dir) => ProtocolError::Exists(dir),
+            crate::output::OutputError::Write { path, reason } => {
+                ProtocolError::Io { path, reason }
+            }
+        })?
+    };
+    if let Some(every) = options.checkpoint_every
+        && !options.resume
+    {
+        let record = ProtocolRun {
+            protocol: std::path::absolute(&loaded.path).unwrap_or_else(|_| loaded.path.clone()),
+            iterations: options.iterations,
+            frames: options.frames,
+            check_invariants: options.check_invariants,
+            checkpoint_every: every,
+        };
+        let path = staging.join(PROTOCOL_RUN);
+        let json = serde_json::to_string_pretty(&record).expect("the record serialises");
+        crate::atomic_write(&path, json.as_bytes()).map_err(|e| io(&path, e))?;
+    }
     let base = loaded.path.parent().unwrap_or(Path::new("."));
     let result = run_phases(
         &loaded.protocol.phases,
@@ -516,6 +609,11 @@ pub fn run_protocol(
             source: Box::new(source),
             dir: staging,
         });
+    }
+    // A finished protocol is not resumed: its run record goes.
+    let record = staging.join(PROTOCOL_RUN);
+    if record.exists() {
+        std::fs::remove_file(&record).map_err(|e| io(&record, e))?;
     }
     std::fs::rename(&staging, out).map_err(|e| io(out, e))?;
     Ok(summary)

@@ -668,6 +668,8 @@ pub fn run_sweep_with(
                 frames: None,
                 check_invariants: false,
                 skip_completed: true,
+                checkpoint_every: None,
+                resume: false,
             };
             let base_dir = sweep_path.parent().unwrap_or(Path::new("."));
             phase_records =

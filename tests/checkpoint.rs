@@ -314,3 +314,83 @@ fn write_icosahedron(path: &Path, r: f64) {
     }
     std::fs::write(path, text).unwrap();
 }
+
+/// A protocol of two phases (the second starts from the first's state),
+/// killed once in each phase and resumed, writes what it writes left alone
+/// (`protocol.json` without the phases' wall times).
+#[test]
+fn a_protocol_killed_in_each_phase_and_resumed_writes_the_same_bytes() {
+    let tmp = tempfile::tempdir().unwrap();
+    scene_file(tmp.path());
+    let protocol = tmp.path().join("protocol.ron");
+    std::fs::write(
+        &protocol,
+        r#"Protocol(
+    name: "two_phases",
+    phases: [
+        (name: "first", scene: "checkpointed.ron", iterations: 700),
+        (name: "second", scene: "checkpointed.ron", start: Previous, iterations: 700,
+         set: [Kappa(4.0), DiffusionRate(0.2)]),
+    ],
+)"#,
+    )
+    .unwrap();
+    let protocol = protocol.to_str().unwrap();
+    let whole = tmp.path().join("whole");
+    let out = remembrane(&["run", protocol, "--out", whole.to_str().unwrap(), "--quiet"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    let killed = tmp.path().join("killed");
+    let dir = killed.to_str().unwrap();
+    let staging = tmp.path().join("killed.incomplete");
+    let mut child = spawn(&[
+        "run",
+        protocol,
+        "--out",
+        dir,
+        "--quiet",
+        "--checkpoint-every",
+        "25",
+    ]);
+    for phase in ["first", "second"] {
+        let phase_staging = staging.join(format!("{phase}.incomplete"));
+        let waited = Instant::now();
+        while checkpoint_iteration(&phase_staging).is_none_or(|i| i < 100) {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "the protocol ended before phase {phase} could be killed"
+            );
+            assert!(waited.elapsed() < Duration::from_secs(300));
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        child.kill().unwrap();
+        child.wait().unwrap();
+        assert!(!killed.exists());
+        child = spawn(&["run", "--resume", dir, "--quiet", "--threads", "2"]);
+    }
+    assert!(child.wait().unwrap().success());
+    let out = remembrane(&["run", "--resume", dir]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has ended"));
+
+    let without_wall_times = |dir: &Path| {
+        let mut files = common::run_contents(dir);
+        let key = PathBuf::from("protocol.json");
+        let mut v: serde_json::Value = serde_json::from_slice(&files[&key]).unwrap();
+        for phase in v["phases"].as_array_mut().unwrap() {
+            phase.as_object_mut().unwrap().remove("wall_time_s");
+        }
+        files.insert(key, serde_json::to_vec(&v).unwrap());
+        files
+    };
+    let a = without_wall_times(&whole);
+    let b = without_wall_times(&killed);
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (file, bytes) in &a {
+        assert!(bytes == &b[file], "{} differs", file.display());
+    }
+}
