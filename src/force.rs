@@ -29,6 +29,11 @@ pub struct ForceContext<'a> {
     /// `positions`, in face order; empty unless a term in the evaluation
     /// returned `true` from [`ForceTerm::uses_face_geometry`].
     pub face_geometry: &'a [Corners],
+    /// Per-edge vectors, lengths and V_in segments at `positions`, in edge
+    /// order, when the vin plugin measured them this tick
+    /// ([`crate::energy::vin::VinEdgeSamples`]); empty otherwise (a term
+    /// then measures what it needs itself).
+    pub edge_samples: &'a [crate::energy::vin::EdgeSample],
 }
 
 impl<'a> ForceContext<'a> {
@@ -53,6 +58,7 @@ impl<'a> ForceContext<'a> {
             positions,
             lipid,
             face_geometry: geometry,
+            edge_samples: &[],
         }
     }
 }

@@ -2,6 +2,7 @@
 //! [`crate::simulation::SimBuilder::add_force_term`]).
 
 use crate::core_resources::{DenseLipid, DensePositions};
+use crate::energy::vin::VinEdgeSamples;
 use crate::error::SimError;
 use crate::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
 use crate::membrane::Membrane;
@@ -23,7 +24,7 @@ pub const FORCE_TERMS: &str = "force_terms";
 ///
 /// Stage: Forces (before `force_total`). Reads: the membrane (topology, the
 /// terms' own components), dense positions and lipid density, face
-/// geometry. Writes: the terms' buffers and energies in [`ForceBuffers`],
+/// geometry, the V_in edge samples when measured. Writes: the terms' buffers and energies in [`ForceBuffers`],
 /// and takes newly registered terms from it.
 #[derive(Default)]
 pub struct ForceTermsSystem {
@@ -48,6 +49,7 @@ impl System for ForceTermsSystem {
         Res<'a, DensePositions>,
         Res<'a, DenseLipid>,
         Res<'a, FaceGeometry>,
+        Option<Res<'a, VinEdgeSamples>>,
         ResMut<'a, ForceBuffers>,
     );
 
@@ -57,7 +59,7 @@ impl System for ForceTermsSystem {
 
     fn run(
         &mut self,
-        (membrane, positions, lipid, geometry, mut buffers): Self::Data<'_>,
+        (membrane, positions, lipid, geometry, edge_samples, mut buffers): Self::Data<'_>,
     ) -> Result<(), SimError> {
         self.terms.extend(buffers.take_pending_terms());
         self.timings.resize(self.terms.len(), Duration::ZERO);
@@ -76,6 +78,7 @@ impl System for ForceTermsSystem {
             positions: &positions.0,
             lipid: &lipid.0,
             face_geometry: &geometry.0,
+            edge_samples: edge_samples.as_deref().map_or(&[], |s| &s.0),
         };
         // Term work scales with the faces.
         let faces = membrane.cached_topology().faces.len();

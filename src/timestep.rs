@@ -7,7 +7,7 @@
 //! l_− the midpoint of segment s−1 when B < 0; B = 0 gives ∞. The tick's
 //! step is Δt = min(dt_max, min_e Δt_e, s_max / max_i |μF_i|).
 
-use crate::energy::vin::Segmentation;
+use crate::energy::vin::{EdgeSample, Segmentation};
 use glam::DVec3;
 
 /// What limited the chosen time step.
@@ -87,10 +87,14 @@ pub fn edge_time_step_in(segmentation: &Segmentation, s: usize, l: f64, b: f64) 
 }
 
 /// Chooses Δt for the current forces. `segmentation = None` (no V_in in the
-/// scene) skips the edge criterion.
+/// scene) skips the edge criterion. `samples` are the edges measured at
+/// `positions` this tick ([`crate::energy::vin::VinEdgeSamples`]); empty:
+/// measured here.
+#[allow(clippy::too_many_arguments)]
 pub fn choose_time_step(
     segmentation: Option<&Segmentation>,
     edges: &[[u32; 2]],
+    samples: &[EdgeSample],
     positions: &[DVec3],
     forces: &[DVec3],
     mobility: f64,
@@ -101,30 +105,37 @@ pub fn choose_time_step(
         dt: dt_max,
         limiter: Limiter::Cap,
     };
-    if let Some(seg) = segmentation.filter(|_| crate::parallel::splits(edges.len())) {
+    if let Some(seg) = segmentation {
+        let measured = samples.len() == edges.len();
         let edge_dt = |e: usize| {
             let [a, b] = edges[e].map(|i| i as usize);
-            let d = positions[b] - positions[a];
-            let rate = 2.0 * mobility * d.dot(forces[b] - forces[a]);
-            edge_time_step(seg, d.length(), rate)
-        };
-        if let Some((e, dt)) = crate::parallel::first_min(edges.len(), choice.dt, edge_dt) {
-            choice = TimeStepChoice {
-                dt,
-                limiter: Limiter::Edge(e as u32),
+            let (d, l, s) = if measured {
+                let s = samples[e];
+                (s.d, s.length, s.segment as usize)
+            } else {
+                let d = positions[b] - positions[a];
+                let l = d.length();
+                (d, l, seg.segment_of(l))
             };
-        }
-    } else if let Some(seg) = segmentation {
-        for (e, &[a, b]) in edges.iter().enumerate() {
-            let (a, b) = (a as usize, b as usize);
-            let d = positions[b] - positions[a];
             let rate = 2.0 * mobility * d.dot(forces[b] - forces[a]);
-            let dt = edge_time_step(seg, d.length(), rate);
-            if dt < choice.dt {
+            edge_time_step_in(seg, s, l, rate)
+        };
+        if crate::parallel::splits(edges.len()) {
+            if let Some((e, dt)) = crate::parallel::first_min(edges.len(), choice.dt, edge_dt) {
                 choice = TimeStepChoice {
                     dt,
                     limiter: Limiter::Edge(e as u32),
                 };
+            }
+        } else {
+            for e in 0..edges.len() {
+                let dt = edge_dt(e);
+                if dt < choice.dt {
+                    choice = TimeStepChoice {
+                        dt,
+                        limiter: Limiter::Edge(e as u32),
+                    };
+                }
             }
         }
     }

@@ -2,11 +2,13 @@
 //!
 //! Stage: TimeStep. Reads: [`Membrane`] (edges), [`DensePositions`], the
 //! total force in [`ForceBuffers`], [`DynamicsParams`] (mobility, dt_max,
-//! s_max), the V_in segmentation when a Vin plugin inserted one, and the
+//! s_max), the V_in segmentation and the tick's edge samples when a Vin
+//! plugin inserted them, and the
 //! bending rigidity when a bending term did (for the explicit bending
 //! step's stability bound in scenes without V_in). Writes:
 //! [`TimeStepChoice`]. Units: s.
 
+use crate::energy::vin::VinEdgeSamples;
 use crate::force::ForceBuffers;
 use crate::membrane::Membrane;
 use crate::params::DynamicsParams;
@@ -33,6 +35,7 @@ impl System for AdaptiveTimeStep {
         Res<'a, DynamicsParams>,
         Res<'a, Clock>,
         Option<Res<'a, VinSegmentation>>,
+        Option<Res<'a, VinEdgeSamples>>,
         Option<Res<'a, BendingRigidity>>,
         ResMut<'a, TimeStepChoice>,
     );
@@ -43,13 +46,12 @@ impl System for AdaptiveTimeStep {
 
     fn run(
         &mut self,
-        (membrane, positions, buffers, d, clock, segmentation, bending, mut time_step): Self::Data<
-            '_,
-        >,
+        (membrane, positions, buffers, d, clock, segmentation, samples, bending, mut time_step): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let mut choice = choose_time_step(
             segmentation.as_deref().map(|s| &*s.0),
             &membrane.cached_topology().edges,
+            samples.as_deref().map_or(&[], |s| &s.0),
             &positions.0,
             &buffers.evaluation.total,
             d.mobility,

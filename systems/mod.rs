@@ -23,6 +23,7 @@ pub mod remesh;
 pub mod self_avoidance_forces;
 pub mod spring_forces;
 pub mod tension_forces;
+pub mod vin_edge_samples;
 pub mod vin_forces;
 pub mod volume_forces;
 

@@ -6,7 +6,7 @@
 //! | plugin | resources it inserts | systems (stage) |
 //! |---|---|---|
 //! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), `barrier_check` (BarrierCheck) |
-//! | [`vin`] | `VinSegmentation` | term `vin` (Forces) unless force-free |
+//! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
 //! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
@@ -106,7 +106,13 @@ fn initial(b: &SimBuilder, what: &str) -> Result<InitialState, BuildError> {
 pub fn vin(params: VinParams, exerts_force: bool) -> impl Plugin {
     move |b: &mut SimBuilder| {
         let segmentation = Arc::new(Segmentation::new(params));
-        b.insert_resource(VinSegmentation(segmentation.clone()));
+        b.insert_resource(VinSegmentation(segmentation.clone()))
+            .insert_resource(crate::energy::vin::VinEdgeSamples::default());
+        b.add_system(
+            Stage::Gather,
+            crate::systems::vin_edge_samples::VinEdgeSampling,
+        )
+        .after("gather_state");
         if exerts_force {
             b.add_force_term(VinForces::new(segmentation, params.form))?;
         }

@@ -40,13 +40,15 @@ impl VinForces {
 }
 
 /// Σ V(l_e) over edges, adding the edge forces when `force` is given.
+/// `sample(e)` gives edge e's vector, length and segment; `v(s, l)` its
+/// V_in value and slope.
 #[inline(always)]
 fn edge_loop(
     edges: &[[u32; 2]],
-    p: &[DVec3],
+    sample: impl Fn(usize) -> (DVec3, f64, usize) + Sync + Send,
     per_edge: &mut Vec<(f64, [DVec3; 2])>,
     mut force: Option<&mut [DVec3]>,
-    v: impl Fn(f64) -> (f64, f64) + Sync + Send,
+    v: impl Fn(usize, f64) -> (f64, f64) + Sync + Send,
 ) -> f64 {
     if let Some(force) = force
         .as_deref_mut()
@@ -58,10 +60,8 @@ fn edge_loop(
             force,
             per_edge,
             |e| {
-                let [a, b] = edges[e].map(|i| i as usize);
-                let d = p[b] - p[a];
-                let l = d.length();
-                let (value, slope) = v(l);
+                let (d, l, s) = sample(e);
+                let (value, slope) = v(s, l);
                 let f = d * (slope / l);
                 (value, [f, -f])
             },
@@ -69,11 +69,10 @@ fn edge_loop(
         );
     }
     let mut energy = 0.0;
-    for &[a, b] in edges {
+    for (e, &[a, b]) in edges.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
-        let d = p[b] - p[a];
-        let l = d.length();
-        let (value, slope) = v(l);
+        let (d, l, s) = sample(e);
+        let (value, slope) = v(s, l);
         energy += value;
         if let Some(force) = force.as_deref_mut() {
             let f = d * (slope / l);
@@ -88,11 +87,30 @@ impl VinForces {
     fn run(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let (edges, p, seg) = (&ctx.topology.edges, ctx.positions, &*self.segmentation);
         let per_edge = &mut self.per_edge;
+        let linear = |s: usize, l: f64| seg.linear_in(s, l);
+        let exact = |_: usize, l: f64| (seg.exact(l), seg.params().derivative(l));
+        // The tick's edge samples when the Gather stage measured them (the
+        // same vectors, lengths and segments this would compute).
+        let samples = ctx.edge_samples;
+        if samples.len() == edges.len() {
+            let sample = |e: usize| {
+                let s = samples[e];
+                (s.d, s.length, s.segment as usize)
+            };
+            return match self.form {
+                VinForm::PiecewiseLinear => edge_loop(edges, sample, per_edge, force, linear),
+                VinForm::Exact => edge_loop(edges, sample, per_edge, force, exact),
+            };
+        }
+        let sample = |e: usize| {
+            let [a, b] = edges[e].map(|i| i as usize);
+            let d = p[b] - p[a];
+            let l = d.length();
+            (d, l, seg.segment_of(l))
+        };
         match self.form {
-            VinForm::PiecewiseLinear => edge_loop(edges, p, per_edge, force, |l| seg.linear(l)),
-            VinForm::Exact => edge_loop(edges, p, per_edge, force, |l| {
-                (seg.exact(l), seg.params().derivative(l))
-            }),
+            VinForm::PiecewiseLinear => edge_loop(edges, sample, per_edge, force, linear),
+            VinForm::Exact => edge_loop(edges, sample, per_edge, force, exact),
         }
     }
 }

@@ -193,6 +193,7 @@ fn time_step_controller_moves_no_edge_past_the_next_segment() {
     let choice = choose_time_step(
         Some(&seg),
         &edges,
+        &[],
         &mesh.positions,
         &forces,
         mobility,
@@ -220,6 +221,7 @@ fn time_step_controller_moves_no_edge_past_the_next_segment() {
     let c2 = choose_time_step(
         Some(&seg),
         &edges,
+        &[],
         &mesh.positions,
         &half,
         mobility,
@@ -234,6 +236,7 @@ fn time_step_controller_moves_no_edge_past_the_next_segment() {
     let c = choose_time_step(
         Some(&seg),
         &edges,
+        &[],
         &mesh.positions,
         &zero,
         mobility,
@@ -244,6 +247,7 @@ fn time_step_controller_moves_no_edge_past_the_next_segment() {
     let c = choose_time_step(
         Some(&seg),
         &edges,
+        &[],
         &mesh.positions,
         &forces,
         mobility,
@@ -260,6 +264,7 @@ fn time_step_controller_moves_no_edge_past_the_next_segment() {
     let c = choose_time_step(
         None,
         &edges,
+        &[],
         &mesh.positions,
         &forces,
         mobility,
@@ -603,4 +608,57 @@ fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::run::RunEr
     std::fs::write(&path, text).unwrap();
     let scene = Scene::load(&path).unwrap();
     run_scene(&scene, &path, &options(out), |_| Ok(())).unwrap_err()
+}
+
+/// The edges measured once per tick (`VinEdgeSamples`) give the V_in force
+/// and the time step exactly what measuring them in place gives, bit for
+/// bit.
+#[test]
+fn measured_edge_samples_change_no_bit_of_the_vin_force_or_the_time_step() {
+    use remembrane::energy::vin::VinEdgeSamples;
+    use remembrane::force::{ForceContext, ForceTerm};
+    use std::sync::Arc;
+    let seg = Arc::new(Segmentation::new(VinParams::default()));
+    let mut mesh = icosphere(3, 1.0);
+    mesh.jitter(0.25, 11);
+    let mut m = Membrane::from_mesh(&mesh, false).unwrap();
+    let t = m.topology().unwrap().clone();
+    let mut samples = VinEdgeSamples::default();
+    samples.measure(&seg, &t.edges, &mesh.positions);
+    let mut geometry = Vec::new();
+    let in_place = ForceContext::new(&m.world, &t, &mesh.positions, &[], &mut geometry, false);
+    let mut vin = remembrane::systems::VinForces::new(
+        seg.clone(),
+        remembrane::energy::vin::VinForm::PiecewiseLinear,
+    );
+    let mut f_in_place = vec![DVec3::ZERO; mesh.positions.len()];
+    let e_in_place = vin.accumulate(&in_place, &mut f_in_place);
+    let measured = ForceContext {
+        edge_samples: &samples.0,
+        ..in_place
+    };
+    let mut f_measured = vec![DVec3::ZERO; mesh.positions.len()];
+    let e_measured = vin.accumulate(&measured, &mut f_measured);
+    assert_eq!(e_in_place.to_bits(), e_measured.to_bits());
+    assert!(
+        f_in_place
+            .iter()
+            .zip(&f_measured)
+            .all(|(a, b)| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits))
+    );
+    let choose = |s: &[remembrane::energy::vin::EdgeSample]| {
+        choose_time_step(
+            Some(&seg),
+            &t.edges,
+            s,
+            &mesh.positions,
+            &f_in_place,
+            1000.0,
+            1e9,
+            1e9,
+        )
+    };
+    let (a, b) = (choose(&[]), choose(&samples.0));
+    assert!(matches!(a.limiter, Limiter::Edge(_)));
+    assert_eq!((a.dt.to_bits(), a.limiter), (b.dt.to_bits(), b.limiter));
 }

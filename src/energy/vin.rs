@@ -6,6 +6,7 @@
 //!              + b·σ(k21(l − r21)) + b·σ(k22(r22 − l))] − offset,
 //! σ(x) = 1/(1 + e^{−x}); the offset makes the minimum over the sample grid 0.
 
+use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of V_in and of its segmentation. Defaults are the as-run set.
@@ -368,8 +369,57 @@ impl Segmentation {
     /// Piecewise-linear V_in(l) and its slope dV/dl (Ē, Ē/l̄).
     #[inline(always)]
     pub fn linear(&self, l: f64) -> (f64, f64) {
-        let [start, value, slope] = self.packed[self.segment_of(l)];
+        self.linear_in(self.segment_of(l), l)
+    }
+
+    /// [`Segmentation::linear`] for an `l` already known to lie in segment
+    /// `s` (from [`Segmentation::segment_of`]).
+    #[inline(always)]
+    pub fn linear_in(&self, s: usize, l: f64) -> (f64, f64) {
+        let [start, value, slope] = self.packed[s];
         (value + slope * (l - start), slope)
+    }
+}
+
+/// One edge at the tick's positions: its vector d = r_b − r_a (l̄), its
+/// length |d| (l̄) and the V_in segment of that length.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EdgeSample {
+    /// r_b − r_a for the edge [a, b] (l̄).
+    pub d: DVec3,
+    /// |d| (l̄).
+    pub length: f64,
+    /// [`Segmentation::segment_of`] the length.
+    pub segment: u32,
+}
+
+/// Every edge's [`EdgeSample`], in edge order, measured once per tick in
+/// the Gather stage and shared by the V_in force and the time-step rule,
+/// which would otherwise both gather the end positions, take the square
+/// root and look up the segment (a resource of the vin plugin; empty until
+/// measured).
+#[derive(Clone, Debug, Default)]
+pub struct VinEdgeSamples(pub Vec<EdgeSample>);
+
+impl VinEdgeSamples {
+    /// Measures `edges` at `positions`.
+    pub fn measure(
+        &mut self,
+        segmentation: &Segmentation,
+        edges: &[[u32; 2]],
+        positions: &[DVec3],
+    ) {
+        self.0.resize(edges.len(), EdgeSample::default());
+        crate::parallel::fill(&mut self.0, |e| {
+            let [a, b] = edges[e];
+            let d = positions[b as usize] - positions[a as usize];
+            let length = d.length();
+            EdgeSample {
+                d,
+                length,
+                segment: segmentation.segment_of(length) as u32,
+            }
+        });
     }
 }
 

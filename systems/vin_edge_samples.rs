@@ -1,0 +1,45 @@
+//! Measures every edge once per tick for V_in: its vector, length and
+//! segment ([`VinEdgeSamples`]), read by the V_in force and the time-step
+//! rule instead of each gathering the end positions, taking the square root
+//! and looking up the segment again.
+//!
+//! Stage: Gather (after `gather_state`). Reads: [`Membrane`] (edges),
+//! [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
+
+use crate::energy::vin::VinEdgeSamples;
+use crate::membrane::Membrane;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{DensePositions, SimError};
+use crate::systems::vin_forces::VinSegmentation;
+
+/// The edge-sampling system.
+pub struct VinEdgeSampling;
+
+/// Its name.
+pub const VIN_EDGE_SAMPLES: &str = "vin_edge_samples";
+
+impl System for VinEdgeSampling {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, VinSegmentation>,
+        ResMut<'a, VinEdgeSamples>,
+    );
+
+    fn name(&self) -> &str {
+        VIN_EDGE_SAMPLES
+    }
+
+    fn run(
+        &mut self,
+        (membrane, positions, segmentation, mut samples): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        samples.measure(
+            &segmentation.0,
+            &membrane.cached_topology().edges,
+            &positions.0,
+        );
+        Ok(())
+    }
+}
