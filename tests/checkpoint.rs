@@ -67,6 +67,31 @@ fn spawn(args: &[&str]) -> Child {
         .unwrap()
 }
 
+/// Runs `args` to completion; it must succeed.
+fn run_ok(args: &[&str]) {
+    let out = remembrane(args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Two runs' files (by relative path) are the same bytes.
+fn assert_same_files(
+    a: &std::collections::BTreeMap<PathBuf, Vec<u8>>,
+    b: &std::collections::BTreeMap<PathBuf, Vec<u8>>,
+) {
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "the same files"
+    );
+    for (file, bytes) in a {
+        assert!(bytes == &b[file], "{} differs", file.display());
+    }
+}
+
 /// The iteration of the checkpoint in `staging`, if one can be read.
 fn checkpoint_iteration(staging: &Path) -> Option<u64> {
     let text = std::fs::read_to_string(staging.join("checkpoint.json")).ok()?;
@@ -80,12 +105,7 @@ fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
     let scene = scene_file(tmp.path());
     let scene = scene.to_str().unwrap();
     let whole = tmp.path().join("whole");
-    let out = remembrane(&["run", scene, "--out", whole.to_str().unwrap(), "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok(&["run", scene, "--out", whole.to_str().unwrap(), "--quiet"]);
 
     let killed = tmp.path().join("killed");
     let dir = killed.to_str().unwrap();
@@ -145,20 +165,10 @@ fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
     assert!(!killed.join("checkpoint.json").exists());
     eprintln!("killed after the checkpoints of iterations {at:?} (seed {seed})");
 
-    let a = common::run_contents(&whole);
-    let b = common::run_contents(&killed);
-    assert_eq!(
-        a.keys().collect::<Vec<_>>(),
-        b.keys().collect::<Vec<_>>(),
-        "the same files"
+    assert_same_files(
+        &common::run_contents(&whole),
+        &common::run_contents(&killed),
     );
-    for (file, bytes) in &a {
-        assert!(
-            bytes == &b[file],
-            "{} differs (seed {seed})",
-            file.display()
-        );
-    }
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(killed.join("summary.json")).unwrap()).unwrap();
     assert!(
@@ -265,54 +275,9 @@ fn resuming_what_cannot_be_resumed_fails_cleanly() {
     assert!(err.contains("has changed"), "{err}");
 }
 
-/// A regular icosahedron of circumradius `r` as an OBJ file.
-fn write_icosahedron(path: &Path, r: f64) {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let s = r / (1.0 + t * t).sqrt();
-    let v = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ];
-    let f = [
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut text = String::new();
-    for (x, y, z) in v {
-        text += &format!("v {} {} {}\n", x * s, y * s, z * s);
-    }
-    for [a, b, c] in f {
-        text += &format!("f {} {} {}\n", a + 1, b + 1, c + 1);
-    }
-    std::fs::write(path, text).unwrap();
+/// An icosahedron with edges of `edge` (l̄) as an OBJ file.
+fn write_icosahedron(path: &Path, edge: f64) {
+    remembrane::mesh::io::write_mesh(path, &remembrane::mesh::icosphere(0, edge)).unwrap();
 }
 
 /// A protocol of two phases (the second starts from the first's state),
@@ -337,12 +302,7 @@ fn a_protocol_killed_in_each_phase_and_resumed_writes_the_same_bytes() {
     .unwrap();
     let protocol = protocol.to_str().unwrap();
     let whole = tmp.path().join("whole");
-    let out = remembrane(&["run", protocol, "--out", whole.to_str().unwrap(), "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok(&["run", protocol, "--out", whole.to_str().unwrap(), "--quiet"]);
 
     let killed = tmp.path().join("killed");
     let dir = killed.to_str().unwrap();
@@ -387,10 +347,5 @@ fn a_protocol_killed_in_each_phase_and_resumed_writes_the_same_bytes() {
         files.insert(key, serde_json::to_vec(&v).unwrap());
         files
     };
-    let a = without_wall_times(&whole);
-    let b = without_wall_times(&killed);
-    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
-    for (file, bytes) in &a {
-        assert!(bytes == &b[file], "{} differs", file.display());
-    }
+    assert_same_files(&without_wall_times(&whole), &without_wall_times(&killed));
 }
