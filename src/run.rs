@@ -411,7 +411,12 @@ pub fn drive_run(
         .as_ref()
         .map(|c| crate::checkpoint::RunSource {
             scene_path: scene_path.to_owned(),
-            working_dir: std::env::current_dir().unwrap_or_default(),
+            // A resumed run keeps the directory the run started in, which
+            // its relative scene path is resolved against.
+            working_dir: resume.as_ref().map_or_else(
+                || std::env::current_dir().unwrap_or_default(),
+                |c| c.run.working_dir.clone(),
+            ),
             scene_text: c.scene_text.clone(),
             seed: options.seed,
             iterations: options.iterations,
