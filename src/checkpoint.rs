@@ -27,7 +27,7 @@
 //! alone (its wall time is the sum of all segments).
 
 use crate::core_resources::InitialState;
-use crate::output::FrameRecord;
+pub use crate::output::{CHECKPOINT_FILE, OutputProgress, run_dir_of, staging_of};
 use crate::world_snapshot::WorldSnapshot;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -35,9 +35,6 @@ use std::path::{Path, PathBuf};
 
 /// Format tag written into every checkpoint.
 pub const CHECKPOINT_FORMAT: &str = "remembrane-checkpoint-1";
-
-/// File name of the checkpoint inside the staging directory.
-pub const CHECKPOINT_FILE: &str = "checkpoint.json";
 
 /// How to rebuild the run a checkpoint belongs to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -62,18 +59,6 @@ pub struct RunSource {
     pub check_invariants: bool,
     /// Iterations between checkpoints.
     pub every: u64,
-}
-
-/// The outputs written up to the checkpoint.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OutputProgress {
-    /// Frames written.
-    pub frames: Vec<FrameRecord>,
-    /// Header of `series.csv` (after the first frame).
-    pub series_header: Option<String>,
-    /// Text of `series.csv` so far.
-    pub series: String,
 }
 
 /// A checkpoint file.
@@ -111,27 +96,6 @@ pub struct CheckpointError {
     pub path: PathBuf,
     /// What is wrong.
     pub reason: String,
-}
-
-/// The staging directory of run directory `dir` (`dir` itself if it is
-/// one already).
-pub fn staging_of(dir: &Path) -> PathBuf {
-    if dir.extension().is_some_and(|e| e == "incomplete") {
-        return dir.to_owned();
-    }
-    let mut s = dir.as_os_str().to_owned();
-    s.push(".incomplete");
-    PathBuf::from(s)
-}
-
-/// The run directory of staging directory `staging` (`DIR.incomplete` →
-/// `DIR`).
-pub fn run_dir_of(staging: &Path) -> PathBuf {
-    if staging.extension().is_some_and(|e| e == "incomplete") {
-        staging.with_extension("")
-    } else {
-        staging.to_owned()
-    }
 }
 
 impl Checkpoint {

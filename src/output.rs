@@ -58,6 +58,43 @@ pub struct FrameRecord {
     pub file: String,
 }
 
+/// File name of a run's checkpoint inside its staging directory
+/// ([`crate::checkpoint`]).
+pub const CHECKPOINT_FILE: &str = "checkpoint.json";
+
+/// The outputs written so far (what a checkpoint keeps of them).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputProgress {
+    /// Frames written.
+    pub frames: Vec<FrameRecord>,
+    /// Header of `series.csv` (after the first frame).
+    pub series_header: Option<String>,
+    /// Text of `series.csv` so far.
+    pub series: String,
+}
+
+/// The staging directory of run directory `dir` (`dir` itself if it is
+/// one already).
+pub fn staging_of(dir: &Path) -> PathBuf {
+    if dir.extension().is_some_and(|e| e == "incomplete") {
+        return dir.to_owned();
+    }
+    let mut s = dir.as_os_str().to_owned();
+    s.push(".incomplete");
+    PathBuf::from(s)
+}
+
+/// The run directory of staging directory `staging` (`DIR.incomplete` →
+/// `DIR`).
+pub fn run_dir_of(staging: &Path) -> PathBuf {
+    if staging.extension().is_some_and(|e| e == "incomplete") {
+        staging.with_extension("")
+    } else {
+        staging.to_owned()
+    }
+}
+
 /// The directory a run writes into.
 pub struct RunOutput {
     dir: PathBuf,
@@ -87,11 +124,8 @@ impl RunOutput {
     /// checkpoint: frames written after it are removed (the resumed run
     /// writes them again), so are temporary files of a killed write, and
     /// `run.pvd` and `series.csv` are set back to the checkpoint's.
-    pub fn reopen(
-        dir: &Path,
-        progress: &crate::checkpoint::OutputProgress,
-    ) -> Result<Self, OutputError> {
-        let staging = crate::checkpoint::staging_of(dir);
+    pub fn reopen(dir: &Path, progress: &OutputProgress) -> Result<Self, OutputError> {
+        let staging = staging_of(dir);
         let kept: std::collections::HashSet<&str> =
             progress.frames.iter().map(|f| f.file.as_str()).collect();
         for (folder, prefix) in [(staging.join("frames"), "frames/"), (staging.clone(), "")] {
@@ -107,7 +141,7 @@ impl RunOutput {
             }
         }
         let out = Self {
-            dir: crate::checkpoint::run_dir_of(&staging),
+            dir: run_dir_of(&staging),
             staging,
             frames: progress.frames.clone(),
             series_header: progress.series_header.clone(),
@@ -123,8 +157,8 @@ impl RunOutput {
     }
 
     /// The outputs so far, for a checkpoint.
-    pub fn progress(&self) -> crate::checkpoint::OutputProgress {
-        crate::checkpoint::OutputProgress {
+    pub fn progress(&self) -> OutputProgress {
+        OutputProgress {
             frames: self.frames.clone(),
             series_header: self.series_header.clone(),
             series: self.series.clone(),
@@ -133,7 +167,7 @@ impl RunOutput {
 
     /// Writes the checkpoint (atomically) into the staging directory.
     pub fn write_checkpoint(&self, json: &str) -> Result<(), OutputError> {
-        self.write(crate::checkpoint::CHECKPOINT_FILE, json.as_bytes())
+        self.write(CHECKPOINT_FILE, json.as_bytes())
     }
 
     /// Removes the staging directory of a run that never started.
@@ -273,7 +307,7 @@ impl RunOutput {
         }
         self.write("summary.json", summary_json.as_bytes())?;
         // A finished run is not resumed: its checkpoint goes.
-        let checkpoint = self.staging.join(crate::checkpoint::CHECKPOINT_FILE);
+        let checkpoint = self.staging.join(CHECKPOINT_FILE);
         if checkpoint.exists() {
             std::fs::remove_file(&checkpoint).map_err(|e| write_err(&checkpoint, e))?;
         }
