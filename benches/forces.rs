@@ -2,7 +2,9 @@
 //! Force-system throughput: each force system alone and all forces of the
 //! red-blood-cell scene together (V_in + bending + volume + area, 4 smoothing
 //! passes, including the shared face-geometry pass and the world
-//! gather/scatter) at 642 … 40962 vertices.
+//! gather/scatter) at 642 … 40962 vertices. With V_in: the shared per-edge
+//! pass (`vin_edge_samples`), V_in and the time-step rule reading it, and
+//! both measuring the edges themselves (`*_in_place`).
 //!
 //! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
 
@@ -117,6 +119,56 @@ fn each_system(c: &mut Criterion) {
             &mut geometry,
             true,
         );
+        // The per-edge pass shared by V_in and the time step, then both
+        // reading it, against both measuring the edges in place.
+        let seg = Arc::new(Segmentation::new(VinParams::default()));
+        let edges = &m.cached_topology().edges;
+        let mut samples = remembrane::energy::vin::VinEdgeSamples::default();
+        let mut g = configure(c, "vin_edge_samples");
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| {
+                samples.measure(&seg, edges, &pos);
+                black_box(samples.0.len())
+            })
+        });
+        g.finish();
+        let sampled = ForceContext {
+            edge_samples: &samples.0,
+            ..ctx
+        };
+        let mut vin = VinForces::new(seg.clone(), VinForm::PiecewiseLinear);
+        let mut force = vec![DVec3::ZERO; n];
+        for (name, context) in [("vin_sampled", &sampled), ("vin_in_place", &ctx)] {
+            let mut g = configure(c, name);
+            g.throughput(Throughput::Elements(n as u64));
+            g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+                b.iter(|| black_box(vin.accumulate(context, &mut force)))
+            });
+            g.finish();
+        }
+        for (name, s) in [
+            ("time_step_sampled", &samples.0[..]),
+            ("time_step_in_place", &[][..]),
+        ] {
+            let mut g = configure(c, name);
+            g.throughput(Throughput::Elements(n as u64));
+            g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+                b.iter(|| {
+                    black_box(remembrane::timestep::choose_time_step(
+                        Some(&seg),
+                        edges,
+                        s,
+                        &pos,
+                        &force,
+                        1000.0,
+                        1e-3,
+                        10.0,
+                    ))
+                })
+            });
+            g.finish();
+        }
         for mut term in terms(&initial) {
             let name = term.name().to_string();
             let mut g = configure(c, &name);
