@@ -245,6 +245,15 @@ pub struct DynamicsParams {
     /// edge rule limits the step where V_in is declared; this bound then
     /// does not apply.
     pub bending_step_limit: bool,
+    /// Keep V_in's edge rule (SPEC §3): no edge's drift crosses more than
+    /// one segment of the V_in segmentation per step (default true, as run).
+    /// With thermal noise whose step sqrt(2μk_BTΔt) is far longer than a
+    /// segment (10⁻³ l̄ on the barriers' flanks), the rule no longer controls
+    /// barrier crossings and only shrinks Δt (to 10⁻⁸ s for V_in barriers of
+    /// 10 k_BT); a noisy scene may turn it off. Δt is then `dt_max`, bounded
+    /// by `max_displacement` and, where `bending_step_limit` is on, by the
+    /// explicit bending step's stability bound.
+    pub vin_step_limit: bool,
 }
 
 impl Default for DynamicsParams {
@@ -259,6 +268,7 @@ impl Default for DynamicsParams {
             duration: None,
             frame_time: None,
             bending_step_limit: true,
+            vin_step_limit: true,
         }
     }
 }

@@ -48,6 +48,7 @@ impl System for AdaptiveTimeStep {
         &mut self,
         (membrane, positions, buffers, d, clock, segmentation, samples, bending, mut time_step): Self::Data<'_>,
     ) -> Result<(), SimError> {
+        let segmentation = segmentation.filter(|_| d.vin_step_limit);
         let mut choice = choose_time_step(
             segmentation.as_deref().map(|s| &*s.0),
             &membrane.cached_topology().edges,
