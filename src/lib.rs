@@ -8,6 +8,7 @@ pub mod collect;
 pub mod compare;
 pub mod components;
 pub mod core_resources;
+pub mod edge_flip;
 pub mod edit;
 pub mod energy;
 pub mod error;

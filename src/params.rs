@@ -273,6 +273,34 @@ impl Default for DynamicsParams {
     }
 }
 
+/// Edge flips as Metropolis moves ([`crate::edge_flip`]): after every tick,
+/// edges drawn at random are flipped with probability min(1, exp(−ΔE/k_BT)),
+/// so the triangulation is fluid and the membrane samples the Boltzmann
+/// ensemble of its energy (at k_BT = 0 only flips that lower the energy are
+/// taken).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EdgeFlipParams {
+    /// Flip proposals per edge per tick (dimensionless, e.g. 0.01: each edge
+    /// is proposed once every 100 ticks on average). Any rate keeps the
+    /// ensemble; it sets how fast the triangulation (the membrane's
+    /// in-plane structure) relaxes, and costs about 1 µs per proposal.
+    #[serde(deserialize_with = "crate::validate::positive")]
+    pub attempts_per_edge: f64,
+    /// Both the edge removed and the edge created must lie in this range
+    /// (l̄; default (0.7, 1.3), the remesh triggers' normal range). V_in has
+    /// a second well beyond its far barrier (1.75-2.2 l̄, as low as the
+    /// normal one), so without this bound a flip could create an edge there,
+    /// between two of V_in's steepest walls. Required both ways, so the
+    /// reverse flip is allowed exactly when this one is.
+    #[serde(default = "default_flip_range")]
+    pub edge_range: (f64, f64),
+}
+
+fn default_flip_range() -> (f64, f64) {
+    (0.7, 1.3)
+}
+
 /// Which remeshing runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum RemeshMode {

@@ -116,6 +116,9 @@ pub struct RunSummary {
     pub abnormal_edges: usize,
     /// Remeshing outcome counts (split/merge × success/cancel/impossible/failure).
     pub remesh: RemeshSummary,
+    /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
     /// Frames written.
     pub frames: Vec<crate::output::FrameRecord>,
     /// Wall time per system.
@@ -590,6 +593,11 @@ fn summarize(
         last: EnergyReport::new(name, sim),
         shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
+        edge_flips: sim
+            .resources()
+            .get::<crate::systems::edge_flips::FlipStats>()
+            .ok()
+            .map(|s| *s),
         remesh: RemeshSummary {
             split: stats.split,
             merge: stats.merge,

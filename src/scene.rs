@@ -71,6 +71,10 @@ pub struct Scene {
     /// Lipid diffusion (needs `lipid_density: true`; default none).
     #[serde(default)]
     pub diffusion: Option<crate::params::DiffusionParams>,
+    /// Edge flips as Metropolis moves, for a fluid triangulation at
+    /// k_BT > 0 (default none).
+    #[serde(default)]
+    pub edge_flips: Option<crate::params::EdgeFlipParams>,
 }
 
 fn default_seed() -> u64 {
@@ -468,6 +472,27 @@ impl Scene {
                 "the LocalTension term needs `lipid_density: true`".into(),
             ));
         }
+        if self.edge_flips.is_some()
+            && let Some((i, term)) = self.energy.iter().enumerate().find(|(_, t)| {
+                !matches!(
+                    t,
+                    EnergyTerm::Vin(_)
+                        | EnergyTerm::Bending(_)
+                        | EnergyTerm::Volume(_)
+                        | EnergyTerm::Area(_)
+                        | EnergyTerm::Tension(_)
+                )
+            })
+        {
+            return Err(invalid(
+                "edge_flips",
+                format!(
+                    "a flip's energy change is known for Vin, Bending, Volume, Area and \
+                         Tension only, and energy[{i}] is {}",
+                    label(term)
+                ),
+            ));
+        }
         if has("Springs") && self.control_points.is_empty() {
             return Err(invalid(
                 "control_points",
@@ -798,6 +823,22 @@ impl Scene {
             builder
                 .add_plugin(plugins::remesh(self.valence))
                 .map_err(build_err)?;
+        }
+        if let Some(flips) = self.edge_flips {
+            let mut terms = crate::edge_flip::FlipTerms::default();
+            for term in &self.energy {
+                match term {
+                    EnergyTerm::Vin(p) if !geometric => terms.vin = Some(p.form),
+                    EnergyTerm::Bending(p) => terms.bending = Some(*p),
+                    EnergyTerm::Volume(p) => terms.volume = Some(*p),
+                    EnergyTerm::Area(p) => terms.area = Some(*p),
+                    EnergyTerm::Tension(p) => terms.tension = Some(*p),
+                    _ => {}
+                }
+            }
+            builder
+                .add_plugin(plugins::edge_flips(flips, terms, self.valence))
+                .map_err(|e| invalid_at("edge_flips".into(), e))?;
         }
         if let Some(d) = &self.diffusion {
             builder

@@ -11,6 +11,7 @@ pub mod area_forces;
 pub mod barrier_check;
 pub mod bending_forces;
 pub mod control_point_schedule;
+pub mod edge_flips;
 pub mod face_geometry;
 pub mod force_total;
 pub mod gather_state;

@@ -226,6 +226,50 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
     }
 }
 
+/// Edge flips as Metropolis moves ([`crate::edge_flip`]) under `terms`
+/// (V_in's segmentation from the Vin plugin, added before; penalty
+/// targets resolved against the initial mesh), in the Remesh stage after
+/// any split/merge.
+pub fn edge_flips(
+    params: crate::params::EdgeFlipParams,
+    terms: crate::edge_flip::FlipTerms,
+    valence: ValenceRange,
+) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::edge_flip::FlipEnergy;
+        let vin = match terms.vin {
+            Some(form) => {
+                let seg =
+                    b.resources()
+                        .get::<VinSegmentation>()
+                        .map_err(|_| BuildError::Requires {
+                            what: "EdgeFlips".to_string(),
+                            resource: "VinSegmentation",
+                            plugin: "vin",
+                        })?;
+                Some((seg.0.clone(), form))
+            }
+            None => None,
+        };
+        let init = initial(b, "EdgeFlips")?;
+        let energy = FlipEnergy {
+            vin,
+            bending: terms.bending.map(|p| (p.kappa, p.c0)),
+            volume: terms.volume.map(|p| (p.k, p.target.resolve(init.volume))),
+            area: terms.area.map(|p| (p.k, p.target.resolve(init.area))),
+            tension: terms.tension.map(|p| p.sigma),
+        };
+        b.insert_resource(valence)
+            .insert_resource(crate::systems::edge_flips::FlipStats::default())
+            .persist_resource::<crate::systems::edge_flips::FlipStats>();
+        b.add_system(
+            Stage::Remesh,
+            crate::systems::edge_flips::EdgeFlips::new(params, energy),
+        );
+        Ok(())
+    }
+}
+
 /// The built-in recorders (state columns, force, mean curvature, lipid
 /// density) and one tube-radius recorder per probe.
 pub fn recorders(

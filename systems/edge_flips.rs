@@ -1,0 +1,158 @@
+//! Edge flips as Metropolis moves ([`crate::edge_flip`]).
+//!
+//! Stage: Remesh (after split/merge, if the scene remeshes). Reads:
+//! [`DensePositions`], [`DynamicsParams`] (k_BT), [`ValenceRange`],
+//! [`Seed`], [`Clock`], [`CheckInvariants`]. Writes: the face and edge
+//! entities of [`Membrane`] (flips through the mesh-edit layer; no vertex
+//! moves or is added, so the dense vertex slots and positions stay valid)
+//! and [`FlipStats`].
+//!
+//! Each tick proposes ⌊r·E⌋ flips (plus one with probability of the
+//! fraction) for r proposals per edge and E edges, each on an edge drawn
+//! uniformly. A proposal is rejected without drawing if the flip would
+//! leave the valence range, duplicate an edge or fold the surface (both
+//! ways, so the rule is symmetric); otherwise it is accepted with
+//! probability min(1, exp(−ΔE/k_BT)).
+
+use crate::edge_flip::{Flip, FlipEnergy, FlipTotals, keeps_surface_unfolded};
+use crate::edit::PatchEdit;
+use crate::membrane::Membrane;
+use crate::mesh::ValenceRange;
+use crate::params::{DynamicsParams, EdgeFlipParams};
+use crate::resources::{Res, ResMut};
+use crate::rng::stream_seed;
+use crate::schedule::System;
+use crate::simulation::{CheckInvariants, Clock, DensePositions, Seed, SimError};
+use rand::{RngExt, SeedableRng};
+
+/// Stream id of the flips' randomness (edges drawn, acceptance).
+const FLIP_STREAM: u64 = 0x666c_6970_0000_0001;
+
+/// Counts of flip proposals and their outcomes over a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct FlipStats {
+    /// Flips proposed.
+    pub proposed: u64,
+    /// Flips taken.
+    pub accepted: u64,
+    /// Rejected: a valence would leave its range, or c–d is already an edge.
+    pub rejected_topology: u64,
+    /// Rejected: an edge outside `edge_range`, a fold, or faces the edit
+    /// layer refused.
+    pub rejected_geometry: u64,
+    /// Rejected by the Metropolis rule.
+    pub rejected_energy: u64,
+}
+
+/// The edge-flip system.
+pub struct EdgeFlips {
+    params: EdgeFlipParams,
+    energy: FlipEnergy,
+}
+
+impl EdgeFlips {
+    /// Flips at `params`' rate under the energy `energy`.
+    pub fn new(params: EdgeFlipParams, energy: FlipEnergy) -> Self {
+        Self { params, energy }
+    }
+}
+
+impl System for EdgeFlips {
+    type Data<'a> = (
+        (
+            Res<'a, DensePositions>,
+            Res<'a, DynamicsParams>,
+            Res<'a, ValenceRange>,
+            Res<'a, Seed>,
+            Res<'a, Clock>,
+            Res<'a, CheckInvariants>,
+        ),
+        (ResMut<'a, Membrane>, ResMut<'a, FlipStats>),
+    );
+
+    fn name(&self) -> &str {
+        "edge_flips"
+    }
+
+    fn run(
+        &mut self,
+        ((positions, dynamics, valence, seed, clock, check), (mut membrane, mut stats)): Self::Data<
+            '_,
+        >,
+    ) -> Result<(), SimError> {
+        let positions = &positions.0;
+        let kbt = dynamics.temperature;
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(stream_seed(
+            seed.0,
+            FLIP_STREAM,
+            clock.iteration,
+        ));
+        let t = membrane.cached_topology();
+        let expected = self.params.attempts_per_edge * t.edges.len() as f64;
+        let proposals = expected.floor() as u64 + u64::from(rng.random::<f64>() < expected.fract());
+        let mut totals = FlipTotals::of(positions, &t.faces);
+        for _ in 0..proposals {
+            let t = membrane.cached_topology();
+            stats.proposed += 1;
+            let edge = rng.random_range(0..t.edges.len()) as u32;
+            let Some(flip) = Flip::of(t, edge) else {
+                stats.rejected_topology += 1;
+                continue;
+            };
+            let degree = |v: u32| t.valence(v as usize) as u32;
+            if degree(flip.a) <= valence.min
+                || degree(flip.b) <= valence.min
+                || degree(flip.c) >= valence.max
+                || degree(flip.d) >= valence.max
+                || t.edge_between(flip.c, flip.d).is_some()
+            {
+                stats.rejected_topology += 1;
+                continue;
+            }
+            let (lo, hi) = self.params.edge_range;
+            let in_range = |u: u32, v: u32| {
+                let l = positions[u as usize].distance(positions[v as usize]);
+                l >= lo && l <= hi
+            };
+            if !in_range(flip.a, flip.b) || !in_range(flip.c, flip.d) {
+                stats.rejected_geometry += 1;
+                continue;
+            }
+            if !keeps_surface_unfolded(&flip, positions) {
+                stats.rejected_geometry += 1;
+                continue;
+            }
+            let change = self.energy.change(&flip, t, positions, totals);
+            let accept = change.energy <= 0.0
+                || (kbt > 0.0 && rng.random::<f64>() < (-change.energy / kbt).exp());
+            if !accept {
+                stats.rejected_energy += 1;
+                continue;
+            }
+            let [ea, eb, ec, ed] =
+                [flip.a, flip.b, flip.c, flip.d].map(|v| t.vertex_entities[v as usize]);
+            let edit = PatchEdit {
+                remove_faces: flip.faces.map(|f| t.face_entities[f as usize]).to_vec(),
+                add_faces: vec![[ea, ed, ec], [ed, eb, ec]],
+                ..Default::default()
+            };
+            if membrane.apply_patch(&edit, *valence).is_err() {
+                stats.rejected_geometry += 1;
+                continue;
+            }
+            stats.accepted += 1;
+            totals.volume += change.volume;
+            totals.area += change.area;
+            if check.0 {
+                let t = membrane.cached_topology();
+                if let Err(e) = crate::mesh::check_mesh(positions, &t.faces, Some(*valence)) {
+                    return Err(SimError::Output(format!(
+                        "mesh invariant broken after an edge flip at iteration {}: {e}",
+                        clock.iteration + 1
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+}
