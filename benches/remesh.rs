@@ -3,7 +3,8 @@
 //! membrane is built, warmed by one earlier split and dropped outside the
 //! timing) at 642, 10242 and
 //! 40962 vertices, and one split pre-relaxation of a stretched edge (V_in +
-//! Lévy kicks).
+//! Lévy kicks). Edge flips: the energy change of one proposal (V_in,
+//! bending, volume, area) and one flip through the mesh-edit layer.
 //!
 //! `cargo bench --bench remesh`.
 #![allow(missing_docs)]
@@ -55,6 +56,66 @@ fn topology_ops(c: &mut Criterion) {
                 || warmed_membrane(level),
                 |mut m| {
                     let ok = merge_edge(&mut m, 100, ValenceRange { min: 4, max: 9 }).is_ok();
+                    (black_box(ok), m)
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
+}
+
+/// An edge whose flip is valid on a level-`level` icosphere (its ends have
+/// valence 6, so they may lose one), and the flip.
+fn flippable_edge(m: &Membrane) -> remembrane::edge_flip::Flip {
+    use remembrane::edge_flip::Flip;
+    let t = m.cached_topology();
+    (100..t.edges.len() as u32)
+        .filter_map(|e| Flip::of(t, e))
+        .find(|f| t.valence(f.a as usize) == 6 && t.valence(f.b as usize) == 6)
+        .expect("an edge between two valence-6 vertices")
+}
+
+fn edge_flips(c: &mut Criterion) {
+    use remembrane::edge_flip::{FlipEnergy, FlipTotals};
+    use remembrane::edit::PatchEdit;
+    use std::sync::Arc;
+    let mesh = icosphere(3, 1.0);
+    let m = membrane(3);
+    let t = m.cached_topology();
+    let flip = flippable_edge(&m);
+    let totals = FlipTotals::of(&mesh.positions, &t.faces);
+    let model = FlipEnergy {
+        vin: Some((
+            Arc::new(Segmentation::new(VinParams::default())),
+            remembrane::energy::vin::VinForm::PiecewiseLinear,
+        )),
+        bending: Some((1.5, 0.0)),
+        volume: Some((1.0, totals.volume)),
+        area: Some((20.0, totals.area)),
+        tension: None,
+    };
+    c.bench_function("flip_energy_change/642", |b| {
+        b.iter(|| black_box(model.change(black_box(&flip), t, &mesh.positions, totals)))
+    });
+    for level in [3, 6] {
+        let n = remembrane::mesh::vertex_count_for_level(level);
+        c.bench_function(&format!("flip_edit/{n}"), |b| {
+            b.iter_batched(
+                || {
+                    let m = warmed_membrane(level);
+                    let f = flippable_edge(&m);
+                    let t = m.cached_topology();
+                    let [ea, eb, ec, ed] =
+                        [f.a, f.b, f.c, f.d].map(|v| t.vertex_entities[v as usize]);
+                    let edit = PatchEdit {
+                        remove_faces: f.faces.map(|x| t.face_entities[x as usize]).to_vec(),
+                        add_faces: vec![[ea, ed, ec], [ed, eb, ec]],
+                        ..Default::default()
+                    };
+                    (m, edit)
+                },
+                |(mut m, edit)| {
+                    let ok = m.apply_patch(&edit, RANGE).is_ok();
                     (black_box(ok), m)
                 },
                 BatchSize::LargeInput,
@@ -140,5 +201,11 @@ fn relaxation_iteration(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, topology_ops, pre_relaxation, relaxation_iteration);
+criterion_group!(
+    benches,
+    topology_ops,
+    edge_flips,
+    pre_relaxation,
+    relaxation_iteration
+);
 criterion_main!(benches);
