@@ -456,6 +456,9 @@ fn report_run(
 ) -> ExitCode {
     match result {
         Ok(summary) => {
+            for caution in &summary.cautions {
+                eprintln!("warning: {}: {caution}", path.display());
+            }
             if !quiet {
                 eprintln!(
                     "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}, V = {:.3}, v = {:.4}",
@@ -823,6 +826,9 @@ fn check(path: &Path) -> Result<(), String> {
     let initial = *sim.resource::<crate::simulation::InitialState>();
     let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
     say!("{}: ok", path.display());
+    for caution in scene.cautions() {
+        say!("  warning: {caution}");
+    }
     say!("  name         {}", crate::run::run_name(&scene, path));
     say!("  seed         {}", scene.seed);
     say!("  membrane     {:?}", scene.membrane);

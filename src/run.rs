@@ -116,6 +116,10 @@ pub struct RunSummary {
     pub abnormal_edges: usize,
     /// Remeshing outcome counts (split/merge × success/cancel/impossible/failure).
     pub remesh: RemeshSummary,
+    /// Known biases of the scene's settings ([`crate::scene::Scene::cautions`]; omitted
+    /// when none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cautions: Vec<String>,
     /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
@@ -593,6 +597,7 @@ fn summarize(
         last: EnergyReport::new(name, sim),
         shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
+        cautions: scene.cautions(),
         edge_flips: sim
             .resources()
             .get::<crate::systems::edge_flips::FlipStats>()

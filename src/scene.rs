@@ -389,6 +389,23 @@ impl Scene {
     }
 
     /// Checks that need the whole scene.
+    /// Known biases of this scene's combination of settings, as sentences
+    /// for the user (printed by `check` and `run`, kept in summary.json).
+    /// Empty when none applies.
+    pub fn cautions(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.dynamics.temperature > 0.0 && self.remesh.mode != crate::params::RemeshMode::Off {
+            out.push(
+                "thermal noise with split/merge remeshing: its events are not \
+                 detailed-balanced moves, so averages at k_BT > 0 are biased (measured: the \
+                 flicker spectrum's κ 32 % low, README \"Thermal noise\"); for a fluid membrane \
+                 in equilibrium use `edge_flips` with remeshing off"
+                    .to_string(),
+            );
+        }
+        out
+    }
+
     pub(crate) fn validate(&self, path: &Path) -> Result<(), SceneError> {
         let invalid = |field: &str, reason: String| SceneError::Invalid {
             path: path.to_owned(),

@@ -152,3 +152,17 @@ fn flips_under_a_term_without_a_local_energy_change_are_refused() {
     assert!(message.contains("edge_flips"), "{message}");
     assert!(message.contains("energy[2] is SelfAvoidance"), "{message}");
 }
+
+/// A noisy scene with split/merge remeshing is told that its thermal
+/// averages are biased (by `check`, `run` and summary.json); the same
+/// vesicle fluid by flips is not.
+#[test]
+fn noise_with_split_merge_remeshing_carries_a_caution_and_flips_do_not() {
+    let scenes = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating");
+    let load = |name: &str| remembrane::scene::Scene::load(&scenes.join(name)).unwrap();
+    let cautions = load("fluid.ron").cautions();
+    assert_eq!(cautions.len(), 1, "{cautions:?}");
+    assert!(cautions[0].contains("edge_flips"), "{cautions:?}");
+    assert!(load("flips.ron").cautions().is_empty());
+    assert!(load("tethered.ron").cautions().is_empty());
+}
