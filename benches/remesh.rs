@@ -93,6 +93,7 @@ fn edge_flips(c: &mut Criterion) {
         volume: Some((1.0, totals.volume)),
         area: Some((20.0, totals.area)),
         tension: None,
+        springs: false,
     };
     c.bench_function("flip_energy_change/642", |b| {
         b.iter(|| black_box(model.change(black_box(&flip), t, &mesh.positions, totals)))

@@ -7,7 +7,8 @@
 //! edge out, one in), Helfrich bending at a, b, c and d (their rings'
 //! cotangents and mixed areas), the enclosed volume and the area (the two
 //! faces' tetrahedra and areas), and with them the volume and area
-//! penalties and a constant tension. Accepting a proposed flip with
+//! penalties and a constant tension. Control-point springs are kept
+//! unchanged by never flipping at a point's nearest vertex. Accepting a proposed flip with
 //! probability min(1, exp(−ΔE/k_BT)) keeps the Boltzmann distribution of
 //! the whole energy (the proposal, a uniformly drawn edge, is symmetric:
 //! a closed mesh keeps its edge count under flips), so a membrane that
@@ -36,6 +37,12 @@ pub struct FlipEnergy {
     pub area: Option<(f64, f64)>,
     /// Constant tension σ (Ē/l̄²): E = σ A.
     pub tension: Option<f64>,
+    /// Control-point springs act on each point's nearest vertex and its
+    /// 1-ring. A flip changes the 1-rings of its four vertices only, so
+    /// forbidding flips that touch a nearest vertex leaves the springs'
+    /// energy unchanged (nearest vertices depend on positions alone, so the
+    /// rule is the same both ways).
+    pub springs: bool,
 }
 
 /// The scene's energy terms a flip's ΔE includes, as declared (targets not
@@ -52,6 +59,8 @@ pub struct FlipTerms {
     pub area: Option<crate::params::AreaParams>,
     /// Constant tension.
     pub tension: Option<crate::params::TensionParams>,
+    /// Control-point springs: flips never touch a point's nearest vertex.
+    pub springs: bool,
 }
 
 /// A flip of one edge, in dense slots.

@@ -498,14 +498,15 @@ impl Scene {
                         | EnergyTerm::Volume(_)
                         | EnergyTerm::Area(_)
                         | EnergyTerm::Tension(_)
+                        | EnergyTerm::Springs(_)
                 )
             })
         {
             return Err(invalid(
                 "edge_flips",
                 format!(
-                    "a flip's energy change is known for Vin, Bending, Volume, Area and \
-                         Tension only, and energy[{i}] is {}",
+                    "a flip's energy change is known for Vin, Bending, Volume, Area, \
+                         Tension and Springs only, and energy[{i}] is {}",
                     label(term)
                 ),
             ));
@@ -850,6 +851,7 @@ impl Scene {
                     EnergyTerm::Volume(p) => terms.volume = Some(*p),
                     EnergyTerm::Area(p) => terms.area = Some(*p),
                     EnergyTerm::Tension(p) => terms.tension = Some(*p),
+                    EnergyTerm::Springs(_) => terms.springs = true,
                     _ => {}
                 }
             }

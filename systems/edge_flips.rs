@@ -35,7 +35,8 @@ pub struct FlipStats {
     pub proposed: u64,
     /// Flips taken.
     pub accepted: u64,
-    /// Rejected: a valence would leave its range, or c–d is already an edge.
+    /// Rejected: a valence would leave its range, c–d is already an edge,
+    /// or the flip touches a control point's nearest vertex.
     pub rejected_topology: u64,
     /// Rejected: an edge outside `edge_range`, a fold, or faces the edit
     /// layer refused.
@@ -91,6 +92,26 @@ impl System for EdgeFlips {
         let expected = self.params.attempts_per_edge * t.edges.len() as f64;
         let proposals = expected.floor() as u64 + u64::from(rng.random::<f64>() < expected.fract());
         let mut totals = FlipTotals::of(positions, &t.faces);
+        // Each control point's nearest vertex (first on ties, like the
+        // springs' full scan): flips never touch one.
+        let pinned: Vec<u32> = if self.energy.springs {
+            membrane
+                .control_points()
+                .iter()
+                .filter_map(|c| {
+                    let mut best: Option<(f64, u32)> = None;
+                    for (i, p) in positions.iter().enumerate() {
+                        let d = p.distance_squared(c.position);
+                        if best.is_none_or(|(b, _)| d < b) {
+                            best = Some((d, i as u32));
+                        }
+                    }
+                    best.map(|(_, i)| i)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         for _ in 0..proposals {
             let t = membrane.cached_topology();
             stats.proposed += 1;
@@ -100,7 +121,10 @@ impl System for EdgeFlips {
                 continue;
             };
             let degree = |v: u32| t.valence(v as usize) as u32;
-            if degree(flip.a) <= valence.min
+            if [flip.a, flip.b, flip.c, flip.d]
+                .iter()
+                .any(|v| pinned.contains(v))
+                || degree(flip.a) <= valence.min
                 || degree(flip.b) <= valence.min
                 || degree(flip.c) >= valence.max
                 || degree(flip.d) >= valence.max

@@ -258,6 +258,7 @@ pub fn edge_flips(
             volume: terms.volume.map(|p| (p.k, p.target.resolve(init.volume))),
             area: terms.area.map(|p| (p.k, p.target.resolve(init.area))),
             tension: terms.tension.map(|p| p.sigma),
+            springs: terms.springs,
         };
         b.insert_resource(valence)
             .insert_resource(crate::systems::edge_flips::FlipStats::default())

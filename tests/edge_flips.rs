@@ -68,6 +68,7 @@ fn a_flips_local_energy_change_is_the_whole_energy_difference() {
             volume: Some((1.0, 0.95 * totals.volume)),
             area: Some((2.0, 1.02 * totals.area)),
             tension: Some(0.1),
+            springs: false,
         };
         let before = whole_energy(&model, p, &t.faces);
         let mut checked = 0;
@@ -165,4 +166,80 @@ fn noise_with_split_merge_remeshing_carries_a_caution_and_flips_do_not() {
     assert!(cautions[0].contains("edge_flips"), "{cautions:?}");
     assert!(load("flips.ron").cautions().is_empty());
     assert!(load("tethered.ron").cautions().is_empty());
+}
+
+/// With control-point springs, flips never touch a point's nearest vertex,
+/// so the springs' energy is unchanged by every flip. Nine weak springs sit
+/// on nine valence-6 vertices of the flip vesicle (10× the proposals);
+/// after 3000 ticks each vertex has the 1-ring it started with. Without the
+/// rule, 329 of the 642 vertices' rings change in the same run (no springs),
+/// and some of the nine do.
+#[test]
+fn flips_leave_the_rings_under_control_points_alone() {
+    use remembrane::simulation::DensePositions;
+    let mesh = icosphere(3, 1.0);
+    let m = Membrane::from_mesh(&mesh, false).unwrap();
+    let t = m.cached_topology();
+    let targets: Vec<DVec3> = (0..mesh.positions.len())
+        .filter(|&v| t.valence(v) == 6)
+        .step_by(75)
+        .map(|v| mesh.positions[v] * 1.01)
+        .collect();
+    assert_eq!(targets.len(), 9);
+    let points: Vec<String> = targets
+        .iter()
+        .map(|p| format!("(position: ({}, {}, {}))", p.x, p.y, p.z))
+        .collect();
+    let flips = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/flips.ron"),
+    )
+    .unwrap();
+    let text = flips
+        .replace(
+            "        Area(k: 20.0, target: OfInitial(1.0)),",
+            "        Area(k: 20.0, target: OfInitial(1.0)),\n        Springs(stiffness: 1.0, coupling: Centroid),",
+        )
+        .replace(
+            "    penalty_smoothing: 0,",
+            &format!(
+                "    penalty_smoothing: 0,\n    control_points: [{}],",
+                points.join(", ")
+            ),
+        )
+        .replace("attempts_per_edge: 0.01", "attempts_per_edge: 0.1");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("pinned.ron");
+    std::fs::write(&path, text).unwrap();
+    let mut sim = remembrane::scene::Scene::load(&path)
+        .unwrap()
+        .build(&path)
+        .unwrap();
+    let rings = |sim: &remembrane::simulation::Simulation| {
+        let p = &sim.resource::<DensePositions>().0;
+        let membrane = sim.membrane();
+        let t = membrane.cached_topology();
+        targets
+            .iter()
+            .map(|target| {
+                let v = (0..p.len())
+                    .min_by(|&i, &j| p[i].distance(*target).total_cmp(&p[j].distance(*target)))
+                    .unwrap();
+                let mut ring: Vec<u64> = t
+                    .neighbours(v)
+                    .iter()
+                    .map(|&w| t.vertex_entities[w as usize].to_bits().get())
+                    .collect();
+                ring.sort();
+                (t.vertex_entities[v].to_bits().get(), ring)
+            })
+            .collect::<Vec<_>>()
+    };
+    sim.evaluate_forces().unwrap();
+    let before = rings(&sim);
+    for _ in 0..3000 {
+        sim.tick().unwrap();
+    }
+    let stats = *sim.resource::<remembrane::systems::edge_flips::FlipStats>();
+    assert!(stats.accepted > 1000, "{stats:?}");
+    assert_eq!(rings(&sim), before);
 }
