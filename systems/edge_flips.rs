@@ -10,9 +10,12 @@
 //! Each tick proposes ⌊r·E⌋ flips (plus one with probability of the
 //! fraction) for r proposals per edge and E edges, each on an edge drawn
 //! uniformly. A proposal is rejected without drawing if the flip would
-//! leave the valence range, duplicate an edge or fold the surface (both
-//! ways, so the rule is symmetric); otherwise it is accepted with
-//! probability min(1, exp(−ΔE/k_BT)).
+//! leave the valence range, duplicate an edge, touch a control point's
+//! nearest vertex, remove or create an edge outside `edge_range`, or fold
+//! the surface (each rule holds both ways, so the reverse flip is allowed
+//! exactly when this one is); otherwise it is accepted with probability
+//! min(1, exp(−ΔE/k_BT)). Reads the control points too (scenes with
+//! springs).
 
 use crate::edge_flip::{Flip, FlipEnergy, FlipTotals, keeps_surface_unfolded};
 use crate::edit::PatchEdit;
