@@ -489,6 +489,23 @@ impl PySimulation {
         json_to_py(py, &value).map(Some)
     }
 
+    /// Edge-flip counts so far (proposed, accepted, rejected_topology,
+    /// rejected_geometry, rejected_energy), or None when the scene declares
+    /// no `edge_flips`.
+    fn flip_stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let inner = self.lock()?;
+        let Ok(stats) = inner
+            .run
+            .sim
+            .resources()
+            .get::<remembrane::systems::edge_flips::FlipStats>()
+        else {
+            return Ok(None);
+        };
+        let value = serde_json::to_value(*stats).map_err(simulation_error)?;
+        json_to_py(py, &value).map(Some)
+    }
+
     fn __repr__(&self) -> String {
         match self.inner.try_lock() {
             Ok(inner) => {

@@ -31,6 +31,7 @@ def test_state_arrays_have_numpy_shapes_and_dtypes():
     assert 0 < q["edge_min"] <= q["edge_mean"] <= q["edge_max"]
     assert sum(q["valence_histogram"].values()) == n
     assert sim.remesh_stats() is None  # the scene declares no remeshing
+    assert sim.flip_stats() is None  # nor edge flips
     sim.step(5)
     assert sim.iteration == 5 and sim.time > 0
 
@@ -207,3 +208,14 @@ def test_fd_check_passes_a_correct_term_and_fails_a_wrong_one():
     assert only["vertices"] == 2 and len(only["failures"]) == 2
     sim = rm.Simulation(rm.Scene.from_str(SMALL_SCENE))
     assert rm.check_force(trap, sim)["passed"]  # on a simulation's current mesh
+
+
+def test_flip_stats_of_a_fluid_vesicle():
+    sim = rm.Simulation(rm.Scene.load(SCENES / "fluctuating" / "flips.ron"))
+    sim.step(200)
+    stats = sim.flip_stats()
+    assert stats["accepted"] > 0
+    assert stats["proposed"] == sum(
+        stats[k]
+        for k in ("accepted", "rejected_topology", "rejected_geometry", "rejected_energy")
+    )
