@@ -190,6 +190,12 @@ enum Command {
         /// Input κ to draw (Ē; default: the run's scene's Bending kappa).
         #[arg(long)]
         kappa: Option<f64>,
+        /// Fit against the discrete bending energy's own stiffness against
+        /// each mode (measured on the last frame's mesh) instead of the
+        /// continuum's: the cotangent energy is softer for modes a few edges
+        /// long, which a continuum fit reads as a lower κ.
+        #[arg(long)]
+        discrete: bool,
     },
     /// Validate a scene and print what it declares.
     Check {
@@ -709,7 +715,16 @@ fn run(command: Command) -> Result<(), String> {
             blocks,
             kbt,
             kappa,
-        } => spectrum_command(&dir, equilibration, l_min, l_max, blocks, kbt, kappa),
+            discrete,
+        } => spectrum_command(
+            &dir,
+            equilibration,
+            (l_min, l_max),
+            blocks,
+            kbt,
+            kappa,
+            discrete,
+        ),
         Command::Energy {
             scene,
             json,
@@ -759,11 +774,11 @@ fn run_scene_file(dir: &Path) -> Option<Scene> {
 fn spectrum_command(
     dir: &Path,
     equilibration: f64,
-    l_min: usize,
-    l_max: usize,
+    (l_min, l_max): (usize, usize),
     blocks: usize,
     kbt: Option<f64>,
     kappa: Option<f64>,
+    discrete: bool,
 ) -> Result<(), String> {
     if !dir.join("summary.json").is_file() {
         return Err(format!(
@@ -798,6 +813,7 @@ fn spectrum_command(
         blocks,
         kbt,
         kappa_input,
+        discrete,
     };
     let s = crate::spectrum::analyse_run(dir, &options)?;
     say!(

@@ -4,7 +4,9 @@
 
 use glam::DVec3;
 use remembrane::mesh::icosphere;
-use remembrane::spectrum::{fit, helfrich_power, lm_index, power_by_l, project, real_harmonics};
+use remembrane::spectrum::{
+    discrete_mode_stiffness, fit, helfrich_power, lm_index, power_by_l, project, real_harmonics,
+};
 
 /// Largest error of a recovered u_lm, relative to the largest prescribed
 /// amplitude (issue 15: 1e-3).
@@ -174,6 +176,34 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
     );
     let csv = std::fs::read_to_string(out.join("spectrum.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 5, "l = 2..=6");
+    // Against the discrete energy's own mode stiffness: recorded per l.
+    let discrete = [
+        "remembrane".as_ref(),
+        "spectrum".as_ref(),
+        out.as_os_str(),
+        "--blocks".as_ref(),
+        "4".as_ref(),
+        "--l-max".as_ref(),
+        "6".as_ref(),
+        "--discrete".as_ref(),
+    ];
+    assert_eq!(
+        main_with_args(PluginRegistry::new(), discrete),
+        ExitCode::SUCCESS
+    );
+    let fit_json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("spectrum_fit.json")).unwrap())
+            .unwrap();
+    let stiffness = fit_json["stiffness"].as_array().unwrap();
+    assert_eq!(stiffness.len(), 7, "index l = 0..=6");
+    // A 162-vertex vesicle: modes of a few edges are much softer.
+    let s6 = stiffness[6].as_f64().unwrap();
+    assert!(s6 > 0.2 && s6 < 0.9, "{s6}");
+    // The continuum fit again, for what follows.
+    assert_eq!(
+        main_with_args(PluginRegistry::new(), spectrum),
+        ExitCode::SUCCESS
+    );
     let fit: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("spectrum_fit.json")).unwrap())
             .unwrap();
@@ -241,6 +271,7 @@ fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
         blocks: 10,
         kbt,
         kappa_input: Some(kappa),
+        discrete: false,
     };
     let s = analyse_run(&out, &options).unwrap();
     let ratio = |l: usize| {
@@ -298,48 +329,6 @@ fn a_vesicle_fluid_by_metropolis_flips_fluctuates_with_the_input_kappa() {
     assert!(s.kappa_error < 0.15, "κ error bar {}", s.kappa_error);
 }
 
-/// Stiffness of the discrete bending energy against the shape mode
-/// δR/R = ε Y_lm on a mesh whose vertices lie on a sphere, over the
-/// continuum's κ(l−1)(l+2)l(l+1) (κ = 1, mean over four m): the second
-/// difference of the energy in ε.
-fn discrete_mode_stiffness(mesh: &remembrane::mesh::SurfaceMesh, l: usize) -> f64 {
-    use remembrane::energy::bending::{BendingScratch, bending};
-    use remembrane::geometry::face_geometry;
-    let n = mesh.positions.len() as f64;
-    let r = mesh.positions.iter().map(|p| p.length()).sum::<f64>() / n;
-    let base: Vec<DVec3> = mesh.positions.iter().map(|p| p.normalize() * r).collect();
-    let energy = |p: &[DVec3]| {
-        let mut g = Vec::new();
-        face_geometry(p, &mesh.faces, &mut g);
-        bending(
-            p.len(),
-            &mesh.faces,
-            &g,
-            1.0,
-            0.0,
-            &mut BendingScratch::default(),
-            None,
-        )
-    };
-    let (e0, eps) = (energy(&base), 1e-4);
-    let mut y = Vec::new();
-    let mut sum = 0.0;
-    let ms = [0, 1, -2, l as i64];
-    for m in ms {
-        let mut shaped = |s: f64| -> Vec<DVec3> {
-            base.iter()
-                .map(|q| {
-                    real_harmonics(l, q.normalize(), &mut y);
-                    *q * (1.0 + s * y[lm_index(l, m)])
-                })
-                .collect()
-        };
-        let (plus, minus) = (shaped(eps), shaped(-eps));
-        sum += (energy(&plus) + energy(&minus) - 2.0 * e0) / (eps * eps);
-    }
-    sum / ms.len() as f64 / ((l - 1) * (l + 2) * l * (l + 1)) as f64
-}
-
 /// The discrete Helfrich energy is softer than the continuum against short
 /// shape modes, by a factor set by the mode's wavelength over the edge
 /// length: on a 2562-vertex sphere (R = 13.2 l̄) 0.986, 0.956 and 0.856 of
@@ -354,12 +343,13 @@ fn the_discrete_bending_energy_softens_short_modes_as_measured() {
     let regular = icosphere(4, 1.0);
     let jittered = ellipsoid(4, [13.0, 13.0, 13.0], 0.3, 5);
     for (l, expected) in [(3, 0.986), (7, 0.956), (14, 0.856)] {
-        let s = discrete_mode_stiffness(&regular, l);
+        let s = discrete_mode_stiffness(&regular.positions, &regular.faces, l);
         assert!((s - expected).abs() < 0.005, "l = {l}: {s}");
-        let j = discrete_mode_stiffness(&jittered, l);
+        let j = discrete_mode_stiffness(&jittered.positions, &jittered.faces, l);
         assert!((j - s).abs() < 0.01, "l = {l}: jittered {j}, regular {s}");
     }
-    let small = discrete_mode_stiffness(&icosphere(3, 1.0), 7);
+    let small_mesh = icosphere(3, 1.0);
+    let small = discrete_mode_stiffness(&small_mesh.positions, &small_mesh.faces, 7);
     assert!(
         (small - 0.835).abs() < 0.005,
         "642 vertices, l = 7: {small}"
