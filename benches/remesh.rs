@@ -77,7 +77,6 @@ fn flippable_edge(m: &Membrane) -> remembrane::edge_flip::Flip {
 
 fn edge_flips(c: &mut Criterion) {
     use remembrane::edge_flip::{FlipEnergy, FlipTotals};
-    use remembrane::edit::PatchEdit;
     use std::sync::Arc;
     let mesh = icosphere(3, 1.0);
     let m = membrane(3);
@@ -104,15 +103,7 @@ fn edge_flips(c: &mut Criterion) {
             b.iter_batched(
                 || {
                     let m = warmed_membrane(level);
-                    let f = flippable_edge(&m);
-                    let t = m.cached_topology();
-                    let [ea, eb, ec, ed] =
-                        [f.a, f.b, f.c, f.d].map(|v| t.vertex_entities[v as usize]);
-                    let edit = PatchEdit {
-                        remove_faces: f.faces.map(|x| t.face_entities[x as usize]).to_vec(),
-                        add_faces: vec![[ea, ed, ec], [ed, eb, ec]],
-                        ..Default::default()
-                    };
+                    let edit = flippable_edge(&m).edit(m.cached_topology());
                     (m, edit)
                 },
                 |(mut m, edit)| {

@@ -118,6 +118,17 @@ impl Flip {
     pub fn old_faces(&self) -> [[u32; 3]; 2] {
         [[self.a, self.b, self.c], [self.b, self.a, self.d]]
     }
+
+    /// The flip as a mesh edit: its two faces out, the two new ones in
+    /// (entities from `t`, the topology it was found in).
+    pub fn edit(&self, t: &Topology) -> crate::edit::PatchEdit {
+        let [a, b, c, d] = [self.a, self.b, self.c, self.d].map(|v| t.vertex_entities[v as usize]);
+        crate::edit::PatchEdit {
+            remove_faces: self.faces.map(|f| t.face_entities[f as usize]).to_vec(),
+            add_faces: vec![[a, d, c], [d, b, c]],
+            ..Default::default()
+        }
+    }
 }
 
 /// Unit normal of a triangle of positions (zero for a degenerate one).

@@ -252,15 +252,21 @@ pub fn discrete_mode_stiffness(positions: &[DVec3], faces: &[[u32; 3]], l: usize
     let eps = 1e-4;
     let e0 = energy(&base);
     let ms = [0, 1, -2, l as i64];
+    // Y_l,m at every vertex for the four m, evaluated once.
     let mut y = Vec::new();
+    let harmonics: Vec<[f64; 4]> = base
+        .iter()
+        .map(|q| {
+            real_harmonics(l, q.normalize(), &mut y);
+            ms.map(|m| y[lm_index(l, m)])
+        })
+        .collect();
     let mut sum = 0.0;
-    for m in ms {
-        let mut shaped = |s: f64| -> Vec<DVec3> {
+    for k in 0..ms.len() {
+        let shaped = |s: f64| -> Vec<DVec3> {
             base.iter()
-                .map(|q| {
-                    real_harmonics(l, q.normalize(), &mut y);
-                    *q * (1.0 + s * y[lm_index(l, m)])
-                })
+                .zip(&harmonics)
+                .map(|(q, y)| *q * (1.0 + s * y[k]))
                 .collect()
         };
         let (plus, minus) = (shaped(eps), shaped(-eps));

@@ -18,7 +18,6 @@
 //! springs).
 
 use crate::edge_flip::{Flip, FlipEnergy, FlipTotals, keeps_surface_unfolded};
-use crate::edit::PatchEdit;
 use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
 use crate::params::{DynamicsParams, EdgeFlipParams};
@@ -101,16 +100,7 @@ impl System for EdgeFlips {
             membrane
                 .control_points()
                 .iter()
-                .filter_map(|c| {
-                    let mut best: Option<(f64, u32)> = None;
-                    for (i, p) in positions.iter().enumerate() {
-                        let d = p.distance_squared(c.position);
-                        if best.is_none_or(|(b, _)| d < b) {
-                            best = Some((d, i as u32));
-                        }
-                    }
-                    best.map(|(_, i)| i)
-                })
+                .map(|c| crate::cell_list::nearest_by_scan(positions, c.position) as u32)
                 .collect()
         } else {
             Vec::new()
@@ -156,13 +146,7 @@ impl System for EdgeFlips {
                 stats.rejected_energy += 1;
                 continue;
             }
-            let [ea, eb, ec, ed] =
-                [flip.a, flip.b, flip.c, flip.d].map(|v| t.vertex_entities[v as usize]);
-            let edit = PatchEdit {
-                remove_faces: flip.faces.map(|f| t.face_entities[f as usize]).to_vec(),
-                add_faces: vec![[ea, ed, ec], [ed, eb, ec]],
-                ..Default::default()
-            };
+            let edit = flip.edit(t);
             if membrane.apply_patch(&edit, *valence).is_err() {
                 stats.rejected_geometry += 1;
                 continue;
