@@ -489,6 +489,15 @@ impl Scene {
                 "the LocalTension term needs `lipid_density: true`".into(),
             ));
         }
+        if let Some(flips) = self.edge_flips {
+            let (lo, hi) = flips.edge_range;
+            if !(lo.is_finite() && hi.is_finite() && 0.0 < lo && lo < hi) {
+                return Err(invalid(
+                    "edge_flips.edge_range",
+                    format!("need 0 < min < max, both finite (got ({lo}, {hi}))"),
+                ));
+            }
+        }
         if self.edge_flips.is_some()
             && let Some((i, term)) = self.energy.iter().enumerate().find(|(_, t)| {
                 !matches!(

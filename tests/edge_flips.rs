@@ -152,6 +152,21 @@ fn flips_under_a_term_without_a_local_energy_change_are_refused() {
     assert!(message.contains("bad.ron"), "{message}");
     assert!(message.contains("edge_flips"), "{message}");
     assert!(message.contains("energy[2] is SelfAvoidance"), "{message}");
+    // An empty edge range would refuse every flip without a word.
+    std::fs::write(
+        &path,
+        r#"Scene(
+        membrane: Icosphere(level: 2),
+        energy: [Vin(), Bending(kappa: 1.5)],
+        edge_flips: (attempts_per_edge: 0.01, edge_range: (1.5, 0.7)),
+    )"#,
+    )
+    .unwrap();
+    let message = remembrane::scene::Scene::load(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("edge_flips.edge_range"), "{message}");
+    assert!(message.contains("0 < min < max"), "{message}");
 }
 
 /// A noisy scene with split/merge remeshing is told that its thermal
