@@ -203,9 +203,11 @@ impl RunOutput {
         data: &FrameData,
     ) -> Result<(), OutputError> {
         let file = format!("frames/frame_{:06}.vtp", clock.iteration);
-        let bytes = frame_vtp(title, positions, faces, &data.point_data)
-            .map_err(|e| write_err(&self.staging.join(&file), e))?;
-        self.write(&file, &bytes)?;
+        let path = self.staging.join(&file);
+        crate::atomic_write_with(&path, |w| {
+            write_frame_vtp(w, title, positions, faces, &data.point_data)
+        })
+        .map_err(|e| write_err(&path, e))?;
         self.frames.push(FrameRecord {
             iteration: clock.iteration,
             time: clock.time,
@@ -337,13 +339,15 @@ pub fn prepare_staging(dir: &Path, overwrite: bool) -> Result<PathBuf, OutputErr
     Ok(staging)
 }
 
-/// A VTK XML PolyData document of a triangle mesh with point data.
-pub fn frame_vtp(
+/// Writes a VTK XML PolyData document of a triangle mesh with point data
+/// to `writer`.
+pub fn write_frame_vtp(
+    writer: impl std::io::Write,
     title: &str,
     positions: &[glam::DVec3],
     faces: &[[u32; 3]],
     point_data: &[PointArray],
-) -> Result<Vec<u8>, vtkio::Error> {
+) -> Result<(), vtkio::Error> {
     let points: Vec<f64> = positions.iter().flat_map(|p| p.to_array()).collect();
     let connectivity: Vec<u64> = faces.iter().flat_map(|f| f.map(u64::from)).collect();
     let offsets: Vec<u64> = (1..=faces.len() as u64).map(|i| 3 * i).collect();
@@ -384,9 +388,7 @@ pub fn frame_vtp(
             }))],
         },
     };
-    let mut out = Vec::new();
-    vtk.write_xml(&mut out)?;
-    Ok(out)
+    vtk.write_xml(writer)
 }
 
 /// A ParaView `.pvd` collection of the frames (time = simulated time).
