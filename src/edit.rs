@@ -27,7 +27,7 @@ use crate::topology_update::WorldChange;
 use glam::DVec3;
 use hecs::Entity;
 // Entity keys are not attacker-controlled: a fast non-cryptographic hash.
-use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use rustc_hash::FxHashMap as HashMap;
 
 /// A proposed topology change (see the module contract).
 #[derive(Clone, Debug, Default)]
@@ -95,6 +95,19 @@ pub enum EditError {
 /// A face entity with its vertex entities.
 type FaceRef = (Entity, [Entity; 3]);
 
+/// The faces of a patch before and after an edit.
+struct PatchFans {
+    /// The vertex triples of the faces to remove, in `remove_faces` order.
+    removed_triples: Vec<[Entity; 3]>,
+    /// Every vertex of a removed or added face, in first-seen order.
+    affected: Vec<Entity>,
+    /// Faces around the affected vertices after the edit:
+    /// `after[fans[i].0..fans[i].1]` are `affected[i]`'s.
+    after: Vec<[Entity; 3]>,
+    /// Ranges into `after`, one per affected vertex.
+    fans: Vec<(usize, usize)>,
+}
+
 /// Result of a successful edit.
 #[derive(Clone, Debug, Default)]
 pub struct EditOutcome {
@@ -156,40 +169,98 @@ impl Membrane {
         self.check_patch_with(edit, valence, false)
     }
 
+    /// The valence of every affected vertex after `edit`, without checking
+    /// it: the number of faces around the vertex once the removed faces are
+    /// gone and the added ones are in (vertices the edit removes are left
+    /// out). For an edit that [`Membrane::check_patch`] accepts these are
+    /// the valences it returns, in the same map; `None` if a face to remove
+    /// is not live.
+    pub fn valences_after(&self, edit: &PatchEdit) -> Option<HashMap<Entity, usize>> {
+        let fans = self.patch_fans(edit).ok()?;
+        let mut valences = HashMap::default();
+        for (v, (start, end)) in fans.affected.iter().zip(&fans.fans) {
+            if !edit.remove_vertices.contains(v) {
+                valences.insert(*v, end - start);
+            }
+        }
+        Some(valences)
+    }
+
+    /// The faces of `edit`'s patch: fails only if a face to remove is not
+    /// live. A patch touches a few dozen entities, so these are small
+    /// vectors searched linearly, not hash sets (the checks run for every
+    /// candidate triangulation of every remesh event).
+    fn patch_fans(&self, edit: &PatchEdit) -> Result<PatchFans, EditError> {
+        let t = self.cached_topology();
+        let removed = &edit.remove_faces;
+        let mut removed_triples: Vec<[Entity; 3]> = Vec::with_capacity(removed.len());
+        for &f in removed {
+            let slot = t.face_slot(f).ok_or(EditError::UnknownFace(f))?;
+            removed_triples.push(t.faces[slot as usize].map(|s| t.vertex_entities[s as usize]));
+        }
+        let mut affected: Vec<Entity> = Vec::with_capacity(2 * removed.len() + 4);
+        for tri in removed_triples.iter().chain(&edit.add_faces) {
+            for &v in tri {
+                if !affected.contains(&v) {
+                    affected.push(v);
+                }
+            }
+        }
+        let mut after: Vec<[Entity; 3]> = Vec::with_capacity(8 * affected.len());
+        let mut fans: Vec<(usize, usize)> = Vec::with_capacity(affected.len());
+        for &v in &affected {
+            let start = after.len();
+            if let Some(slot) = t
+                .slot(v)
+                .filter(|&s| t.vertex_entities.get(s as usize) == Some(&v))
+            {
+                for &f in t.ring_faces_of(slot as usize) {
+                    if !removed.contains(&t.face_entities[f as usize]) {
+                        after.push(t.faces[f as usize].map(|s| t.vertex_entities[s as usize]));
+                    }
+                }
+            }
+            after.extend(edit.add_faces.iter().filter(|f| f.contains(&v)).copied());
+            fans.push((start, after.len()));
+        }
+        Ok(PatchFans {
+            removed_triples,
+            affected,
+            after,
+            fans,
+        })
+    }
+
     fn check_patch_with(
         &self,
         edit: &PatchEdit,
         valence: ValenceRange,
         geometry: bool,
     ) -> Result<HashMap<Entity, usize>, EditError> {
-        let t = self.cached_topology();
-        let removed: HashSet<Entity> = edit.remove_faces.iter().copied().collect();
-        for &f in &edit.remove_faces {
-            if t.face_slot(f).is_none() {
-                return Err(EditError::UnknownFace(f));
-            }
-        }
-        for f in &edit.add_faces {
-            if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
-                return Err(EditError::DegenerateFace(*f));
-            }
-        }
-        let mut affected: Vec<Entity> = Vec::new();
-        let mut seen = HashSet::default();
-        let removed_triples: Vec<[Entity; 3]> = edit
-            .remove_faces
+        let PatchFans {
+            removed_triples,
+            affected,
+            after,
+            fans,
+        } = self.patch_fans(edit)?;
+        if let Some(f) = edit
+            .add_faces
             .iter()
-            .map(|&f| {
-                t.faces[t.slot(f).expect("checked") as usize].map(|s| t.vertex_entities[s as usize])
-            })
-            .collect();
-        for tri in removed_triples.iter().chain(&edit.add_faces) {
-            for &v in tri {
-                if seen.insert(v) {
-                    affected.push(v);
-                }
-            }
+            .find(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
+        {
+            return Err(EditError::DegenerateFace(*f));
         }
+        // World positions of the affected vertices, looked up once.
+        let world_position: Vec<Option<DVec3>> = affected
+            .iter()
+            .map(|&v| self.world.get::<&Position>(v).map(|p| p.0).ok())
+            .collect();
+        let world_at = |v: Entity| {
+            affected
+                .iter()
+                .position(|&a| a == v)
+                .and_then(|i| world_position[i])
+        };
         // Geometry of the new faces: not degenerate, not folded over
         // against the area-weighted normal of the faces they replace.
         let position = |v: Entity| -> DVec3 {
@@ -199,10 +270,7 @@ impl Membrane {
             if let Some(&(_, p)) = edit.add_vertices.iter().find(|(e, _)| *e == v) {
                 return p;
             }
-            self.world
-                .get::<&Position>(v)
-                .map(|p| p.0)
-                .unwrap_or(DVec3::NAN)
+            world_at(v).unwrap_or(DVec3::NAN)
         };
         let normal = |f: &[Entity; 3]| {
             let [a, b, c] = f.map(&position);
@@ -211,12 +279,7 @@ impl Membrane {
         let patch_normal: DVec3 = removed_triples
             .iter()
             .map(|f| {
-                let [a, b, c] = f.map(|v| {
-                    self.world
-                        .get::<&Position>(v)
-                        .map(|p| p.0)
-                        .unwrap_or(DVec3::ZERO)
-                });
+                let [a, b, c] = f.map(|v| world_at(v).unwrap_or(DVec3::ZERO));
                 (b - a).cross(c - a)
             })
             .sum();
@@ -240,32 +303,15 @@ impl Membrane {
                 return Err(EditError::FoldOver(*f));
             }
         }
-        let removing: HashSet<Entity> = edit.remove_vertices.iter().copied().collect();
-        // Faces around each affected vertex after the edit.
-        let mut after: HashMap<Entity, Vec<[Entity; 3]>> = HashMap::default();
-        for &v in &affected {
-            let mut faces: Vec<[Entity; 3]> = self
-                .faces_around(v)
-                .into_iter()
-                .filter(|(e, _)| !removed.contains(e))
-                .map(|(_, f)| f)
-                .collect();
-            faces.extend(edit.add_faces.iter().filter(|f| f.contains(&v)).copied());
-            after.insert(v, faces);
-        }
-        // For each affected vertex x, the vertex after x in each of its
-        // faces: face (x, y, z) traverses the edge x → y.
-        let mut heads: HashMap<Entity, Vec<Entity>> = HashMap::default();
-        for (&x, faces) in &after {
-            let head = |f: &[Entity; 3]| {
-                let k = f.iter().position(|&w| w == x).expect("face contains x");
-                f[(k + 1) % 3]
-            };
-            heads.insert(x, faces.iter().map(head).collect());
-        }
+        let removing = &edit.remove_vertices;
+        let fan_of = |x: Entity| {
+            let i = affected.iter().position(|&a| a == x).expect("affected");
+            &after[fans[i].0..fans[i].1]
+        };
         let mut valences = HashMap::default();
+        let mut link: Vec<(Entity, Entity)> = Vec::with_capacity(16);
         for &v in &affected {
-            let faces = &after[&v];
+            let faces = fan_of(v);
             if removing.contains(&v) {
                 if !faces.is_empty() {
                     return Err(EditError::VertexStillUsed(v));
@@ -273,21 +319,28 @@ impl Membrane {
                 continue;
             }
             // Link of v: for face (v, a, b) the step a → b; one closed cycle.
-            let mut next: HashMap<Entity, Entity> =
-                HashMap::with_capacity_and_hasher(faces.len(), Default::default());
+            link.clear();
             for f in faces {
                 let k = f.iter().position(|&x| x == v).expect("face contains v");
-                if next.insert(f[(k + 1) % 3], f[(k + 2) % 3]).is_some() {
+                let (from, to) = (f[(k + 1) % 3], f[(k + 2) % 3]);
+                if link.iter().any(|&(a, _)| a == from) {
                     return Err(EditError::BrokenFan(v));
                 }
+                link.push((from, to));
             }
-            let Some((&start, _)) = next.iter().next() else {
+            let Some(&(start, _)) = link.first() else {
                 return Err(EditError::BrokenFan(v));
             };
+            // The walk closes after |faces| steps from any start iff the
+            // link is one cycle through every face.
             let mut cur = start;
             let mut steps = 0;
             loop {
-                cur = *next.get(&cur).ok_or(EditError::BrokenFan(v))?;
+                cur = link
+                    .iter()
+                    .find(|&&(a, _)| a == cur)
+                    .map(|&(_, b)| b)
+                    .ok_or(EditError::BrokenFan(v))?;
                 steps += 1;
                 if cur == start || steps > faces.len() {
                     break;
@@ -311,8 +364,16 @@ impl Membrane {
                 if removing.contains(&a) || removing.contains(&b) {
                     continue;
                 }
-                // Faces traversing x → y.
-                let count = |x: Entity, y: Entity| heads[&x].iter().filter(|&&h| h == y).count();
+                // Faces traversing x → y: in x's fan, y follows x.
+                let count = |x: Entity, y: Entity| {
+                    fan_of(x)
+                        .iter()
+                        .filter(|f| {
+                            let k = f.iter().position(|&w| w == x).expect("face contains x");
+                            f[(k + 1) % 3] == y
+                        })
+                        .count()
+                };
                 let (forward, backward) = (count(a, b), count(b, a));
                 if forward + backward == 0 {
                     continue; // the edge disappears
@@ -349,7 +410,19 @@ impl Membrane {
                 (b, a)
             }
         };
-        let mut edge_entity: HashMap<(Entity, Entity), Entity> = HashMap::default();
+        // Small maps of the patch, searched linearly (see `check_patch_with`).
+        let mut edge_entity: Vec<((Entity, Entity), Entity)> = Vec::with_capacity(16);
+        let set_edge = |map: &mut Vec<((Entity, Entity), Entity)>,
+                        k: (Entity, Entity),
+                        e: Entity| {
+            match map.iter_mut().find(|(key, _)| *key == k) {
+                Some(entry) => entry.1 = e,
+                None => map.push((k, e)),
+            }
+        };
+        let get_edge = |map: &[((Entity, Entity), Entity)], k: (Entity, Entity)| {
+            map.iter().find(|(key, _)| *key == k).map(|&(_, e)| e)
+        };
         let mut keys: Vec<(Entity, Entity)> = Vec::new();
         let note = |a: Entity, b: Entity, keys: &mut Vec<(Entity, Entity)>| {
             let k = key(a, b);
@@ -362,7 +435,7 @@ impl Membrane {
             let tri = t.faces[s].map(|v| t.vertex_entities[v as usize]);
             for m in 0..3 {
                 let e = t.edge_entities[t.face_edges[s][m] as usize];
-                edge_entity.insert(key(tri[m], tri[(m + 1) % 3]), e);
+                set_edge(&mut edge_entity, key(tri[m], tri[(m + 1) % 3]), e);
                 note(tri[m], tri[(m + 1) % 3], &mut keys);
             }
         }
@@ -374,22 +447,23 @@ impl Membrane {
         // Existing edges between affected vertices that no removed face
         // touches (e.g. an edge that a new face reuses).
         for &(a, b) in &keys {
-            if edge_entity.contains_key(&(a, b)) {
+            if get_edge(&edge_entity, (a, b)).is_some() {
                 continue;
             }
             let slots = t.vertex_slot(a).zip(t.vertex_slot(b));
             if let Some(e) = slots.and_then(|(sa, sb)| t.edge_between(sa, sb)) {
-                edge_entity.insert((a, b), t.edge_entities[e as usize]);
+                set_edge(&mut edge_entity, (a, b), t.edge_entities[e as usize]);
             }
         }
         // Faces after the edit, per affected edge key.
-        let removed: HashSet<Entity> = edit.remove_faces.iter().copied().collect();
+        let removed = &edit.remove_faces;
         let new_face_entities: Vec<Entity> = edit
             .add_faces
             .iter()
             .map(|_| self.world.reserve_entity())
             .collect();
-        let mut faces_of: HashMap<(Entity, Entity), Vec<FaceRef>> = HashMap::default();
+        // faces_of[i]: the faces of edge keys[i] after the edit.
+        let mut faces_of: Vec<Vec<FaceRef>> = Vec::with_capacity(keys.len());
         for &(a, b) in &keys {
             let mut list: Vec<FaceRef> = self
                 .faces_around(a)
@@ -401,7 +475,7 @@ impl Membrane {
                     list.push((new_face_entities[i], *f));
                 }
             }
-            faces_of.insert((a, b), list);
+            faces_of.push(list);
         }
 
         // Act, recording each change for the topology update.
@@ -426,10 +500,9 @@ impl Membrane {
             faces: new_face_entities.clone(),
             ..Default::default()
         };
-        let mut final_edge: HashMap<(Entity, Entity), Entity> = HashMap::default();
-        for &(a, b) in &keys {
-            let list = &faces_of[&(a, b)];
-            let existing = edge_entity.get(&(a, b)).copied();
+        let mut final_edge: Vec<((Entity, Entity), Entity)> = Vec::with_capacity(keys.len());
+        for (&(a, b), list) in keys.iter().zip(&faces_of) {
+            let existing = get_edge(&edge_entity, (a, b));
             if list.is_empty() {
                 if let Some(e) = existing
                     && self.world.despawn(e).is_ok()
@@ -467,10 +540,12 @@ impl Membrane {
                     e
                 }
             };
-            final_edge.insert((a, b), e);
+            set_edge(&mut final_edge, (a, b), e);
         }
         for (i, tri) in edit.add_faces.iter().enumerate() {
-            let edges = [0, 1, 2].map(|m| final_edge[&key(tri[m], tri[(m + 1) % 3])]);
+            let edges = [0, 1, 2].map(|m| {
+                get_edge(&final_edge, key(tri[m], tri[(m + 1) % 3])).expect("an edge of a new face")
+            });
             self.world.spawn_at(
                 new_face_entities[i],
                 (Face {

@@ -61,6 +61,91 @@ fn split_options_of_a_regular_neighbourhood_match_the_hand_count() {
     assert!([1, 2, 4, 8, 5, 10].contains(&best), "chose {best}");
 }
 
+/// The valence variance and diagonal-length spread of a candidate, the
+/// documented ranking of `choose` (computed here from a full check).
+fn reference_score(
+    valences: &rustc_hash::FxHashMap<hecs::Entity, usize>,
+    lengths: &[f64],
+) -> (f64, f64) {
+    let n = valences.len().max(1) as f64;
+    let mean = valences.values().sum::<usize>() as f64 / n;
+    let var = valences
+        .values()
+        .map(|&v| (v as f64 - mean).powi(2))
+        .sum::<f64>()
+        / n;
+    let k = lengths.len().max(1) as f64;
+    let lm = lengths.iter().sum::<f64>() / k;
+    let spread = (lengths.iter().map(|l| (l - lm).powi(2)).sum::<f64>() / k).sqrt();
+    (var, spread)
+}
+
+/// `choose` scores candidates from their valences after the edit without
+/// checking them and checks them best first. On every edge of a jittered
+/// sphere, for splits and merges, with a valence range narrow enough that
+/// many candidates fail, its pick must be the one a full check of every
+/// candidate gives (least variance, then least spread, then first), and
+/// the unchecked valences must equal the checked ones.
+#[test]
+fn choosing_best_first_picks_what_checking_every_candidate_picks() {
+    let m = membrane(3, 0.3, 11);
+    let position = |v: hecs::Entity| {
+        m.world
+            .get::<&remembrane::components::Position>(v)
+            .map(|p| p.0)
+            .unwrap_or(DVec3::ZERO)
+    };
+    let (mut picked, mut refused, mut rejected_candidates) = (0, 0, 0);
+    for range in [RANGE, ValenceRange { min: 5, max: 7 }] {
+        for e in 0..m.cached_topology().edges.len() as u32 {
+            let Ok(r) = edge_region(&m, e) else { continue };
+            let mid = 0.5 * (position(r.i[0]) + position(r.i[1]));
+            let n = m.reserve_vertex();
+            let split = split_candidates(&r, n, mid);
+            let merge = merge_candidates(&m, &r, mid);
+            let at_split = |v: hecs::Entity| if v == n { mid } else { position(v) };
+            let at_merge = |v: hecs::Entity| if v == r.i[0] { mid } else { position(v) };
+            let cases: [(&[_], &dyn Fn(hecs::Entity) -> DVec3); 2] =
+                [(&split, &at_split), (&merge, &at_merge)];
+            for (candidates, at) in cases {
+                let mut best: Option<((f64, f64), usize)> = None;
+                for (c, cand) in candidates.iter().enumerate() {
+                    let unchecked = m.valences_after(&cand.edit).expect("live faces");
+                    let Ok(valences) = m.check_patch(&cand.edit, range) else {
+                        rejected_candidates += 1;
+                        continue;
+                    };
+                    assert_eq!(valences, unchecked, "edge {e}, candidate {c}");
+                    let lengths: Vec<f64> = cand
+                        .diagonal_edges
+                        .iter()
+                        .map(|&(a, b)| at(a).distance(at(b)))
+                        .collect();
+                    let s = reference_score(&valences, &lengths);
+                    if best
+                        .is_none_or(|(b, _)| s.0 < b.0 - 1e-12 || (s.0 <= b.0 + 1e-12 && s.1 < b.1))
+                    {
+                        best = Some((s, c));
+                    }
+                }
+                match (choose(&m, candidates, range, at), best) {
+                    (Ok(c), Some((_, b))) => {
+                        assert_eq!(c, b, "edge {e}");
+                        picked += 1;
+                    }
+                    (Err(_), None) => refused += 1,
+                    (got, want) => panic!("edge {e}: chose {got:?}, a full check gives {want:?}"),
+                }
+            }
+        }
+    }
+    // The sample exercises both outcomes and many rejected candidates.
+    assert!(
+        picked > 1000 && refused > 50 && rejected_candidates > 5000,
+        "picked {picked}, refused {refused}, rejected {rejected_candidates}"
+    );
+}
+
 #[test]
 fn merge_options_of_a_regular_neighbourhood_match_the_hand_count() {
     // After a merge with all neighbours 6: i = 6 + #old, j1 = 4 + old(A),
