@@ -176,12 +176,41 @@ impl Membrane {
     /// the valences it returns, in the same map; `None` if a face to remove
     /// is not live.
     pub fn valences_after(&self, edit: &PatchEdit) -> Option<HashMap<Entity, usize>> {
-        let fans = self.patch_fans(edit).ok()?;
-        let mut valences = HashMap::default();
-        for (v, (start, end)) in fans.affected.iter().zip(&fans.fans) {
-            if !edit.remove_vertices.contains(v) {
-                valences.insert(*v, end - start);
+        // Counted, not walked: a vertex's ring has one face per neighbour,
+        // so its faces after the edit are its valence, less its ring faces
+        // that are removed, plus the added faces that use it.
+        let t = self.cached_topology();
+        let mut affected: Vec<Entity> = Vec::with_capacity(2 * edit.remove_faces.len() + 4);
+        let mut note = |v: Entity| {
+            if !affected.contains(&v) {
+                affected.push(v);
             }
+        };
+        for &f in &edit.remove_faces {
+            let slot = t.face_slot(f)? as usize;
+            for s in t.faces[slot] {
+                note(t.vertex_entities[s as usize]);
+            }
+        }
+        for f in &edit.add_faces {
+            f.iter().copied().for_each(&mut note);
+        }
+        let mut valences = HashMap::default();
+        for &v in &affected {
+            if edit.remove_vertices.contains(&v) {
+                continue;
+            }
+            let kept = t
+                .slot(v)
+                .filter(|&s| t.vertex_entities.get(s as usize) == Some(&v))
+                .map_or(0, |s| {
+                    t.ring_faces_of(s as usize)
+                        .iter()
+                        .filter(|&&f| !edit.remove_faces.contains(&t.face_entities[f as usize]))
+                        .count()
+                });
+            let added = edit.add_faces.iter().filter(|f| f.contains(&v)).count();
+            valences.insert(v, kept + added);
         }
         Some(valences)
     }
