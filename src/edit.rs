@@ -129,10 +129,7 @@ impl Membrane {
     /// topology, with their entities. Empty for a vertex not yet spawned.
     fn faces_around(&self, v: Entity) -> Vec<FaceRef> {
         let t = self.cached_topology();
-        let Some(slot) = t
-            .slot(v)
-            .filter(|&s| t.vertex_entities.get(s as usize) == Some(&v))
-        else {
+        let Some(slot) = t.vertex_slot(v) else {
             return Vec::new();
         };
         t.ring_faces_of(slot as usize)
@@ -180,39 +177,36 @@ impl Membrane {
         // so its faces after the edit are its valence, less its ring faces
         // that are removed, plus the added faces that use it.
         let t = self.cached_topology();
-        let mut affected: Vec<Entity> = Vec::with_capacity(2 * edit.remove_faces.len() + 4);
-        let mut note = |v: Entity| {
-            if !affected.contains(&v) {
-                affected.push(v);
-            }
-        };
-        for &f in &edit.remove_faces {
-            let slot = t.face_slot(f)? as usize;
-            for s in t.faces[slot] {
-                note(t.vertex_entities[s as usize]);
-            }
-        }
-        for f in &edit.add_faces {
-            f.iter().copied().for_each(&mut note);
-        }
+        let removed_triples = self.removed_triples(edit).ok()?;
+        let affected = affected_vertices(&removed_triples, &edit.add_faces);
         let mut valences = HashMap::default();
         for &v in &affected {
             if edit.remove_vertices.contains(&v) {
                 continue;
             }
-            let kept = t
-                .slot(v)
-                .filter(|&s| t.vertex_entities.get(s as usize) == Some(&v))
-                .map_or(0, |s| {
-                    t.ring_faces_of(s as usize)
-                        .iter()
-                        .filter(|&&f| !edit.remove_faces.contains(&t.face_entities[f as usize]))
-                        .count()
-                });
+            let kept = t.vertex_slot(v).map_or(0, |s| {
+                t.ring_faces_of(s as usize)
+                    .iter()
+                    .filter(|&&f| !edit.remove_faces.contains(&t.face_entities[f as usize]))
+                    .count()
+            });
             let added = edit.add_faces.iter().filter(|f| f.contains(&v)).count();
             valences.insert(v, kept + added);
         }
         Some(valences)
+    }
+
+    /// The vertex triples of `edit`'s faces to remove, in order; fails if
+    /// one is not a live face.
+    fn removed_triples(&self, edit: &PatchEdit) -> Result<Vec<[Entity; 3]>, EditError> {
+        let t = self.cached_topology();
+        edit.remove_faces
+            .iter()
+            .map(|&f| {
+                let slot = t.face_slot(f).ok_or(EditError::UnknownFace(f))?;
+                Ok(t.faces[slot as usize].map(|s| t.vertex_entities[s as usize]))
+            })
+            .collect()
     }
 
     /// The faces of `edit`'s patch: fails only if a face to remove is not
@@ -222,27 +216,13 @@ impl Membrane {
     fn patch_fans(&self, edit: &PatchEdit) -> Result<PatchFans, EditError> {
         let t = self.cached_topology();
         let removed = &edit.remove_faces;
-        let mut removed_triples: Vec<[Entity; 3]> = Vec::with_capacity(removed.len());
-        for &f in removed {
-            let slot = t.face_slot(f).ok_or(EditError::UnknownFace(f))?;
-            removed_triples.push(t.faces[slot as usize].map(|s| t.vertex_entities[s as usize]));
-        }
-        let mut affected: Vec<Entity> = Vec::with_capacity(2 * removed.len() + 4);
-        for tri in removed_triples.iter().chain(&edit.add_faces) {
-            for &v in tri {
-                if !affected.contains(&v) {
-                    affected.push(v);
-                }
-            }
-        }
+        let removed_triples = self.removed_triples(edit)?;
+        let affected = affected_vertices(&removed_triples, &edit.add_faces);
         let mut after: Vec<[Entity; 3]> = Vec::with_capacity(8 * affected.len());
         let mut fans: Vec<(usize, usize)> = Vec::with_capacity(affected.len());
         for &v in &affected {
             let start = after.len();
-            if let Some(slot) = t
-                .slot(v)
-                .filter(|&s| t.vertex_entities.get(s as usize) == Some(&v))
-            {
+            if let Some(slot) = t.vertex_slot(v) {
                 for &f in t.ring_faces_of(slot as usize) {
                     if !removed.contains(&t.face_entities[f as usize]) {
                         after.push(t.faces[f as usize].map(|s| t.vertex_entities[s as usize]));
@@ -598,4 +578,16 @@ impl Membrane {
             .expect("a checked edit keeps the topology valid");
         Ok(outcome)
     }
+}
+
+/// Every vertex of the removed and the added faces, once each, in
+/// first-seen order (removed faces first).
+fn affected_vertices(removed: &[[Entity; 3]], added: &[[Entity; 3]]) -> Vec<Entity> {
+    let mut affected: Vec<Entity> = Vec::with_capacity(2 * removed.len() + 4);
+    for &v in removed.iter().chain(added).flatten() {
+        if !affected.contains(&v) {
+            affected.push(v);
+        }
+    }
+    affected
 }
