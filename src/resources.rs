@@ -23,10 +23,28 @@ pub trait Resource: Any + Send {}
 impl<T: Any + Send> Resource for T {}
 
 /// A resource type's identity and a readable name for messages.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+///
+/// Ids are made on every resource fetch, so making one costs no string work:
+/// the name is shortened only when it is asked for. Two ids are equal when
+/// their types are.
+#[derive(Clone, Copy, Debug)]
 pub struct ResourceId {
     type_id: TypeId,
-    name: &'static str,
+    full_name: &'static str,
+}
+
+impl PartialEq for ResourceId {
+    fn eq(&self, other: &Self) -> bool {
+        self.type_id == other.type_id
+    }
+}
+
+impl Eq for ResourceId {}
+
+impl std::hash::Hash for ResourceId {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.type_id.hash(state);
+    }
 }
 
 impl ResourceId {
@@ -34,19 +52,19 @@ impl ResourceId {
     pub fn of<T: Resource>() -> Self {
         Self {
             type_id: TypeId::of::<T>(),
-            name: short_type_name(std::any::type_name::<T>()),
+            full_name: std::any::type_name::<T>(),
         }
     }
 
     /// The type's name without its module path (e.g. `Clock`).
     pub fn name(&self) -> &'static str {
-        self.name
+        short_type_name(self.full_name)
     }
 }
 
 impl std::fmt::Display for ResourceId {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name)
+        f.write_str(self.name())
     }
 }
 
@@ -201,7 +219,7 @@ impl Resources {
     /// Ids of every resource, sorted by name.
     pub fn ids(&self) -> Vec<ResourceId> {
         let mut ids: Vec<ResourceId> = self.slots.values().map(|s| s.id).collect();
-        ids.sort_by_key(|id| id.name);
+        ids.sort_by_key(|id| id.name());
         ids
     }
 
