@@ -218,29 +218,69 @@ pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bo
 /// Adds each item's per-vertex contributions into its vertices with
 /// `add(&mut out[v], c)` and returns Σ of the items' values, where an item
 /// is a face (`K = 3`) or an edge (`K = 2`) and `contribution(item) =
-/// (value, [c_0 … c_K−1])` for its vertices `items[item]`. The
-/// contributions are computed in parallel into `per_item`, then added in
-/// one serial, sequential pass in item order: the rounding of the serial
-/// loop it replaces. It pays where an item's contribution costs much more
-/// than its additions (a bending pull-back, a V_in edge).
-pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O>(
+/// (value, [c_0 … c_K−1])` for its vertices `items[item]`.
+///
+/// The items go in blocks of [`SPLIT_FACTOR`] grains: a block's
+/// contributions are computed in parallel into one half of `per_item` while
+/// the previous block's are added (and their values summed) in item order on
+/// one thread, so the additions overlap the next block's work and the result
+/// has the rounding of the serial loop it replaces. Two blocks are held at a
+/// time (2.6 MB for faces' pull-backs by default) instead of one
+/// contribution per item (6.5 MB at 81920 faces). It pays where an item's
+/// contribution costs much more than its additions (a bending pull-back, a
+/// V_in edge).
+pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     items: &[[u32; K]],
     out: &mut [O],
     per_item: &mut Vec<(f64, [T; K])>,
     contribution: impl Fn(usize) -> (f64, [T; K]) + Sync + Send,
-    add: impl Fn(&mut O, T),
+    add: impl Fn(&mut O, T) + Sync + Send,
 ) -> f64 {
-    if per_item.len() != items.len() {
+    let block = (SPLIT_FACTOR * grain()).min(items.len());
+    if per_item.len() != 2 * block {
         per_item.clear();
-        per_item.resize(items.len(), (0.0, [T::default(); K]));
+        per_item.resize(2 * block, (0.0, [T::default(); K]));
     }
-    fill(per_item, contribution);
+    let (mut ready, mut next) = per_item.split_at_mut(block);
+    let (g, blocks) = (grain(), items.len().div_ceil(block));
     let mut sum = 0.0;
-    for (vertices, (value, c)) in items.iter().zip(per_item.iter()) {
-        sum += value;
-        for (j, &v) in vertices.iter().enumerate() {
-            add(&mut out[v as usize], c[j]);
-        }
+    // Step b computes block b while adding block b − 1. (One call site
+    // each, so `contribution` inlines into the chunk loop.)
+    for b in 0..=blocks {
+        let (added, computed) = (b.checked_sub(1), (b < blocks).then_some(b));
+        let (s, ()) = rayon::join(
+            || match added {
+                Some(a) => {
+                    let range = a * block..((a + 1) * block).min(items.len());
+                    let mut sum = sum;
+                    for (vertices, (value, c)) in items[range].iter().zip(ready.iter()) {
+                        sum += value;
+                        for (j, &v) in vertices.iter().enumerate() {
+                            add(&mut out[v as usize], c[j]);
+                        }
+                    }
+                    sum
+                }
+                None => sum,
+            },
+            || {
+                if let Some(b) = computed {
+                    let start = b * block;
+                    let len = block.min(items.len() - start);
+                    next[..len]
+                        .par_chunks_mut(g)
+                        .enumerate()
+                        .for_each(|(c, chunk)| {
+                            let first = start + c * g;
+                            for (j, x) in chunk.iter_mut().enumerate() {
+                                *x = contribution(first + j);
+                            }
+                        });
+                }
+            },
+        );
+        sum = s;
+        std::mem::swap(&mut ready, &mut next);
     }
     sum
 }
@@ -254,6 +294,46 @@ mod tests {
             .num_threads(threads)
             .build()
             .unwrap()
+    }
+
+    #[test]
+    fn accumulate_adds_in_item_order_for_any_thread_count() {
+        // Two and a half blocks of faces on 5000 vertices, so every vertex
+        // gets contributions from several blocks.
+        let (n, items) = (5000u32, 5 * SPLIT_FACTOR * grain() / 2 + 7);
+        let faces: Vec<[u32; 3]> = (0..items as u32)
+            .map(|k| [k % n, (k * 7 + 1) % n, (k * 13 + 2) % n])
+            .collect();
+        let value = |k: usize| ((k * 2654435761) % 1000003) as f64 / 7.0;
+        let contribution = |k: usize| {
+            (
+                value(k) * 1e-3,
+                [value(k), 1.0 / (1.0 + value(k)), value(k).sqrt()],
+            )
+        };
+        let (mut serial, mut serial_sum) = (vec![0.0f64; n as usize], 0.0);
+        for (k, f) in faces.iter().enumerate() {
+            let (v, c) = contribution(k);
+            serial_sum += v;
+            for j in 0..3 {
+                serial[f[j] as usize] += c[j];
+            }
+        }
+        for threads in [1, 2, 3] {
+            let mut out = vec![0.0f64; n as usize];
+            let sum = pool(threads).install(|| {
+                accumulate(&faces, &mut out, &mut Vec::new(), contribution, |o, c| {
+                    *o += c
+                })
+            });
+            assert_eq!(sum.to_bits(), serial_sum.to_bits(), "{threads} threads");
+            assert!(
+                out.iter()
+                    .zip(&serial)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{threads} threads"
+            );
+        }
     }
 
     #[test]
