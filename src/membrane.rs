@@ -7,7 +7,9 @@ use crate::topology::{Topology, TopologyError};
 use crate::vertex_field::{FieldTransfer, ScalarComponent, ScalarField, TransferPolicy};
 use glam::DVec3;
 use hecs::{Entity, World};
-use std::collections::HashMap;
+// Keys are small integer pairs looked up, never iterated: the fast
+// non-cryptographic hash.
+use rustc_hash::FxHashMap as HashMap;
 use std::sync::Arc;
 
 /// The membrane: a hecs [`World`] (the source of truth) plus derived caches.
@@ -47,14 +49,14 @@ impl Membrane {
         // spawned fully wired (no per-face world lookups).
         let faces: Vec<Entity> = world.reserve_entities(mesh.faces.len() as u32).collect();
         let mut half_edge_face: HashMap<(u32, u32), usize> =
-            HashMap::with_capacity(mesh.faces.len() * 3);
+            HashMap::with_capacity_and_hasher(mesh.faces.len() * 3, Default::default());
         for (fi, f) in mesh.faces.iter().enumerate() {
             for k in 0..3 {
                 half_edge_face.insert((f[k], f[(k + 1) % 3]), fi);
             }
         }
         let mut edge_of: HashMap<(u32, u32), Entity> =
-            HashMap::with_capacity(mesh.faces.len() * 3 / 2);
+            HashMap::with_capacity_and_hasher(mesh.faces.len() * 3 / 2, Default::default());
         let mut edges = Vec::with_capacity(mesh.faces.len() * 3 / 2);
         for f in &mesh.faces {
             for k in 0..3 {

@@ -7,7 +7,8 @@
 //! naming the offending element.
 
 use glam::DVec3;
-use std::collections::HashMap;
+// Integer keys; every iteration over a map is sorted first.
+use rustc_hash::FxHashMap as HashMap;
 
 /// A face whose area is below this fraction of the squared mean edge length
 /// is degenerate (zero-area up to round-off).
@@ -234,7 +235,8 @@ pub fn check_mesh(
     }
 
     // Duplicate faces (same vertex set in any order).
-    let mut seen: HashMap<[u32; 3], usize> = HashMap::with_capacity(faces.len());
+    let mut seen: HashMap<[u32; 3], usize> =
+        HashMap::with_capacity_and_hasher(faces.len(), Default::default());
     for (face, f) in faces.iter().enumerate() {
         let mut key = *f;
         key.sort_unstable();
@@ -250,7 +252,7 @@ pub fn check_mesh(
 
     // Edge incidence and orientation.
     let mut undirected: HashMap<(u32, u32), Vec<(usize, bool)>> =
-        HashMap::with_capacity(faces.len() * 3 / 2);
+        HashMap::with_capacity_and_hasher(faces.len() * 3 / 2, Default::default());
     for (face, f) in faces.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (f[k], f[(k + 1) % 3]);
@@ -302,8 +304,10 @@ pub fn check_mesh(
         }
         // Edge-manifold + orientable guarantee each neighbour appears once as
         // a start; count the cycles of the successor map.
-        let next: HashMap<u32, u32> = l.iter().copied().collect();
-        let mut visited = std::collections::HashSet::with_capacity(l.len());
+        // (A link has a handful of entries: searched, not hashed. The last
+        // pair starting at a neighbour wins, as in a map built from them.)
+        let next = |a: u32| l.iter().rev().find(|(s, _)| *s == a).map(|&(_, b)| b);
+        let mut visited: Vec<u32> = Vec::with_capacity(l.len());
         let mut fans = 0;
         for &(start, _) in l {
             if visited.contains(&start) {
@@ -311,9 +315,10 @@ pub fn check_mesh(
             }
             fans += 1;
             let mut cur = start;
-            while visited.insert(cur) {
-                match next.get(&cur) {
-                    Some(&nx) => cur = nx,
+            while !visited.contains(&cur) {
+                visited.push(cur);
+                match next(cur) {
+                    Some(nx) => cur = nx,
                     None => break,
                 }
             }
@@ -341,7 +346,7 @@ pub fn check_mesh(
             }
         }
     }
-    let mut component_of_root: HashMap<u32, usize> = HashMap::new();
+    let mut component_of_root: HashMap<u32, usize> = HashMap::default();
     let mut roots = Vec::new();
     let mut comp = vec![0usize; n];
     for v in 0..n as u32 {
