@@ -82,6 +82,7 @@ pub mod run;
 pub mod scene;
 pub mod scene_override;
 pub mod schedule;
+pub mod setting;
 pub mod shape;
 pub mod simulation;
 pub mod spectrum;

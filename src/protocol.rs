@@ -20,7 +20,7 @@
 
 use crate::run::{Progress, RunError, RunOptions, run_scene};
 use crate::scene::{Scene, SceneError};
-use crate::sweep::Setting;
+use crate::setting::Setting;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -173,7 +173,7 @@ impl Protocol {
         };
         let text =
             std::fs::read_to_string(path).map_err(|e| file_err(format!("cannot read: {e}")))?;
-        let protocol: Protocol = crate::sweep::ron_options().from_str(&text).map_err(|e| {
+        let protocol: Protocol = crate::setting::ron_options().from_str(&text).map_err(|e| {
             file_err(format!(
                 "{}:{}: {}",
                 e.span.start.line, e.span.start.col, e.code
@@ -207,7 +207,7 @@ pub fn check_phases(
     let base = file.parent().unwrap_or(Path::new("."));
     let mut scenes = Vec::with_capacity(phases.len());
     for (i, p) in phases.iter().enumerate() {
-        if !crate::sweep::valid_name(&p.name) {
+        if !crate::setting::valid_name(&p.name) {
             return Err(err(
                 i,
                 "name",

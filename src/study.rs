@@ -31,7 +31,18 @@ pub struct Study {
     /// Peer engines run on the same problems (default none; skipped with
     /// `--no-peers`).
     #[serde(default)]
-    pub peers: Vec<crate::study_peer::Peer>,
+    pub peers: Vec<Peer>,
+}
+
+/// A peer engine declared by a study.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Peer {
+    /// Name (a directory name; the charts' legend entry).
+    pub name: String,
+    /// Program and arguments. An argument that names an existing file
+    /// relative to the study file's folder is passed as that file's path.
+    pub command: Vec<String>,
 }
 
 /// One reference problem and its ladder of settings.
@@ -231,20 +242,20 @@ impl Study {
             reason,
         };
         let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
-        let study: Study = crate::sweep::ron_options().from_str(&text).map_err(|e| {
+        let study: Study = crate::setting::ron_options().from_str(&text).map_err(|e| {
             bad(format!(
                 "{}:{}: {}",
                 e.span.start.line, e.span.start.col, e.code
             ))
         })?;
-        if !crate::sweep::valid_name(&study.name) {
+        if !crate::setting::valid_name(&study.name) {
             return Err(bad(format!(
                 "field `name`: `{}` must be a plain directory name",
                 study.name
             )));
         }
         for (k, peer) in study.peers.iter().enumerate() {
-            if !crate::sweep::valid_name(&peer.name)
+            if !crate::setting::valid_name(&peer.name)
                 || study.peers[..k].iter().any(|o| o.name == peer.name)
             {
                 return Err(bad(format!(
@@ -264,7 +275,7 @@ impl Study {
         let mut names = std::collections::HashSet::new();
         for (p, problem) in study.problems.iter().enumerate() {
             let field = |f: &str| format!("field `problems[{p}].{f}`");
-            if !crate::sweep::valid_name(&problem.name) || !names.insert(problem.name.as_str()) {
+            if !crate::setting::valid_name(&problem.name) || !names.insert(problem.name.as_str()) {
                 return Err(bad(format!(
                     "{}: `{}` must be a unique name of letters, digits, `_`, `-` or `.`",
                     field("name"),
@@ -285,7 +296,7 @@ impl Study {
             }
             let mut labels = std::collections::HashSet::new();
             for (r, rung) in problem.rungs.iter().enumerate() {
-                if !crate::sweep::valid_name(&rung.label) || !labels.insert(rung.label.as_str()) {
+                if !crate::setting::valid_name(&rung.label) || !labels.insert(rung.label.as_str()) {
                     return Err(bad(format!(
                         "{}: `{}` must be a unique name of letters, digits, `_`, `-` or `.`",
                         field(&format!("rungs[{r}].label")),

@@ -12,22 +12,11 @@
 
 use crate::params::Target;
 use crate::scene::{EnergyTerm, MembraneSource, Scene};
-use crate::study::{Case, Reference, Study};
+use crate::study::{Case, Peer, Reference, Study};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-
-/// A peer engine declared by a study.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Peer {
-    /// Name (a directory name; the charts' legend entry).
-    pub name: String,
-    /// Program and arguments. An argument that names an existing file
-    /// relative to the study file's folder is passed as that file's path.
-    pub command: Vec<String>,
-}
 
 /// What a peer prints for a case.
 #[derive(Clone, Debug, Serialize, Deserialize)]

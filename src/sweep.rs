@@ -18,9 +18,10 @@
 //! `--emit-slurm` prints a campaign script that submits the phases as one
 //! job and the run array after it (`--dependency=afterok`).
 
-use crate::params::{BlockedRegion, DiffusionRate};
 use crate::rng::stream_seed;
-use crate::scene::{EnergyTerm, Scene, SceneError};
+use crate::scene::{Scene, SceneError};
+pub use crate::setting::Setting;
+use crate::setting::{ron_options, valid_name};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -83,118 +84,6 @@ pub struct Axis {
     pub name: String,
     /// The values the axis takes.
     pub values: Vec<Setting>,
-}
-
-/// A change to a scene.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Setting {
-    /// Finite diffusion rate k_d (the scene must declare diffusion).
-    DiffusionRate(f64),
-    /// Instant equilibration (k_d = ∞).
-    DiffusionInstant,
-    /// Diffusion barrier regions (empty: none).
-    Barrier(Vec<BlockedRegion>),
-    /// A_t of the local tension term (l̄²).
-    LocalTensionTarget(f64),
-    /// k_V of the volume term (Ē/l̄⁶).
-    VolumeStrength(f64),
-    /// Bending rigidity κ (Ē).
-    Kappa(f64),
-    /// Spring constant of every control point (Ē/l̄²).
-    SpringStiffness(f64),
-    /// Iterations of the run.
-    Iterations(u64),
-    /// Simulated duration of the run (s).
-    Duration(f64),
-}
-
-impl Setting {
-    /// Applies the setting; the error says why it does not fit the scene.
-    pub fn apply(&self, scene: &mut Scene) -> Result<(), String> {
-        let no_term = |t: &str| format!("the scene declares no {t} term");
-        match self {
-            Setting::DiffusionRate(k) => {
-                let d = scene
-                    .diffusion
-                    .as_mut()
-                    .ok_or("the scene declares no diffusion")?;
-                if !(k.is_finite() && *k > 0.0 && *k <= 1.0) {
-                    return Err(format!("k_d must be in (0, 1] (got {k})"));
-                }
-                d.rate = DiffusionRate::Finite(*k);
-            }
-            Setting::DiffusionInstant => {
-                let d = scene
-                    .diffusion
-                    .as_mut()
-                    .ok_or("the scene declares no diffusion")?;
-                d.rate = DiffusionRate::Instant;
-            }
-            Setting::Barrier(regions) => {
-                let d = scene
-                    .diffusion
-                    .as_mut()
-                    .ok_or("the scene declares no diffusion")?;
-                d.barrier = regions.clone();
-            }
-            Setting::LocalTensionTarget(a) => {
-                let term = scene.energy.iter_mut().find_map(|t| match t {
-                    EnergyTerm::LocalTension(p) => Some(p),
-                    _ => None,
-                });
-                term.ok_or_else(|| no_term("LocalTension"))?.target_area =
-                    crate::params::Target::Absolute(*a);
-            }
-            Setting::VolumeStrength(k) => {
-                let term = scene.energy.iter_mut().find_map(|t| match t {
-                    EnergyTerm::Volume(p) => Some(p),
-                    _ => None,
-                });
-                term.ok_or_else(|| no_term("Volume"))?.k = *k;
-            }
-            Setting::Kappa(k) => {
-                let term = scene.energy.iter_mut().find_map(|t| match t {
-                    EnergyTerm::Bending(p) => Some(p),
-                    _ => None,
-                });
-                term.ok_or_else(|| no_term("Bending"))?.kappa = *k;
-            }
-            Setting::SpringStiffness(k) => {
-                for cp in &mut scene.control_points {
-                    cp.stiffness = Some(*k);
-                }
-            }
-            Setting::Iterations(n) => scene.dynamics.iterations = *n,
-            Setting::Duration(t) => scene.dynamics.duration = Some(*t),
-        }
-        Ok(())
-    }
-
-    /// The setting's value as a short label (directory names, tables).
-    pub fn label(&self) -> String {
-        match (self, self.value()) {
-            (_, Some(v)) => format!("{v}"),
-            (Setting::Barrier(r), None) if r.is_empty() => "none".into(),
-            (Setting::Barrier(r), None) => format!("{}regions", r.len()),
-            (_, None) => unreachable!("only barriers have no numeric value"),
-        }
-    }
-
-    /// The setting's numeric value, if it has one (k_d = ∞ for instant
-    /// diffusion).
-    pub fn value(&self) -> Option<f64> {
-        match self {
-            Setting::DiffusionRate(v)
-            | Setting::LocalTensionTarget(v)
-            | Setting::VolumeStrength(v)
-            | Setting::Kappa(v)
-            | Setting::SpringStiffness(v)
-            | Setting::Duration(v) => Some(*v),
-            Setting::DiffusionInstant => Some(f64::INFINITY),
-            Setting::Iterations(n) => Some(*n as f64),
-            Setting::Barrier(_) => None,
-        }
-    }
 }
 
 /// One expanded run.
@@ -467,23 +356,6 @@ impl Sweep {
 /// Where a sweep's shared phases are written.
 pub fn phases_dir(out: &Path) -> PathBuf {
     out.join("phases")
-}
-
-/// RON options of sweep and protocol files (`Some` implied, newtype
-/// variants unwrapped), as for scenes.
-pub(crate) fn ron_options() -> ron::Options {
-    ron::Options::default()
-        .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
-        .with_default_extension(ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES)
-}
-
-/// Whether `s` is a plain file-name component.
-pub(crate) fn valid_name(s: &str) -> bool {
-    !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
-        && s != "."
-        && s != ".."
 }
 
 /// Parses `I/N` (0 ≤ I < N).
