@@ -236,6 +236,9 @@ pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     contribution: impl Fn(usize) -> (f64, [T; K]) + Sync + Send,
     add: impl Fn(&mut O, T) + Sync + Send,
 ) -> f64 {
+    if items.is_empty() {
+        return 0.0;
+    }
     let block = (SPLIT_FACTOR * grain()).min(items.len());
     if per_item.len() != 2 * block {
         per_item.clear();
@@ -334,6 +337,12 @@ mod tests {
                 "{threads} threads"
             );
         }
+        let none: &[[u32; 3]] = &[];
+        let mut nothing: Vec<f64> = Vec::new();
+        let empty = accumulate(none, &mut nothing, &mut Vec::new(), contribution, |o, c| {
+            *o += c
+        });
+        assert_eq!(empty, 0.0, "no items");
     }
 
     #[test]
