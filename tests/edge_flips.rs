@@ -2,6 +2,8 @@
 //! few faces equals the difference of the whole energy, and flipping keeps
 //! every mesh invariant.
 
+mod common;
+
 use glam::DVec3;
 use remembrane::edge_flip::{Flip, FlipEnergy, FlipTotals};
 use remembrane::energy::bending::{BendingScratch, bending};
@@ -104,18 +106,16 @@ fn flipping_keeps_every_invariant_and_counts_every_proposal() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/flips.ron");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
-    let run = [
-        "remembrane".as_ref(),
-        "run".as_ref(),
-        scene.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--iterations".as_ref(),
-        "2000".as_ref(),
-        "--quiet".as_ref(),
-    ];
     assert_eq!(
-        remembrane::cli::main_with_args(remembrane::registry::PluginRegistry::new(), run),
+        common::cli(&[
+            &"run",
+            &scene,
+            &"--out",
+            &out,
+            &"--iterations",
+            &"2000",
+            &"--quiet"
+        ]),
         std::process::ExitCode::SUCCESS
     );
     let summary: serde_json::Value =

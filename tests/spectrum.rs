@@ -2,6 +2,8 @@
 //! harmonics gives them back, and the Helfrich fit recovers κ and σ from a
 //! spectrum generated with them.
 
+mod common;
+
 use glam::DVec3;
 use remembrane::mesh::icosphere;
 use remembrane::spectrum::{
@@ -133,8 +135,6 @@ fn the_fit_recovers_kappa_and_sigma_from_a_helfrich_spectrum() {
 
 #[test]
 fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
-    use remembrane::cli::main_with_args;
-    use remembrane::registry::PluginRegistry;
     use std::process::ExitCode;
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("noisy.ron");
@@ -149,48 +149,26 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
     )
     .unwrap();
     let out = dir.path().join("run");
-    let run = [
-        "remembrane".as_ref(),
-        "run".as_ref(),
-        scene.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--quiet".as_ref(),
-    ];
     assert_eq!(
-        main_with_args(PluginRegistry::new(), run),
+        common::cli(&[&"run", &scene, &"--out", &out, &"--quiet"]),
         ExitCode::SUCCESS
     );
-    let spectrum = [
-        "remembrane".as_ref(),
-        "spectrum".as_ref(),
-        out.as_os_str(),
-        "--blocks".as_ref(),
-        "4".as_ref(),
-        "--l-max".as_ref(),
-        "6".as_ref(),
-    ];
-    assert_eq!(
-        main_with_args(PluginRegistry::new(), spectrum),
-        ExitCode::SUCCESS
-    );
+    let spectrum: [&dyn AsRef<std::ffi::OsStr>; 6] =
+        [&"spectrum", &out, &"--blocks", &"4", &"--l-max", &"6"];
+    assert_eq!(common::cli(&spectrum), ExitCode::SUCCESS);
     let csv = std::fs::read_to_string(out.join("spectrum.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 5, "l = 2..=6");
     // Against the discrete energy's own mode stiffness: recorded per l.
-    let discrete = [
-        "remembrane".as_ref(),
-        "spectrum".as_ref(),
-        out.as_os_str(),
-        "--blocks".as_ref(),
-        "4".as_ref(),
-        "--l-max".as_ref(),
-        "6".as_ref(),
-        "--discrete".as_ref(),
+    let discrete: [&dyn AsRef<std::ffi::OsStr>; 7] = [
+        &"spectrum",
+        &out,
+        &"--blocks",
+        &"4",
+        &"--l-max",
+        &"6",
+        &"--discrete",
     ];
-    assert_eq!(
-        main_with_args(PluginRegistry::new(), discrete),
-        ExitCode::SUCCESS
-    );
+    assert_eq!(common::cli(&discrete), ExitCode::SUCCESS);
     let fit_json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("spectrum_fit.json")).unwrap())
             .unwrap();
@@ -200,10 +178,7 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
     let s6 = stiffness[6].as_f64().unwrap();
     assert!(s6 > 0.2 && s6 < 0.9, "{s6}");
     // The continuum fit again, for what follows.
-    assert_eq!(
-        main_with_args(PluginRegistry::new(), spectrum),
-        ExitCode::SUCCESS
-    );
+    assert_eq!(common::cli(&spectrum), ExitCode::SUCCESS);
     let fit: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("spectrum_fit.json")).unwrap())
             .unwrap();
@@ -211,24 +186,9 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
     assert!(fit["kappa"].as_f64().unwrap().is_finite());
     assert!(out.join("spectrum.png").exists());
     // Not a run directory; more blocks than frames.
-    let bad = [
-        "remembrane".as_ref(),
-        "spectrum".as_ref(),
-        dir.path().as_os_str(),
-    ];
+    assert_eq!(common::cli(&[&"spectrum", &dir.path()]), ExitCode::from(2));
     assert_eq!(
-        main_with_args(PluginRegistry::new(), bad),
-        ExitCode::from(2)
-    );
-    let too_many = [
-        "remembrane".as_ref(),
-        "spectrum".as_ref(),
-        out.as_os_str(),
-        "--blocks".as_ref(),
-        "100".as_ref(),
-    ];
-    assert_eq!(
-        main_with_args(PluginRegistry::new(), too_many),
+        common::cli(&[&"spectrum", &out, &"--blocks", &"100"]),
         ExitCode::from(2)
     );
 }

@@ -20,6 +20,17 @@ pub fn quiet_options(out: &Path) -> RunOptions {
     }
 }
 
+/// Runs the CLI in process, as `remembrane ARGS…` would from a shell,
+/// with the built-in plug-ins only; returns its exit code.
+/// Arguments may mix strings and paths: `cli(&[&"run", &scene, &"--quiet"])`.
+#[allow(dead_code)]
+pub fn cli(args: &[&dyn AsRef<std::ffi::OsStr>]) -> std::process::ExitCode {
+    let argv = std::iter::once(std::ffi::OsStr::new("remembrane"))
+        .chain(args.iter().map(|a| a.as_ref()))
+        .collect::<Vec<_>>();
+    remembrane::cli::main_with_args(remembrane::registry::PluginRegistry::new(), argv)
+}
+
 /// Whether every point and every point-data value of a frame is finite
 /// (the arrays are base64 binary: read them, do not grep them).
 #[allow(dead_code)]
