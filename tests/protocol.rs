@@ -3,8 +3,8 @@
 //! anything runs; a failed phase leaves no directory that looks like a
 //! result.
 
-use remembrane::cli::main_with_args;
-use remembrane::registry::PluginRegistry;
+mod common;
+
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -15,11 +15,7 @@ const SCENE: &str = r#"Scene(
     dynamics: (max_displacement: 0.01, iterations: 1000, frames: 3),
 )"#;
 
-fn cli(args: &[&str]) -> ExitCode {
-    let mut all = vec!["remembrane"];
-    all.extend_from_slice(args);
-    main_with_args(PluginRegistry::default_registry(), all)
-}
+use common::cli;
 
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let path = dir.join(name);
@@ -52,7 +48,7 @@ Protocol(
     let out = d.join("out");
     let out_s = out.display().to_string();
     assert_eq!(
-        cli(&["run", &protocol, "--out", &out_s, "--quiet"]),
+        cli(&[&"run", &protocol, &"--out", &out_s, &"--quiet"]),
         ExitCode::SUCCESS
     );
     assert!(!d.join("out.incomplete").exists());
@@ -68,20 +64,28 @@ Protocol(
     let b = d.join("b").display().to_string();
     let state = d.join("a/state.json").display().to_string();
     assert_eq!(
-        cli(&["run", &scene, "--out", &a, "--iterations", "40", "--quiet"]),
+        cli(&[
+            &"run",
+            &scene,
+            &"--out",
+            &a,
+            &"--iterations",
+            &"40",
+            &"--quiet"
+        ]),
         ExitCode::SUCCESS
     );
     assert_eq!(
         cli(&[
-            "run",
+            &"run",
             &stiff,
-            "--out",
+            &"--out",
             &b,
-            "--iterations",
-            "30",
-            "--from",
+            &"--iterations",
+            &"30",
+            &"--from",
             &state,
-            "--quiet"
+            &"--quiet"
         ]),
         ExitCode::SUCCESS
     );
@@ -99,13 +103,15 @@ Protocol(
     assert_ne!(first_end, &bytes(out.join("second/final.ply")));
 
     // `check` describes it; a second run into the same directory is refused.
-    assert_eq!(cli(&["check", &protocol]), ExitCode::SUCCESS);
+    assert_eq!(cli(&[&"check", &protocol]), ExitCode::SUCCESS);
     assert_eq!(
-        cli(&["run", &protocol, "--out", &out_s, "--quiet"]),
+        cli(&[&"run", &protocol, &"--out", &out_s, &"--quiet"]),
         ExitCode::from(2)
     );
     assert_eq!(
-        cli(&["run", &protocol, "--out", &out_s, "--seed", "3", "--quiet"]),
+        cli(&[
+            &"run", &protocol, &"--out", &out_s, &"--seed", &"3", &"--quiet"
+        ]),
         ExitCode::from(2)
     );
 }
@@ -156,7 +162,13 @@ fn bad_protocols_name_the_field_and_write_nothing() {
         assert!(err.contains(expected), "case {k}: {err}");
         let out = d.join(format!("out{k}")).display().to_string();
         assert_eq!(
-            cli(&["run", &path.display().to_string(), "--out", &out, "--quiet"]),
+            cli(&[
+                &"run",
+                &path.display().to_string(),
+                &"--out",
+                &out,
+                &"--quiet"
+            ]),
             ExitCode::from(2)
         );
         assert!(!Path::new(&out).exists() && !Path::new(&format!("{out}.incomplete")).exists());
@@ -197,11 +209,11 @@ fn a_failed_phase_stops_the_protocol_and_stays_incomplete() {
     let out = d.join("out");
     assert_eq!(
         cli(&[
-            "run",
+            &"run",
             &protocol,
-            "--out",
+            &"--out",
             &out.display().to_string(),
-            "--quiet"
+            &"--quiet"
         ]),
         ExitCode::from(1)
     );

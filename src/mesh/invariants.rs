@@ -303,10 +303,9 @@ pub fn check_mesh(
             return Err(MeshError::IsolatedVertex { vertex });
         }
         // Edge-manifold + orientable guarantee each neighbour appears once as
-        // a start; count the cycles of the successor map.
-        // (A link has a handful of entries: searched, not hashed. The last
-        // pair starting at a neighbour wins, as in a map built from them.)
-        let next = |a: u32| l.iter().rev().find(|(s, _)| *s == a).map(|&(_, b)| b);
+        // a start; count the cycles of the successor map (a link has a
+        // handful of pairs: searched, not hashed).
+        let next = |a: u32| l.iter().find(|(s, _)| *s == a).map(|&(_, b)| b);
         let mut visited: Vec<u32> = Vec::with_capacity(l.len());
         let mut fans = 0;
         for &(start, _) in l {
