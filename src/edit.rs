@@ -173,26 +173,10 @@ impl Membrane {
     /// the valences it returns, in the same map; `None` if a face to remove
     /// is not live.
     pub fn valences_after(&self, edit: &PatchEdit) -> Option<HashMap<Entity, usize>> {
-        // Counted, not walked: a vertex's ring has one face per neighbour,
-        // so its faces after the edit are its valence, less its ring faces
-        // that are removed, plus the added faces that use it.
-        let t = self.cached_topology();
-        let removed_triples = self.removed_triples(edit).ok()?;
-        let affected = affected_vertices(&removed_triples, &edit.add_faces);
         let mut valences = HashMap::default();
-        for &v in &affected {
-            if edit.remove_vertices.contains(&v) {
-                continue;
-            }
-            let kept = t.vertex_slot(v).map_or(0, |s| {
-                t.ring_faces_of(s as usize)
-                    .iter()
-                    .filter(|&&f| !edit.remove_faces.contains(&t.face_entities[f as usize]))
-                    .count()
-            });
-            let added = edit.add_faces.iter().filter(|f| f.contains(&v)).count();
-            valences.insert(v, kept + added);
-        }
+        KeptFaces::of(self, &edit.remove_faces)?.for_each_valence(self, edit, |v, n| {
+            valences.insert(v, n);
+        });
         Some(valences)
     }
 
@@ -410,6 +394,22 @@ impl Membrane {
         self.topology()
             .expect("the topology was valid before the edit");
         self.check_patch(edit, valence)?;
+        Ok(self.apply_checked_patch(edit, valence))
+    }
+
+    /// [`Membrane::apply_patch`] for an edit that [`Membrane::check_patch`]
+    /// has just accepted, with the same valence range, on this world
+    /// unchanged since: it is applied without a second check (debug builds
+    /// check it again).
+    pub(crate) fn apply_checked_patch(
+        &mut self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+    ) -> EditOutcome {
+        debug_assert!(
+            self.check_patch(edit, valence).is_ok(),
+            "an edit applied as checked fails its check"
+        );
         let t = self.cached_topology();
         // Affected undirected edges and their current entities.
         let key = |a: Entity, b: Entity| {
@@ -576,8 +576,87 @@ impl Membrane {
         }
         self.update_topology(&changes)
             .expect("a checked edit keeps the topology valid");
-        Ok(outcome)
+        outcome
     }
+}
+
+/// How many of its faces each vertex keeps when a set of faces is removed:
+/// the part of the valences after an edit that all candidate edits
+/// removing the same faces share (a split's 16 candidates, a merge's 4).
+/// [`KeptFaces::for_each_valence`] adds each candidate's new faces.
+pub struct KeptFaces {
+    remove_faces: Vec<Entity>,
+    /// Every vertex of a removed face, in first-seen order, with the
+    /// number of its faces that are not removed.
+    kept: Vec<(Entity, usize)>,
+}
+
+impl KeptFaces {
+    /// For removing `remove_faces` from the current topology; `None` if
+    /// one is not a live face.
+    pub fn of(m: &Membrane, remove_faces: &[Entity]) -> Option<Self> {
+        let t = m.cached_topology();
+        let mut kept: Vec<(Entity, usize)> = Vec::with_capacity(2 * remove_faces.len() + 4);
+        for &f in remove_faces {
+            for s in t.faces[t.face_slot(f)? as usize] {
+                let v = t.vertex_entities[s as usize];
+                if !kept.iter().any(|&(x, _)| x == v) {
+                    kept.push((v, kept_count(m, s, remove_faces)));
+                }
+            }
+        }
+        Some(Self {
+            remove_faces: remove_faces.to_vec(),
+            kept,
+        })
+    }
+
+    /// Whether these are the counts for removing exactly `remove_faces`.
+    pub fn removes(&self, remove_faces: &[Entity]) -> bool {
+        self.remove_faces == remove_faces
+    }
+
+    /// Calls `visit(v, valence after the edit)` for every vertex of a face
+    /// that `edit` removes or adds, once each in first-seen order (removed
+    /// faces first), except the vertices it removes. A vertex's faces after
+    /// the edit are its valence (one face per neighbour in a closed fan):
+    /// the faces it keeps plus the added faces that use it. `edit` must
+    /// remove exactly these counts' faces.
+    pub fn for_each_valence(
+        &self,
+        m: &Membrane,
+        edit: &PatchEdit,
+        mut visit: impl FnMut(Entity, usize),
+    ) {
+        debug_assert!(self.removes(&edit.remove_faces));
+        let added = |v: Entity| edit.add_faces.iter().filter(|f| f.contains(&v)).count();
+        for &(v, kept) in &self.kept {
+            if !edit.remove_vertices.contains(&v) {
+                visit(v, kept + added(v));
+            }
+        }
+        let t = m.cached_topology();
+        let corners = || edit.add_faces.iter().flatten();
+        for (i, &v) in corners().enumerate() {
+            let seen = self.kept.iter().any(|&(x, _)| x == v) || corners().take(i).any(|&x| x == v);
+            if seen || edit.remove_vertices.contains(&v) {
+                continue;
+            }
+            let kept = t
+                .vertex_slot(v)
+                .map_or(0, |s| kept_count(m, s, &self.remove_faces));
+            visit(v, kept + added(v));
+        }
+    }
+}
+
+/// The faces of vertex slot `s` that are not in `remove_faces`.
+fn kept_count(m: &Membrane, s: u32, remove_faces: &[Entity]) -> usize {
+    let t = m.cached_topology();
+    t.ring_faces_of(s as usize)
+        .iter()
+        .filter(|&&f| !remove_faces.contains(&t.face_entities[f as usize]))
+        .count()
 }
 
 /// Every vertex of the removed and the added faces, once each, in

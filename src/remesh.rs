@@ -17,7 +17,7 @@
 //! ×= 2/3 and ρ_n = (ρ_i1 + ρ_i2)/3; merge ρ_i = ρ_i1 + ρ_i2.
 
 use crate::components::Position;
-use crate::edit::{EditError, PatchEdit};
+use crate::edit::{EditError, KeptFaces, PatchEdit};
 use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
 use crate::vertex_field::TransferPolicy;
@@ -234,19 +234,40 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candida
 }
 
 /// A candidate's score: (valence variance, std of the diagonal lengths).
-fn score(valences: &rustc_hash::FxHashMap<Entity, usize>, lengths: &[f64]) -> (f64, f64) {
-    let n = valences.len().max(1) as f64;
-    let mean = valences.values().sum::<usize>() as f64 / n;
-    let var = valences
-        .values()
-        .map(|&v| (v as f64 - mean).powi(2))
-        .sum::<f64>()
-        / n;
+/// The variance comes from integer sums, so it is exact up to one rounding
+/// and equal for candidates whose valences are the same multiset.
+fn score(valences: &ValenceSums, lengths: &[f64]) -> (f64, f64) {
     let lm = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
     let spread = (lengths.iter().map(|l| (l - lm).powi(2)).sum::<f64>()
         / lengths.len().max(1) as f64)
         .sqrt();
-    (var, spread)
+    (valences.variance(), spread)
+}
+
+/// Count, sum and sum of squares of a candidate's valences after the edit.
+#[derive(Default)]
+struct ValenceSums {
+    count: u64,
+    sum: u64,
+    sum_of_squares: u64,
+}
+
+impl ValenceSums {
+    fn add(&mut self, valence: usize) {
+        let v = valence as u64;
+        self.count += 1;
+        self.sum += v;
+        self.sum_of_squares += v * v;
+    }
+
+    /// The population variance, (n Σv² − (Σv)²) / n² (0 for no valences).
+    fn variance(&self) -> f64 {
+        if self.count == 0 {
+            return 0.0;
+        }
+        let n = self.count as f64;
+        (self.count * self.sum_of_squares - self.sum * self.sum) as f64 / (n * n)
+    }
 }
 
 /// Picks the valid candidate with the least valence variance (ties: most
@@ -254,7 +275,7 @@ fn score(valences: &rustc_hash::FxHashMap<Entity, usize>, lengths: &[f64]) -> (f
 /// last rejection.
 ///
 /// Every candidate is scored from its valences after the edit, which need
-/// no check ([`Membrane::valences_after`]); the candidates are then
+/// no check ([`KeptFaces`], as [`Membrane::valences_after`]); the candidates are then
 /// checked best first and the first valid one is taken. That is the
 /// candidate a check of every candidate would pick, for one full check
 /// instead of one per candidate in the usual case.
@@ -264,15 +285,26 @@ pub fn choose(
     valence: ValenceRange,
     position_of: impl Fn(Entity) -> DVec3,
 ) -> Result<usize, RemeshError> {
+    // The candidates of one split or merge remove the same faces: what
+    // each vertex keeps is counted once.
+    let mut kept: Option<KeptFaces> = None;
+    let mut lengths: Vec<f64> = Vec::with_capacity(4);
     let scores: Vec<Option<(f64, f64)>> = candidates
         .iter()
         .map(|cand| {
-            let valences = m.valences_after(&cand.edit)?;
-            let lengths: Vec<f64> = cand
-                .diagonal_edges
-                .iter()
-                .map(|&(a, b)| position_of(a).distance(position_of(b)))
-                .collect();
+            let remove = &cand.edit.remove_faces;
+            if !kept.as_ref().is_some_and(|k| k.removes(remove)) {
+                kept = KeptFaces::of(m, remove);
+            }
+            let mut valences = ValenceSums::default();
+            kept.as_ref()?
+                .for_each_valence(m, &cand.edit, |_, v| valences.add(v));
+            lengths.clear();
+            lengths.extend(
+                cand.diagonal_edges
+                    .iter()
+                    .map(|&(a, b)| position_of(a).distance(position_of(b))),
+            );
             Some(score(&valences, &lengths))
         })
         .collect();
@@ -434,8 +466,8 @@ pub fn split_edge(
     let candidates = split_candidates(&r, n, mid);
     let pos = |v: Entity| if v == n { mid } else { position(m, v) };
     let best = choose(m, &candidates, valence, pos)?;
-    m.apply_patch(&candidates[best].edit, valence)
-        .map_err(RemeshError::NoValidOption)?;
+    // `choose` checked the edit on this world.
+    m.apply_checked_patch(&candidates[best].edit, valence);
     values.apply_split(m, [i1, i2], n);
     Ok(RemeshOutcome {
         vertex: n,
@@ -458,8 +490,8 @@ pub fn merge_edge(
     let candidates = merge_candidates(m, &r, mid);
     let pos = |v: Entity| if v == i1 { mid } else { position(m, v) };
     let best = choose(m, &candidates, valence, pos)?;
-    m.apply_patch(&candidates[best].edit, valence)
-        .map_err(RemeshError::NoValidOption)?;
+    // `choose` checked the edit on this world.
+    m.apply_checked_patch(&candidates[best].edit, valence);
     values.apply_merge(m, i1);
     Ok(RemeshOutcome {
         vertex: i1,
