@@ -6,9 +6,11 @@
 //! world's storage order: hecs appends a spawned entity to its archetype
 //! and fills a despawned entity's place with the archetype's last entity
 //! (swap-remove). [`Topology::apply_edit`] replays those moves on the slot
-//! arrays, then recomputes only what refers to a touched or moved item:
-//! the faces' corners and edges, the edges' ends and faces, and the ring
-//! blocks of the vertices around them. The result is what
+//! arrays, renaming the moved entity's slot wherever the cache names it
+//! (its faces, edges and neighbours' rings, reached through its own
+//! entries), and then recomputes from the world only what the edit
+//! rewired: the added faces, the spawned and refreshed edges, and the ring
+//! blocks of the corners of removed and added faces. The result is what
 //! [`Topology::build`] would give for the edited world; tests and debug
 //! builds check that after every edit.
 
@@ -57,64 +59,17 @@ enum Kind {
     Face,
 }
 
-/// A dense entity list as it will be after the changes, simulated on top
-/// of the unchanged cache: only the slots the changes touch are stored.
-struct Simulated<'a> {
-    base: &'a [Entity],
-    len: usize,
-    changed: Vec<(usize, Entity)>,
-    /// Entities whose slot changed (moved into a hole).
-    moved: Vec<Entity>,
-}
-
-impl<'a> Simulated<'a> {
-    fn new(base: &'a [Entity]) -> Self {
-        Self {
-            base,
-            len: base.len(),
-            changed: Vec::new(),
-            moved: Vec::new(),
-        }
-    }
-
-    fn at(&self, slot: usize) -> Entity {
-        self.changed
-            .iter()
-            .rev()
-            .find(|(s, _)| *s == slot)
-            .map_or_else(|| self.base[slot], |(_, e)| *e)
-    }
-
-    fn slot(&self, e: Entity, base_slot: Option<usize>) -> Option<usize> {
-        // The latest assignment wins; an entity not reassigned keeps its base slot.
-        match self.changed.iter().rev().find(|(_, x)| *x == e) {
-            Some(&(s, _)) => (s < self.len && self.at(s) == e).then_some(s),
-            None => base_slot.filter(|&s| s < self.len && self.at(s) == e),
-        }
-    }
-
-    fn remove(&mut self, slot: usize) {
-        let last = self.len - 1;
-        let m = self.at(last);
-        self.len -= 1;
-        if slot != last {
-            self.changed.push((slot, m));
-            if !self.moved.contains(&m) {
-                self.moved.push(m);
-            }
-        }
-    }
-
-    fn push(&mut self, e: Entity) {
-        self.changed.push((self.len, e));
-        self.len += 1;
-    }
-}
-
 /// Pushes `x` unless present (the sets here hold a patch's few items).
 fn insert(set: &mut Vec<Entity>, x: Entity) {
     if !set.contains(&x) {
         set.push(x);
+    }
+}
+
+/// Replaces every `from` in `slots` by `to`.
+fn rename(slots: &mut [u32], from: u32, to: u32) {
+    for s in slots.iter_mut().filter(|s| **s == from) {
+        *s = to;
     }
 }
 
@@ -128,61 +83,6 @@ impl Topology {
         changes: &[WorldChange],
         epoch: u64,
     ) -> Result<(), UpdateError> {
-        // 1. Which entities move, from the unchanged cache.
-        let mut vertices = Simulated::new(&self.vertex_entities);
-        let mut edges = Simulated::new(&self.edge_entities);
-        let mut faces = Simulated::new(&self.face_entities);
-        let base_slot = |e: Entity, list: &[Entity]| {
-            self.slot(e)
-                .map(|s| s as usize)
-                .filter(|&s| list.get(s) == Some(&e))
-        };
-        let mut removed_faces = Vec::new();
-        let mut added_faces = Vec::new();
-        // Vertices whose ring is rewritten, and faces/edges recomputed.
-        let mut ring_dirty: Vec<Entity> = Vec::new();
-        let mut face_dirty: Vec<Entity> = Vec::new();
-        let mut edge_dirty: Vec<Entity> = Vec::new();
-        for &c in changes {
-            let (list, e, spawn) = match c {
-                WorldChange::DespawnFace(e) => (&mut faces, e, false),
-                WorldChange::SpawnFace(e) => (&mut faces, e, true),
-                WorldChange::SpawnVertex(e) => (&mut vertices, e, true),
-                WorldChange::DespawnVertex(e) => (&mut vertices, e, false),
-                WorldChange::SpawnEdge(e) => (&mut edges, e, true),
-                WorldChange::DespawnEdge(e) => (&mut edges, e, false),
-                WorldChange::UpdateEdge(e) => {
-                    insert(&mut edge_dirty, e);
-                    continue;
-                }
-            };
-            if spawn {
-                list.push(e);
-                continue;
-            }
-            let s = list
-                .slot(e, base_slot(e, list.base))
-                .ok_or(UpdateError::Unknown(e))?;
-            list.remove(s);
-        }
-        for &c in changes {
-            match c {
-                WorldChange::DespawnFace(f) => {
-                    removed_faces.push(f);
-                    // Its corners lose a face.
-                    let s = self.face_slot(f).ok_or(UpdateError::Unknown(f))? as usize;
-                    for v in self.faces[s] {
-                        insert(&mut ring_dirty, self.vertex_entities[v as usize]);
-                    }
-                }
-                WorldChange::SpawnFace(f) => {
-                    added_faces.push(f);
-                    insert(&mut face_dirty, f);
-                }
-                WorldChange::SpawnEdge(e) => insert(&mut edge_dirty, e),
-                _ => {}
-            }
-        }
         let face_of = |f: Entity| -> Result<Face, UpdateError> {
             world
                 .get::<&Face>(f)
@@ -195,17 +95,42 @@ impl Topology {
                 .map(|c| *c)
                 .map_err(|_| UpdateError::Unknown(e))
         };
-        for &f in &added_faces {
-            for v in face_of(f)?.vertices {
-                insert(&mut ring_dirty, v);
+        // 1. What the edit rewired, read from the unchanged cache: the
+        // faces it removes and adds, the edges it spawns or refreshes, and
+        // the corners of those faces, whose rings change.
+        let mut removed_faces = Vec::new();
+        let mut added_faces = Vec::new();
+        let mut edge_dirty: Vec<Entity> = Vec::new();
+        let mut ring_dirty: Vec<Entity> = Vec::new();
+        for &c in changes {
+            match c {
+                WorldChange::DespawnFace(f) => {
+                    removed_faces.push(f);
+                    let s = self.face_slot(f).ok_or(UpdateError::Unknown(f))? as usize;
+                    for v in self.faces[s] {
+                        insert(&mut ring_dirty, self.vertex_entities[v as usize]);
+                    }
+                }
+                WorldChange::SpawnFace(f) => {
+                    added_faces.push(f);
+                    for v in face_of(f)?.vertices {
+                        insert(&mut ring_dirty, v);
+                    }
+                }
+                WorldChange::SpawnEdge(e) | WorldChange::UpdateEdge(e) => {
+                    insert(&mut edge_dirty, e)
+                }
+                _ => {}
             }
         }
-        // Incident faces (entities) of a vertex after the edit: the cached
-        // ring's faces, less the removed ones, plus the added ones using it.
-        let incident = |v: Entity| -> Result<Vec<Entity>, UpdateError> {
-            let mut list: Vec<Entity> = match base_slot(v, &self.vertex_entities) {
+        // The faces around each of those corners after the edit (entities):
+        // its cached ring's faces, less the removed ones, plus the added
+        // ones using it. A corner the edit removes gets none.
+        let mut fans: Vec<(Entity, Vec<Entity>)> = Vec::with_capacity(ring_dirty.len());
+        for &v in &ring_dirty {
+            let mut fan: Vec<Entity> = match self.vertex_slot(v) {
                 Some(s) => self
-                    .ring_faces_of(s)
+                    .ring_faces_of(s as usize)
                     .iter()
                     .map(|&f| self.face_entities[f as usize])
                     .filter(|f| !removed_faces.contains(f))
@@ -214,56 +139,10 @@ impl Topology {
             };
             for &f in &added_faces {
                 if face_of(f)?.vertices.contains(&v) {
-                    list.push(f);
+                    fan.push(f);
                 }
             }
-            Ok(list)
-        };
-        // A moved vertex: its faces and edges name its slot, and so do its
-        // neighbours' rings.
-        // (An entity moved by one removal may itself be removed later.)
-        let alive = |e: &&Entity| world.contains(**e);
-        // A recomputed face, and the rings of its corners and its edges.
-        let mark_face = |f: Entity,
-                         face_dirty: &mut Vec<Entity>,
-                         ring_dirty: &mut Vec<Entity>,
-                         edge_dirty: &mut Vec<Entity>|
-         -> Result<(), UpdateError> {
-            insert(face_dirty, f);
-            let face = face_of(f)?;
-            for k in 0..3 {
-                insert(ring_dirty, face.vertices[k]);
-                insert(edge_dirty, face.edges[k]);
-            }
-            Ok(())
-        };
-        for &x in vertices.moved.iter().filter(alive) {
-            insert(&mut ring_dirty, x);
-            for f in incident(x)? {
-                mark_face(f, &mut face_dirty, &mut ring_dirty, &mut edge_dirty)?;
-            }
-        }
-        // A moved face: its edges and its corners' rings name its slot.
-        for &f in faces.moved.iter().filter(alive) {
-            mark_face(f, &mut face_dirty, &mut ring_dirty, &mut edge_dirty)?;
-        }
-        // A moved edge: its faces and its ends' rings name its slot.
-        for &e in edges.moved.iter().filter(alive) {
-            insert(&mut edge_dirty, e);
-            let edge = edge_of(e)?;
-            for f in edge.faces {
-                insert(&mut face_dirty, f);
-            }
-            for v in edge.vertices {
-                insert(&mut ring_dirty, v);
-            }
-        }
-        // The new incident face sets, while the cache is still the old one.
-        let mut fans: Vec<(Entity, Vec<Entity>)> = Vec::with_capacity(ring_dirty.len());
-        for &v in &ring_dirty {
-            if world.contains(v) && world.get::<&crate::components::Position>(v).is_ok() {
-                fans.push((v, incident(v)?));
-            }
+            fans.push((v, fan));
         }
 
         // 2. Replay the moves on the dense arrays.
@@ -279,9 +158,9 @@ impl Topology {
             }
         }
 
-        // 3. Recompute what names a touched or moved slot.
+        // 3. Recompute what the edit rewired.
         let vertex_slot = |t: &Topology, v: Entity| t.vertex_slot(v).ok_or(UpdateError::Unknown(v));
-        for &f in &face_dirty {
+        for &f in &added_faces {
             let Some(s) = self.face_slot(f) else {
                 continue;
             };
@@ -309,22 +188,25 @@ impl Topology {
         }
         let mut fan: Vec<u32> = Vec::new();
         for (v, faces_of_v) in &fans {
-            let s = vertex_slot(self, *v)? as usize;
+            let Some(s) = self.vertex_slot(*v) else {
+                continue; // removed by the edit
+            };
             fan.clear();
             for f in faces_of_v {
                 fan.push(self.slot(*f).ok_or(UpdateError::Unknown(*f))?);
             }
             fan.sort_unstable();
             if fan.len() > self.ring_stride {
-                return Err(UpdateError::RingOverflow(s as u32));
+                return Err(UpdateError::RingOverflow(s));
             }
-            self.write_ring(s, &fan)?;
+            self.write_ring(s as usize, &fan)?;
         }
         self.epoch = epoch;
         Ok(())
     }
 
     /// Appends `e` to its dense list (a spawn), growing the per-slot arrays.
+    /// Its entries are placeholders until step 3 of [`Topology::apply_edit`].
     fn push_slot(&mut self, kind: Kind, e: Entity) {
         let id = e.id() as usize;
         if id >= self.slot_of.len() {
@@ -356,7 +238,8 @@ impl Topology {
     }
 
     /// Removes `e` from its dense list as hecs does (the last entity takes
-    /// its slot), moving the per-slot arrays alike.
+    /// its slot), moving the per-slot arrays alike and renaming the moved
+    /// entity's old slot wherever the cache names it.
     fn remove_slot(&mut self, kind: Kind, e: Entity) -> Result<(), UpdateError> {
         let list = match kind {
             Kind::Vertex => &mut self.vertex_entities,
@@ -371,6 +254,7 @@ impl Topology {
         if list.get(s) != Some(&e) {
             return Err(UpdateError::Unknown(e));
         }
+        let last = list.len() - 1;
         list.swap_remove(s);
         let moved = list.get(s).copied();
         self.slot_of[e.id() as usize] = NO_SLOT;
@@ -380,7 +264,6 @@ impl Topology {
         match kind {
             Kind::Vertex => {
                 let stride = self.ring_stride;
-                let last = self.ring_len.len() - 1;
                 if s != last {
                     for a in [&mut self.ring, &mut self.ring_edges, &mut self.ring_faces] {
                         a.copy_within(last * stride..(last + 1) * stride, s * stride);
@@ -401,9 +284,82 @@ impl Topology {
                 self.face_edges.swap_remove(s);
             }
         }
+        if s != last {
+            self.rename_moved(kind, last as u32, s as u32);
+        }
         Ok(())
     }
 
+    /// After the entity at slot `from` moved to slot `to`: renames `from`
+    /// to `to` wherever the cache names it, found through the moved
+    /// entity's own entries. Entries that an edit rewires are recomputed
+    /// in step 3 of [`Topology::apply_edit`]; this keeps every other entry
+    /// right (an entry naming a slot no longer in use is skipped).
+    fn rename_moved(&mut self, kind: Kind, from: u32, to: u32) {
+        let stride = self.ring_stride;
+        let t = to as usize;
+        match kind {
+            Kind::Vertex => {
+                let block = t * stride..t * stride + self.ring_len[t] as usize;
+                for k in block {
+                    let (w, f, e) = (self.ring[k], self.ring_faces[k], self.ring_edges[k]);
+                    if let Some(&len) = self.ring_len.get(w as usize) {
+                        let lo = w as usize * stride;
+                        rename(&mut self.ring[lo..lo + len as usize], from, to);
+                    }
+                    if let Some(face) = self.faces.get_mut(f as usize) {
+                        rename(face, from, to);
+                    }
+                    if let Some(edge) = self.edges.get_mut(e as usize) {
+                        rename(edge, from, to);
+                    }
+                }
+            }
+            Kind::Edge => {
+                for f in self.edge_faces[t] {
+                    if let Some(face_edges) = self.face_edges.get_mut(f as usize) {
+                        rename(face_edges, from, to);
+                    }
+                }
+                for v in self.edges[t] {
+                    if let Some(&len) = self.ring_len.get(v as usize) {
+                        let lo = v as usize * stride;
+                        rename(&mut self.ring_edges[lo..lo + len as usize], from, to);
+                    }
+                }
+            }
+            Kind::Face => {
+                for v in self.faces[t] {
+                    if let Some(&len) = self.ring_len.get(v as usize) {
+                        self.rename_ring_face(v as usize, len as usize, from, to);
+                    }
+                }
+                for e in self.face_edges[t] {
+                    if let Some(edge_faces) = self.edge_faces.get_mut(e as usize) {
+                        rename(edge_faces, from, to);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Renames face slot `from` to `to` in vertex `v`'s ring block of
+    /// `len` entries and rotates the block to start at its least face slot,
+    /// as [`Topology::write_ring`] orders it.
+    fn rename_ring_face(&mut self, v: usize, len: usize, from: u32, to: u32) {
+        let block = v * self.ring_stride..v * self.ring_stride + len;
+        rename(&mut self.ring_faces[block.clone()], from, to);
+        let first = self.ring_faces[block.clone()]
+            .iter()
+            .enumerate()
+            .min_by_key(|&(_, &f)| f)
+            .map_or(0, |(k, _)| k);
+        if first != 0 {
+            for a in [&mut self.ring, &mut self.ring_edges, &mut self.ring_faces] {
+                a[block.clone()].rotate_left(first);
+            }
+        }
+    }
     /// Whether `self` describes the same mesh, slot for slot, as `other`
     /// (what a full rebuild must reproduce; the entity → slot map is
     /// compared for the mesh's entities only, and rings by their entries).
