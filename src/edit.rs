@@ -125,24 +125,6 @@ impl Membrane {
         self.world.reserve_entity()
     }
 
-    /// Faces (as vertex-entity triples) incident to `v` in the current
-    /// topology, with their entities. Empty for a vertex not yet spawned.
-    fn faces_around(&self, v: Entity) -> Vec<FaceRef> {
-        let t = self.cached_topology();
-        let Some(slot) = t.vertex_slot(v) else {
-            return Vec::new();
-        };
-        t.ring_faces_of(slot as usize)
-            .iter()
-            .map(|&f| {
-                (
-                    t.face_entities[f as usize],
-                    t.faces[f as usize].map(|s| t.vertex_entities[s as usize]),
-                )
-            })
-            .collect()
-    }
-
     /// Checks `edit` against the current topology and geometry; the world is
     /// not changed. Returns the valence of every affected vertex after the
     /// edit.
@@ -151,7 +133,7 @@ impl Membrane {
         edit: &PatchEdit,
         valence: ValenceRange,
     ) -> Result<HashMap<Entity, usize>, EditError> {
-        self.check_patch_with(edit, valence, true)
+        self.collect_valences(edit, valence, true)
     }
 
     /// [`Membrane::check_patch`] without the geometric checks (degenerate or
@@ -163,7 +145,31 @@ impl Membrane {
         edit: &PatchEdit,
         valence: ValenceRange,
     ) -> Result<HashMap<Entity, usize>, EditError> {
-        self.check_patch_with(edit, valence, false)
+        self.collect_valences(edit, valence, false)
+    }
+
+    /// The checks of [`Membrane::check_patch`] (with `geometry`) or
+    /// [`Membrane::check_patch_topology`], without collecting the valences.
+    pub(crate) fn validate_patch(
+        &self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+        geometry: bool,
+    ) -> Result<(), EditError> {
+        self.check_patch_with(edit, valence, geometry, |_, _| {})
+    }
+
+    fn collect_valences(
+        &self,
+        edit: &PatchEdit,
+        valence: ValenceRange,
+        geometry: bool,
+    ) -> Result<HashMap<Entity, usize>, EditError> {
+        let mut valences = HashMap::default();
+        self.check_patch_with(edit, valence, geometry, |v, n| {
+            valences.insert(v, n);
+        })?;
+        Ok(valences)
     }
 
     /// The valence of every affected vertex after `edit`, without checking
@@ -174,9 +180,14 @@ impl Membrane {
     /// is not live.
     pub fn valences_after(&self, edit: &PatchEdit) -> Option<HashMap<Entity, usize>> {
         let mut valences = HashMap::default();
-        KeptFaces::of(self, &edit.remove_faces)?.for_each_valence(self, edit, |v, n| {
-            valences.insert(v, n);
-        });
+        KeptFaces::of(self, &edit.remove_faces)?.for_each_valence(
+            self,
+            &edit.add_faces,
+            &edit.remove_vertices,
+            |v, n| {
+                valences.insert(v, n);
+            },
+        );
         Some(valences)
     }
 
@@ -224,12 +235,15 @@ impl Membrane {
         })
     }
 
+    /// Checks `edit` (the geometric checks only with `geometry`), calling
+    /// `valence_of(v, valence)` for every affected vertex that stays.
     fn check_patch_with(
         &self,
         edit: &PatchEdit,
         valence: ValenceRange,
         geometry: bool,
-    ) -> Result<HashMap<Entity, usize>, EditError> {
+        mut valence_of: impl FnMut(Entity, usize),
+    ) -> Result<(), EditError> {
         let PatchFans {
             removed_triples,
             affected,
@@ -301,7 +315,6 @@ impl Membrane {
             let i = affected.iter().position(|&a| a == x).expect("affected");
             &after[fans[i].0..fans[i].1]
         };
-        let mut valences = HashMap::default();
         let mut link: Vec<(Entity, Entity)> = Vec::with_capacity(16);
         for &v in &affected {
             let faces = fan_of(v);
@@ -348,7 +361,7 @@ impl Membrane {
                     valence: steps,
                 });
             }
-            valences.insert(v, steps);
+            valence_of(v, steps);
         }
         // Each affected edge: exactly one face per direction.
         for tri in removed_triples.iter().chain(&edit.add_faces) {
@@ -381,7 +394,7 @@ impl Membrane {
                 }
             }
         }
-        Ok(valences)
+        Ok(())
     }
 
     /// Checks `edit` and, if valid, applies it to the world (see the module
@@ -393,7 +406,7 @@ impl Membrane {
     ) -> Result<EditOutcome, EditError> {
         self.topology()
             .expect("the topology was valid before the edit");
-        self.check_patch(edit, valence)?;
+        self.validate_patch(edit, valence, true)?;
         Ok(self.apply_checked_patch(edit, valence))
     }
 
@@ -407,7 +420,7 @@ impl Membrane {
         valence: ValenceRange,
     ) -> EditOutcome {
         debug_assert!(
-            self.check_patch(edit, valence).is_ok(),
+            self.validate_patch(edit, valence, true).is_ok(),
             "an edit applied as checked fails its check"
         );
         let t = self.cached_topology();
@@ -432,7 +445,7 @@ impl Membrane {
         let get_edge = |map: &[((Entity, Entity), Entity)], k: (Entity, Entity)| {
             map.iter().find(|(key, _)| *key == k).map(|&(_, e)| e)
         };
-        let mut keys: Vec<(Entity, Entity)> = Vec::new();
+        let mut keys: Vec<(Entity, Entity)> = Vec::with_capacity(32);
         let note = |a: Entity, b: Entity, keys: &mut Vec<(Entity, Entity)>| {
             let k = key(a, b);
             if !keys.contains(&k) {
@@ -471,24 +484,32 @@ impl Membrane {
             .iter()
             .map(|_| self.world.reserve_entity())
             .collect();
-        // faces_of[i]: the faces of edge keys[i] after the edit.
-        let mut faces_of: Vec<Vec<FaceRef>> = Vec::with_capacity(keys.len());
+        // faces_after[ranges[i].0..ranges[i].1]: the faces of edge keys[i]
+        // after the edit.
+        let mut faces_after: Vec<FaceRef> = Vec::with_capacity(2 * keys.len());
+        let mut ranges: Vec<(usize, usize)> = Vec::with_capacity(keys.len());
         for &(a, b) in &keys {
-            let mut list: Vec<FaceRef> = self
-                .faces_around(a)
-                .into_iter()
-                .filter(|(e, f)| !removed.contains(e) && f.contains(&b))
-                .collect();
-            for (i, f) in edit.add_faces.iter().enumerate() {
-                if f.contains(&a) && f.contains(&b) {
-                    list.push((new_face_entities[i], *f));
+            let start = faces_after.len();
+            if let Some(slot) = t.vertex_slot(a) {
+                for &f in t.ring_faces_of(slot as usize) {
+                    let e = t.face_entities[f as usize];
+                    let tri = t.faces[f as usize].map(|s| t.vertex_entities[s as usize]);
+                    if !removed.contains(&e) && tri.contains(&b) {
+                        faces_after.push((e, tri));
+                    }
                 }
             }
-            faces_of.push(list);
+            for (i, f) in edit.add_faces.iter().enumerate() {
+                if f.contains(&a) && f.contains(&b) {
+                    faces_after.push((new_face_entities[i], *f));
+                }
+            }
+            ranges.push((start, faces_after.len()));
         }
 
         // Act, recording each change for the topology update.
-        let mut changes = Vec::new();
+        let mut changes =
+            Vec::with_capacity(2 * (edit.remove_faces.len() + edit.add_faces.len()) + keys.len());
         for &f in &edit.remove_faces {
             if self.world.despawn(f).is_ok() {
                 changes.push(WorldChange::DespawnFace(f));
@@ -510,7 +531,8 @@ impl Membrane {
             ..Default::default()
         };
         let mut final_edge: Vec<((Entity, Entity), Entity)> = Vec::with_capacity(keys.len());
-        for (&(a, b), list) in keys.iter().zip(&faces_of) {
+        for (&(a, b), &(start, end)) in keys.iter().zip(&ranges) {
+            let list = &faces_after[start..end];
             let existing = get_edge(&edge_entity, (a, b));
             if list.is_empty() {
                 if let Some(e) = existing
@@ -611,35 +633,30 @@ impl KeptFaces {
         })
     }
 
-    /// Whether these are the counts for removing exactly `remove_faces`.
-    pub fn removes(&self, remove_faces: &[Entity]) -> bool {
-        self.remove_faces == remove_faces
-    }
-
     /// Calls `visit(v, valence after the edit)` for every vertex of a face
-    /// that `edit` removes or adds, once each in first-seen order (removed
-    /// faces first), except the vertices it removes. A vertex's faces after
-    /// the edit are its valence (one face per neighbour in a closed fan):
-    /// the faces it keeps plus the added faces that use it. `edit` must
-    /// remove exactly these counts' faces.
+    /// that an edit removing these counts' faces removes or adds
+    /// (`add_faces`), once each in first-seen order (removed faces first),
+    /// except the vertices it removes (`remove_vertices`). A vertex's faces
+    /// after the edit are its valence (one face per neighbour in a closed
+    /// fan): the faces it keeps plus the added faces that use it.
     pub fn for_each_valence(
         &self,
         m: &Membrane,
-        edit: &PatchEdit,
+        add_faces: &[[Entity; 3]],
+        remove_vertices: &[Entity],
         mut visit: impl FnMut(Entity, usize),
     ) {
-        debug_assert!(self.removes(&edit.remove_faces));
-        let added = |v: Entity| edit.add_faces.iter().filter(|f| f.contains(&v)).count();
+        let added = |v: Entity| add_faces.iter().filter(|f| f.contains(&v)).count();
         for &(v, kept) in &self.kept {
-            if !edit.remove_vertices.contains(&v) {
+            if !remove_vertices.contains(&v) {
                 visit(v, kept + added(v));
             }
         }
         let t = m.cached_topology();
-        let corners = || edit.add_faces.iter().flatten();
+        let corners = || add_faces.iter().flatten();
         for (i, &v) in corners().enumerate() {
             let seen = self.kept.iter().any(|&(x, _)| x == v) || corners().take(i).any(|&x| x == v);
-            if seen || edit.remove_vertices.contains(&v) {
+            if seen || remove_vertices.contains(&v) {
                 continue;
             }
             let kept = t

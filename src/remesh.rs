@@ -123,35 +123,87 @@ type Quad = (
     (Entity, Entity),
 );
 
-/// The candidate for diagonal choice `bits` (bit q set: quad q takes its new
-/// diagonal), added to `base`.
-fn triangulate(quads: &[Quad], bits: u32, mut edit: PatchEdit) -> Candidate {
-    let diagonals: Vec<bool> = (0..quads.len()).map(|q| bits & (1 << q) != 0).collect();
-    let mut diagonal_edges = Vec::with_capacity(quads.len());
-    for (q, &(old, new, old_diag, new_diag)) in quads.iter().enumerate() {
-        let (faces, diag) = if diagonals[q] {
-            (new, new_diag)
-        } else {
-            (old, old_diag)
-        };
-        edit.add_faces.extend_from_slice(&faces);
-        diagonal_edges.push(diag);
+/// The candidate re-triangulations of one split or merge: the edit they
+/// share (faces removed, vertices added, removed or moved, faces added
+/// outside the quadrilaterals) and each quadrilateral's faces with its old
+/// and its new diagonal. Candidate `bits` takes quad q's new diagonal when
+/// bit q is set. Candidates are built on demand, not stored.
+#[derive(Clone, Debug)]
+pub struct Candidates {
+    base: PatchEdit,
+    quads: Vec<Quad>,
+}
+
+impl Candidates {
+    /// The number of candidates, 2^(quadrilaterals).
+    pub fn len(&self) -> usize {
+        1 << self.quads.len()
     }
-    Candidate {
-        diagonals,
-        edit,
-        diagonal_edges,
+
+    /// Always false: every split or merge has candidates.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Candidate `bits`, built in full.
+    pub fn get(&self, bits: usize) -> Candidate {
+        Candidate {
+            diagonals: self.diagonals(bits),
+            edit: self.edit(bits),
+            diagonal_edges: self.diagonal_edges(bits).collect(),
+        }
+    }
+
+    /// The edit of candidate `bits`.
+    pub fn edit(&self, bits: usize) -> PatchEdit {
+        let mut edit = self.base.clone();
+        edit.add_faces.reserve_exact(2 * self.quads.len());
+        self.push_quad_faces(bits, &mut edit.add_faces);
+        edit
+    }
+
+    /// Per quadrilateral: whether candidate `bits` takes the new diagonal.
+    pub fn diagonals(&self, bits: usize) -> Vec<bool> {
+        (0..self.quads.len())
+            .map(|q| bits & (1 << q) != 0)
+            .collect()
+    }
+
+    /// The diagonal candidate `bits` takes in each quadrilateral.
+    pub fn diagonal_edges(&self, bits: usize) -> impl Iterator<Item = (Entity, Entity)> + '_ {
+        self.quads.iter().enumerate().map(
+            move |(q, quad)| {
+                if bits & (1 << q) != 0 { quad.3 } else { quad.2 }
+            },
+        )
+    }
+
+    /// Appends the faces candidate `bits` adds inside the quadrilaterals.
+    fn push_quad_faces(&self, bits: usize, faces: &mut Vec<[Entity; 3]>) {
+        for (q, quad) in self.quads.iter().enumerate() {
+            faces.extend_from_slice(if bits & (1 << q) != 0 {
+                &quad.1
+            } else {
+                &quad.0
+            });
+        }
+    }
+
+    /// Rewrites `edit`, a copy of the shared edit, into candidate `bits`'s.
+    fn write_edit(&self, bits: usize, edit: &mut PatchEdit) {
+        edit.add_faces.truncate(self.base.add_faces.len());
+        self.push_quad_faces(bits, &mut edit.add_faces);
     }
 }
 
 /// The 16 split candidates for region `r` with new vertex `n` at `position`.
-pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3) -> Vec<Candidate> {
+pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3) -> Candidates {
     let [i1, i2] = r.i;
     let [j1, j2] = r.j;
     let [k1, k2, k3, k4] = r.k;
     // Per quadrilateral: (old-diagonal faces, new-diagonal faces, old and
     // new diagonal).
-    let quads = [
+    let quads = vec![
         (
             [[i1, n, j1], [i1, j1, k1]],
             [[n, j1, k1], [n, k1, i1]],
@@ -182,13 +234,11 @@ pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3) -> Vec<Candi
         add_vertices: vec![(n, position)],
         ..Default::default()
     };
-    (0..16)
-        .map(|bits| triangulate(&quads, bits, base.clone()))
-        .collect()
+    Candidates { base, quads }
 }
 
 /// The 4 merge candidates: i1 survives as i at `mid`, i2 is removed.
-pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candidate> {
+pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Candidates {
     let [i, i2] = r.i;
     let [j1, j2] = r.j;
     let [k1, k2, k3, k4] = r.k;
@@ -207,7 +257,7 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candida
         let tri = t.faces[f as usize].map(|v| t.vertex_entities[v as usize]);
         relabelled_add.push(tri.map(|v| if v == i2 { i } else { v }));
     }
-    let quads = [
+    let quads = vec![
         (
             [[i, j1, k1], [j1, i, k2]],
             [[k1, i, k2], [k2, j1, k1]],
@@ -228,9 +278,7 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Vec<Candida
         move_vertices: vec![(i, mid)],
         ..Default::default()
     };
-    (0..4)
-        .map(|bits| triangulate(&quads, bits, base.clone()))
-        .collect()
+    Candidates { base, quads }
 }
 
 /// A candidate's score: (valence variance, std of the diagonal lengths).
@@ -281,29 +329,30 @@ impl ValenceSums {
 /// instead of one per candidate in the usual case.
 pub fn choose(
     m: &Membrane,
-    candidates: &[Candidate],
+    candidates: &Candidates,
     valence: ValenceRange,
     position_of: impl Fn(Entity) -> DVec3,
 ) -> Result<usize, RemeshError> {
-    // The candidates of one split or merge remove the same faces: what
-    // each vertex keeps is counted once.
-    let mut kept: Option<KeptFaces> = None;
-    let mut lengths: Vec<f64> = Vec::with_capacity(4);
-    let scores: Vec<Option<(f64, f64)>> = candidates
-        .iter()
-        .map(|cand| {
-            let remove = &cand.edit.remove_faces;
-            if !kept.as_ref().is_some_and(|k| k.removes(remove)) {
-                kept = KeptFaces::of(m, remove);
-            }
+    let base = &candidates.base;
+    // The candidates remove the same faces: what each vertex keeps is
+    // counted once (`None`: a face to remove is not live).
+    let kept = KeptFaces::of(m, &base.remove_faces);
+    let mut faces: Vec<[Entity; 3]> =
+        Vec::with_capacity(base.add_faces.len() + 2 * candidates.quads.len());
+    let mut lengths: Vec<f64> = Vec::with_capacity(candidates.quads.len());
+    let scores: Vec<Option<(f64, f64)>> = (0..candidates.len())
+        .map(|bits| {
+            faces.clear();
+            faces.extend_from_slice(&base.add_faces);
+            candidates.push_quad_faces(bits, &mut faces);
             let mut valences = ValenceSums::default();
             kept.as_ref()?
-                .for_each_valence(m, &cand.edit, |_, v| valences.add(v));
+                .for_each_valence(m, &faces, &base.remove_vertices, |_, v| valences.add(v));
             lengths.clear();
             lengths.extend(
-                cand.diagonal_edges
-                    .iter()
-                    .map(|&(a, b)| position_of(a).distance(position_of(b))),
+                candidates
+                    .diagonal_edges(bits)
+                    .map(|(a, b)| position_of(a).distance(position_of(b))),
             );
             Some(score(&valences, &lengths))
         })
@@ -314,6 +363,7 @@ pub fn choose(
     };
     let mut unchecked: Vec<usize> = (0..candidates.len()).collect();
     let mut last_error: Option<(usize, EditError)> = None;
+    let mut edit = base.clone();
     while !unchecked.is_empty() {
         // The best unchecked candidate; unscored ones (a face to remove is
         // not live) are checked last, only to report their error.
@@ -330,7 +380,8 @@ pub fn choose(
         }
         let (_, k) = pick.expect("unchecked is not empty");
         let c = unchecked.remove(k);
-        match m.check_patch(&candidates[c].edit, valence) {
+        candidates.write_edit(c, &mut edit);
+        match m.validate_patch(&edit, valence, true) {
             Ok(_) => return Ok(c),
             Err(e) => {
                 if last_error.as_ref().is_none_or(|(i, _)| c > *i) {
@@ -431,8 +482,10 @@ pub fn check_feasible(
         EdgeOp::Merge => merge_candidates(m, &r, DVec3::ZERO),
     };
     let mut last_error = EditError::BrokenFan(Entity::DANGLING);
-    for c in &candidates {
-        match m.check_patch_topology(&c.edit, valence) {
+    let mut edit = candidates.base.clone();
+    for c in 0..candidates.len() {
+        candidates.write_edit(c, &mut edit);
+        match m.validate_patch(&edit, valence, false) {
             Ok(_) => return Ok(()),
             Err(e) => last_error = e,
         }
@@ -467,12 +520,12 @@ pub fn split_edge(
     let pos = |v: Entity| if v == n { mid } else { position(m, v) };
     let best = choose(m, &candidates, valence, pos)?;
     // `choose` checked the edit on this world.
-    m.apply_checked_patch(&candidates[best].edit, valence);
+    m.apply_checked_patch(&candidates.edit(best), valence);
     values.apply_split(m, [i1, i2], n);
     Ok(RemeshOutcome {
         vertex: n,
         position: mid,
-        diagonals: candidates[best].diagonals.clone(),
+        diagonals: candidates.diagonals(best),
     })
 }
 
@@ -491,12 +544,12 @@ pub fn merge_edge(
     let pos = |v: Entity| if v == i1 { mid } else { position(m, v) };
     let best = choose(m, &candidates, valence, pos)?;
     // `choose` checked the edit on this world.
-    m.apply_checked_patch(&candidates[best].edit, valence);
+    m.apply_checked_patch(&candidates.edit(best), valence);
     values.apply_merge(m, i1);
     Ok(RemeshOutcome {
         vertex: i1,
         position: mid,
-        diagonals: candidates[best].diagonals.clone(),
+        diagonals: candidates.diagonals(best),
     })
 }
 

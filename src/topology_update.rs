@@ -98,10 +98,10 @@ impl Topology {
         // 1. What the edit rewired, read from the unchanged cache: the
         // faces it removes and adds, the edges it spawns or refreshes, and
         // the corners of those faces, whose rings change.
-        let mut removed_faces = Vec::new();
-        let mut added_faces = Vec::new();
-        let mut edge_dirty: Vec<Entity> = Vec::new();
-        let mut ring_dirty: Vec<Entity> = Vec::new();
+        let mut removed_faces = Vec::with_capacity(changes.len());
+        let mut added_faces: Vec<(Entity, Face)> = Vec::with_capacity(changes.len());
+        let mut edge_dirty: Vec<Entity> = Vec::with_capacity(changes.len());
+        let mut ring_dirty: Vec<Entity> = Vec::with_capacity(2 * changes.len());
         for &c in changes {
             match c {
                 WorldChange::DespawnFace(f) => {
@@ -112,10 +112,11 @@ impl Topology {
                     }
                 }
                 WorldChange::SpawnFace(f) => {
-                    added_faces.push(f);
-                    for v in face_of(f)?.vertices {
+                    let face = face_of(f)?;
+                    for v in face.vertices {
                         insert(&mut ring_dirty, v);
                     }
+                    added_faces.push((f, face));
                 }
                 WorldChange::SpawnEdge(e) | WorldChange::UpdateEdge(e) => {
                     insert(&mut edge_dirty, e)
@@ -126,23 +127,25 @@ impl Topology {
         // The faces around each of those corners after the edit (entities):
         // its cached ring's faces, less the removed ones, plus the added
         // ones using it. A corner the edit removes gets none.
-        let mut fans: Vec<(Entity, Vec<Entity>)> = Vec::with_capacity(ring_dirty.len());
+        // fan_faces[fans[i].1..fans[i].2] for corner fans[i].0.
+        let mut fan_faces: Vec<Entity> = Vec::with_capacity(8 * ring_dirty.len());
+        let mut fans: Vec<(Entity, usize, usize)> = Vec::with_capacity(ring_dirty.len());
         for &v in &ring_dirty {
-            let mut fan: Vec<Entity> = match self.vertex_slot(v) {
-                Some(s) => self
-                    .ring_faces_of(s as usize)
-                    .iter()
-                    .map(|&f| self.face_entities[f as usize])
-                    .filter(|f| !removed_faces.contains(f))
-                    .collect(),
-                None => Vec::new(),
-            };
-            for &f in &added_faces {
-                if face_of(f)?.vertices.contains(&v) {
-                    fan.push(f);
+            let start = fan_faces.len();
+            if let Some(s) = self.vertex_slot(v) {
+                fan_faces.extend(
+                    self.ring_faces_of(s as usize)
+                        .iter()
+                        .map(|&f| self.face_entities[f as usize])
+                        .filter(|f| !removed_faces.contains(f)),
+                );
+            }
+            for (f, face) in &added_faces {
+                if face.vertices.contains(&v) {
+                    fan_faces.push(*f);
                 }
             }
-            fans.push((v, fan));
+            fans.push((v, start, fan_faces.len()));
         }
 
         // 2. Replay the moves on the dense arrays.
@@ -160,11 +163,10 @@ impl Topology {
 
         // 3. Recompute what the edit rewired.
         let vertex_slot = |t: &Topology, v: Entity| t.vertex_slot(v).ok_or(UpdateError::Unknown(v));
-        for &f in &added_faces {
+        for &(f, face) in &added_faces {
             let Some(s) = self.face_slot(f) else {
                 continue;
             };
-            let face = face_of(f)?;
             let mut corners = [0u32; 3];
             let mut face_edges = [0u32; 3];
             for k in 0..3 {
@@ -187,12 +189,12 @@ impl Topology {
             self.edge_faces[s as usize] = edge.faces.map(|f| self.face_slot(f).unwrap_or(NO_SLOT));
         }
         let mut fan: Vec<u32> = Vec::new();
-        for (v, faces_of_v) in &fans {
-            let Some(s) = self.vertex_slot(*v) else {
+        for &(v, start, end) in &fans {
+            let Some(s) = self.vertex_slot(v) else {
                 continue; // removed by the edit
             };
             fan.clear();
-            for f in faces_of_v {
+            for f in &fan_faces[start..end] {
                 fan.push(self.slot(*f).ok_or(UpdateError::Unknown(*f))?);
             }
             fan.sort_unstable();

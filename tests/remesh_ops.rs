@@ -7,7 +7,7 @@ use remembrane::components::LipidDensity;
 use remembrane::membrane::Membrane;
 use remembrane::mesh::{ValenceRange, check_mesh, icosphere};
 use remembrane::remesh::{
-    choose, edge_region, merge_candidates, merge_edge, split_candidates, split_edge,
+    Candidates, choose, edge_region, merge_candidates, merge_edge, split_candidates, split_edge,
 };
 
 const RANGE: ValenceRange = ValenceRange { min: 5, max: 8 };
@@ -48,11 +48,9 @@ fn split_options_of_a_regular_neighbourhood_match_the_hand_count() {
     let n = m.reserve_vertex();
     let candidates = split_candidates(&r, n, DVec3::ZERO);
     assert_eq!(candidates.len(), 16);
-    let mut valid: Vec<u32> = candidates
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| m.check_patch(&c.edit, RANGE).is_ok())
-        .map(|(bits, _)| bits as u32)
+    let mut valid: Vec<u32> = (0..candidates.len())
+        .filter(|&bits| m.check_patch(&candidates.edit(bits), RANGE).is_ok())
+        .map(|bits| bits as u32)
         .collect();
     valid.sort();
     assert_eq!(valid, [1, 2, 3, 4, 5, 8, 10, 12]);
@@ -105,11 +103,12 @@ fn choosing_best_first_picks_what_checking_every_candidate_picks() {
             let merge = merge_candidates(&m, &r, mid);
             let at_split = |v: hecs::Entity| if v == n { mid } else { position(v) };
             let at_merge = |v: hecs::Entity| if v == r.i[0] { mid } else { position(v) };
-            let cases: [(&[_], &dyn Fn(hecs::Entity) -> DVec3); 2] =
+            let cases: [(&Candidates, &dyn Fn(hecs::Entity) -> DVec3); 2] =
                 [(&split, &at_split), (&merge, &at_merge)];
             for (candidates, at) in cases {
                 let mut best: Option<((f64, f64), usize)> = None;
-                for (c, cand) in candidates.iter().enumerate() {
+                for c in 0..candidates.len() {
+                    let cand = candidates.get(c);
                     let unchecked = m.valences_after(&cand.edit).expect("live faces");
                     let Ok(valences) = m.check_patch(&cand.edit, range) else {
                         rejected_candidates += 1;
@@ -162,11 +161,11 @@ fn merge_options_of_a_regular_neighbourhood_match_the_hand_count() {
     let mid = 0.5 * (at(r.i[0]) + at(r.i[1]));
     let candidates = merge_candidates(&m, &r, mid);
     assert_eq!(candidates.len(), 4);
-    let valid: Vec<usize> = (0..4)
-        .filter(|&c| m.check_patch(&candidates[c].edit, RANGE).is_ok())
+    let valid: Vec<usize> = (0..candidates.len())
+        .filter(|&c| m.check_patch(&candidates.edit(c), RANGE).is_ok())
         .collect();
     assert_eq!(valid, [0]);
-    let valences = m.check_patch(&candidates[0].edit, RANGE).unwrap();
+    let valences = m.check_patch(&candidates.edit(0), RANGE).unwrap();
     assert_eq!(valences[&r.i[0]], 8);
     assert_eq!(valences[&r.j[0]], 5);
     // With a tighter range nothing is valid and the world is untouched.
