@@ -61,13 +61,19 @@ pub enum RemeshError {
     /// No re-triangulation keeps the mesh valid with valences in range.
     #[error("no valid re-triangulation (last rejection: {0})")]
     NoValidOption(EditError),
+    /// The edge slot is not one of the current topology's.
+    #[error("edge slot {0} is not an edge of the mesh")]
+    NoSuchEdge(u32),
 }
 
 /// Finds the region around edge slot `edge` of the current topology.
 pub fn edge_region(m: &Membrane, edge: u32) -> Result<EdgeRegion, RemeshError> {
     let t = m.cached_topology();
-    let [a, b] = t.edges[edge as usize];
-    let [fl, fr] = t.edge_faces[edge as usize];
+    let (Some(&[a, b]), Some(&[fl, fr])) =
+        (t.edges.get(edge as usize), t.edge_faces.get(edge as usize))
+    else {
+        return Err(RemeshError::NoSuchEdge(edge));
+    };
     let ent = |v: u32| t.vertex_entities[v as usize];
     // Apex of face f opposite the directed edge x → y.
     let apex = |f: u32, x: u32, y: u32| -> Option<u32> {

@@ -304,3 +304,22 @@ fn every_registered_field_follows_its_transfer_policy_through_splits_and_merges(
         "{splits} splits, {merges} merges"
     );
 }
+
+#[test]
+fn an_edge_slot_past_the_mesh_is_an_error_not_a_panic() {
+    use remembrane::remesh::RemeshError;
+    let mut m = membrane(2, 0.0, 1);
+    let before = m.to_mesh().unwrap();
+    let past = m.cached_topology().edges.len() as u32;
+    assert_eq!(
+        split_edge(&mut m, past, RANGE).unwrap_err(),
+        RemeshError::NoSuchEdge(past)
+    );
+    assert_eq!(
+        merge_edge(&mut m, past + 7, RANGE).unwrap_err(),
+        RemeshError::NoSuchEdge(past + 7)
+    );
+    assert_eq!(m.to_mesh().unwrap(), before);
+    // The last slot is still an edge.
+    assert!(edge_region(&m, past - 1).is_ok());
+}
