@@ -39,7 +39,7 @@ pub struct EdgeRegion {
     pub outer: [Entity; 4],
 }
 
-/// A candidate re-triangulation.
+/// A candidate re-triangulation, built in full ([`Candidates::get`]).
 #[derive(Clone, Debug)]
 pub struct Candidate {
     /// For each quadrilateral: `true` = the new diagonal (k–n or k–k).
@@ -329,10 +329,11 @@ impl ValenceSums {
 /// last rejection.
 ///
 /// Every candidate is scored from its valences after the edit, which need
-/// no check ([`KeptFaces`], as [`Membrane::valences_after`]); the candidates are then
-/// checked best first and the first valid one is taken. That is the
-/// candidate a check of every candidate would pick, for one full check
-/// instead of one per candidate in the usual case.
+/// no check ([`KeptFaces`], as [`Membrane::valences_after`]); the
+/// candidates are then checked best first and the first valid one is
+/// taken. That is the candidate a check of every candidate would pick, for
+/// one full check instead of one per candidate in the usual case. Returns
+/// the candidate's `bits` (see [`Candidates`]).
 pub fn choose(
     m: &Membrane,
     candidates: &Candidates,
