@@ -445,6 +445,7 @@ impl Membrane {
         let get_edge = |map: &[((Entity, Entity), Entity)], k: (Entity, Entity)| {
             map.iter().find(|(key, _)| *key == k).map(|&(_, e)| e)
         };
+        // Room for a patch's edges: 17 to 21 for a split, as many for a merge.
         let mut keys: Vec<(Entity, Entity)> = Vec::with_capacity(32);
         let note = |a: Entity, b: Entity, keys: &mut Vec<(Entity, Entity)>| {
             let k = key(a, b);
