@@ -23,6 +23,7 @@ use crate::mesh::ValenceRange;
 use crate::vertex_field::TransferPolicy;
 use glam::DVec3;
 use hecs::Entity;
+use std::sync::Arc;
 
 /// The vertices and faces around an edge.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -340,56 +341,71 @@ pub fn choose(
     valence: ValenceRange,
     position_of: impl Fn(Entity) -> DVec3,
 ) -> Result<usize, RemeshError> {
+    choose_checked(m, candidates, valence, position_of).map(|(bits, _)| bits)
+}
+
+/// Most quadrilaterals of a split or merge (a split has 4, a merge 2), so
+/// at most 16 candidates.
+const MAX_QUADS: usize = 4;
+
+/// [`choose`], also returning the chosen candidate's edit, checked on `m`.
+fn choose_checked(
+    m: &Membrane,
+    candidates: &Candidates,
+    valence: ValenceRange,
+    position_of: impl Fn(Entity) -> DVec3,
+) -> Result<(usize, PatchEdit), RemeshError> {
+    assert!(
+        candidates.quads.len() <= MAX_QUADS,
+        "at most {MAX_QUADS} quadrilaterals"
+    );
     let base = &candidates.base;
     // The candidates remove the same faces: what each vertex keeps is
     // counted once (`None`: a face to remove is not live).
     let kept = KeptFaces::of(m, &base.remove_faces);
     let mut faces: Vec<[Entity; 3]> =
         Vec::with_capacity(base.add_faces.len() + 2 * candidates.quads.len());
-    let mut lengths: Vec<f64> = Vec::with_capacity(candidates.quads.len());
-    let scores: Vec<Option<(f64, f64)>> = (0..candidates.len())
-        .map(|bits| {
-            faces.clear();
-            faces.extend_from_slice(&base.add_faces);
-            candidates.push_quad_faces(bits, &mut faces);
-            let mut valences = ValenceSums::default();
-            kept.as_ref()?
-                .for_each_valence(m, &faces, &base.remove_vertices, |_, v| valences.add(v));
-            lengths.clear();
-            lengths.extend(
-                candidates
-                    .diagonal_edges(bits)
-                    .map(|(a, b)| position_of(a).distance(position_of(b))),
-            );
-            Some(score(&valences, &lengths))
-        })
-        .collect();
+    let mut lengths = [0.0; MAX_QUADS];
+    let mut scores: [Option<(f64, f64)>; 1 << MAX_QUADS] = [None; 1 << MAX_QUADS];
+    for (bits, score_of) in scores.iter_mut().enumerate().take(candidates.len()) {
+        faces.clear();
+        faces.extend_from_slice(&base.add_faces);
+        candidates.push_quad_faces(bits, &mut faces);
+        let Some(kept) = &kept else { continue };
+        let mut valences = ValenceSums::default();
+        kept.for_each_valence(m, &faces, &base.remove_vertices, |_, v| valences.add(v));
+        for (l, (a, b)) in lengths.iter_mut().zip(candidates.diagonal_edges(bits)) {
+            *l = position_of(a).distance(position_of(b));
+        }
+        *score_of = Some(score(&valences, &lengths[..candidates.quads.len()]));
+    }
     // s beats the best so far (candidates taken in index order).
     let better = |s: (f64, f64), best: Option<(f64, f64)>| {
         best.is_none_or(|bs| s.0 < bs.0 - 1e-12 || (s.0 <= bs.0 + 1e-12 && s.1 < bs.1))
     };
-    let mut unchecked: Vec<usize> = (0..candidates.len()).collect();
+    // Bit c: candidate c is not checked yet.
+    let mut unchecked: u32 = (1 << candidates.len()) - 1;
     let mut last_error: Option<(usize, EditError)> = None;
     let mut edit = base.clone();
-    while !unchecked.is_empty() {
+    while unchecked != 0 {
         // The best unchecked candidate; unscored ones (a face to remove is
         // not live) are checked last, only to report their error.
         let mut pick: Option<(Option<(f64, f64)>, usize)> = None;
-        for (k, &c) in unchecked.iter().enumerate() {
+        for c in (0..candidates.len()).filter(|&c| unchecked & (1 << c) != 0) {
             let replace = match (scores[c], pick) {
                 (_, None) => true,
                 (Some(s), Some((bs, _))) => better(s, bs),
                 (None, Some(_)) => false,
             };
             if replace {
-                pick = Some((scores[c], k));
+                pick = Some((scores[c], c));
             }
         }
-        let (_, k) = pick.expect("unchecked is not empty");
-        let c = unchecked.remove(k);
+        let (_, c) = pick.expect("unchecked is not empty");
+        unchecked &= !(1 << c);
         candidates.write_edit(c, &mut edit);
         match m.validate_patch(&edit, valence, true) {
-            Ok(_) => return Ok(c),
+            Ok(_) => return Ok((c, edit)),
             Err(e) => {
                 if last_error.as_ref().is_none_or(|(i, _)| c > *i) {
                     last_error = Some((c, e));
@@ -525,9 +541,8 @@ pub fn split_edge(
     let n = m.reserve_vertex();
     let candidates = split_candidates(&r, n, mid);
     let pos = |v: Entity| if v == n { mid } else { position(m, v) };
-    let best = choose(m, &candidates, valence, pos)?;
-    // `choose` checked the edit on this world.
-    m.apply_checked_patch(&candidates.edit(best), valence);
+    let (best, edit) = choose_checked(m, &candidates, valence, pos)?;
+    m.apply_checked_patch(&edit, valence);
     values.apply_split(m, [i1, i2], n);
     Ok(RemeshOutcome {
         vertex: n,
@@ -549,9 +564,8 @@ pub fn merge_edge(
     let values = EdgeValues::read(m, [i1, i2]);
     let candidates = merge_candidates(m, &r, mid);
     let pos = |v: Entity| if v == i1 { mid } else { position(m, v) };
-    let best = choose(m, &candidates, valence, pos)?;
-    // `choose` checked the edit on this world.
-    m.apply_checked_patch(&candidates.edit(best), valence);
+    let (best, edit) = choose_checked(m, &candidates, valence, pos)?;
+    m.apply_checked_patch(&edit, valence);
     values.apply_merge(m, i1);
     Ok(RemeshOutcome {
         vertex: i1,
@@ -675,8 +689,8 @@ impl EdgeValues {
 
     /// Applies every field's split policy: (i1, i2) became (i1, n, i2).
     fn apply_split(&self, m: &mut Membrane, [i1, i2]: [Entity; 2], n: Entity) {
-        let fields = m.fields().to_vec();
-        for (f, &[a, b]) in fields.iter().zip(&self.0) {
+        for (k, &[a, b]) in self.0.iter().enumerate() {
+            let f = Arc::clone(&m.fields()[k]);
             match f.policy() {
                 TransferPolicy::Conserve => {
                     f.set(&mut m.world, n, (a + b) / 3.0);
@@ -690,8 +704,8 @@ impl EdgeValues {
 
     /// Applies every field's merge policy: (i1, i2) became `survivor`.
     fn apply_merge(&self, m: &mut Membrane, survivor: Entity) {
-        let fields = m.fields().to_vec();
-        for (f, &[a, b]) in fields.iter().zip(&self.0) {
+        for (k, &[a, b]) in self.0.iter().enumerate() {
+            let f = Arc::clone(&m.fields()[k]);
             let value = match f.policy() {
                 TransferPolicy::Conserve => a + b,
                 TransferPolicy::Interpolate => 0.5 * (a + b),
