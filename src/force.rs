@@ -158,7 +158,7 @@ pub struct ForceBuffers {
     /// The current evaluation.
     pub evaluation: ForceEvaluation,
     vertices: usize,
-    scratch: Vec<DVec3>,
+    scratch: crate::energy::penalty::SmoothingScratch,
     pending: PendingTerms,
 }
 

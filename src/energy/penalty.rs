@@ -128,40 +128,111 @@ pub fn local_tension(
     energy
 }
 
+/// Reusable buffers of [`smooth_over_rings`].
+#[derive(Clone, Debug, Default)]
+pub struct SmoothingScratch {
+    /// The other half of the ping-pong: passes alternate between it and
+    /// the force buffer.
+    other: Vec<DVec3>,
+    /// 1/(1 + valence) per vertex.
+    inverse_counts: Vec<f64>,
+}
+
 /// Averages `force` over each vertex's closed 1-ring `passes` times:
-/// f'(i) = (f(i) + Σ_j f(j)) / (1 + valence_i). `scratch` is reused.
+/// f'(i) = (f(i) + Σ_j f(j)) / (1 + valence_i). Passes alternate between
+/// `force` and a scratch buffer, so only an odd pass count copies once.
 pub fn smooth_over_rings(
     force: &mut [DVec3],
     topology: &crate::topology::Topology,
     passes: u32,
-    scratch: &mut Vec<DVec3>,
+    scratch: &mut SmoothingScratch,
 ) {
     if passes == 0 {
         return;
     }
     let n = force.len();
-    // scratch holds the previous pass in [0, n) and 1/(1 + valence) in [n, 2n).
-    scratch.clear();
-    scratch.extend_from_slice(force);
-    scratch.extend((0..n).map(|i| DVec3::splat(1.0 / (1 + topology.valence(i)) as f64)));
-    let (previous, inverse_counts) = scratch.split_at_mut(n);
-    for pass in 0..passes {
-        if pass > 0 {
-            previous.copy_from_slice(force);
-        }
+    let SmoothingScratch {
+        other,
+        inverse_counts,
+    } = scratch;
+    crate::parallel::fill_vec(inverse_counts, n, |i| {
+        1.0 / (1 + topology.valence(i)) as f64
+    });
+    if other.len() != n {
+        // Every element is written by the first pass.
+        other.clear();
+        other.resize(n, DVec3::ZERO);
+    }
+    let inverse_counts = &*inverse_counts;
+    let pass = |from: &[DVec3], to: &mut [DVec3]| {
         let average = |i: usize| {
-            let mut sum = previous[i];
+            let mut sum = from[i];
             for &j in topology.neighbours(i) {
-                sum += previous[j as usize];
+                sum += from[j as usize];
             }
             sum * inverse_counts[i]
         };
         if crate::parallel::splits(n) {
-            crate::parallel::fill(force, average);
+            crate::parallel::fill(to, average);
         } else {
-            for (i, f) in force.iter_mut().enumerate() {
-                *f = average(i);
+            for (i, t) in to.iter_mut().enumerate() {
+                *t = average(i);
             }
+        }
+    };
+    for p in 0..passes {
+        if p % 2 == 0 {
+            pass(force, other);
+        } else {
+            pass(other, force);
+        }
+    }
+    if passes % 2 == 1 {
+        force.copy_from_slice(other);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The smoothing as first written: copy the forces, average into them.
+    fn smooth_by_copies(force: &mut [DVec3], topology: &crate::topology::Topology, passes: u32) {
+        for _ in 0..passes {
+            let previous = force.to_vec();
+            for (i, f) in force.iter_mut().enumerate() {
+                let mut sum = previous[i];
+                for &j in topology.neighbours(i) {
+                    sum += previous[j as usize];
+                }
+                *f = sum * DVec3::splat(1.0 / (1 + topology.valence(i)) as f64);
+            }
+        }
+    }
+
+    #[test]
+    fn ping_pong_smoothing_has_the_bits_of_copying_for_every_pass_count() {
+        let mut membrane =
+            crate::membrane::Membrane::from_mesh(&crate::mesh::icosphere(2, 1.0), false).unwrap();
+        let topology = membrane.topology().unwrap().clone();
+        let n = topology.vertex_count();
+        let forces: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let x = ((i * 2654435761) % 1000003) as f64 / 1000003.0;
+                DVec3::new(x, (1.0 - x).sqrt(), 1.0 / (1.0 + x))
+            })
+            .collect();
+        let mut scratch = SmoothingScratch::default();
+        for passes in 0..=5 {
+            let (mut expected, mut got) = (forces.clone(), forces.clone());
+            smooth_by_copies(&mut expected, &topology, passes);
+            smooth_over_rings(&mut got, &topology, passes, &mut scratch);
+            assert!(
+                got.iter()
+                    .zip(&expected)
+                    .all(|(a, b)| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)),
+                "{passes} passes"
+            );
         }
     }
 }
