@@ -227,8 +227,8 @@ pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bo
 /// has the rounding of the serial loop it replaces. Two blocks are held at a
 /// time (2.6 MB for faces' pull-backs by default) instead of one
 /// contribution per item (6.5 MB at 81920 faces). It pays where an item's
-/// contribution costs much more than its additions (a bending pull-back, a
-/// V_in edge).
+/// contribution costs much more than its additions (a bending pull-back;
+/// not a V_in edge, whose slope lookup costs about what its additions do).
 pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     items: &[[u32; K]],
     out: &mut [O],

@@ -19,18 +19,12 @@ pub struct VinSegmentation(pub Arc<Segmentation>);
 pub struct VinForces {
     segmentation: Arc<Segmentation>,
     form: VinForm,
-    /// Per-edge (energy, end forces) of the parallel form.
-    per_edge: Vec<(f64, [DVec3; 2])>,
 }
 
 impl VinForces {
     /// A V_in system evaluating `form` on a shared segmentation.
     pub fn new(segmentation: Arc<Segmentation>, form: VinForm) -> Self {
-        Self {
-            segmentation,
-            form,
-            per_edge: Vec::new(),
-        }
+        Self { segmentation, form }
     }
 
     /// The segmentation this system uses.
@@ -42,32 +36,21 @@ impl VinForces {
 /// Σ V(l_e) over edges, adding the edge forces when `force` is given.
 /// `sample(e)` gives edge e's vector, length and segment; `v(s, l)` its
 /// V_in value and slope.
+///
+/// One thread, also on a large mesh: an edge's work (a slope lookup on the
+/// tick's samples) costs about what its two additions cost, so the form
+/// that computes edges in parallel and adds them in order (as the bending
+/// pull-back does) gained nothing. On the 40962-vertex RBC with 2 threads,
+/// where this term runs beside the others, per-tick times of the two forms
+/// were within the VM's run-to-run noise, and this one holds no per-edge
+/// buffers (1.8 MB).
 #[inline(always)]
 fn edge_loop(
     edges: &[[u32; 2]],
-    sample: impl Fn(usize) -> (DVec3, f64, usize) + Sync + Send,
-    per_edge: &mut Vec<(f64, [DVec3; 2])>,
+    sample: impl Fn(usize) -> (DVec3, f64, usize),
     mut force: Option<&mut [DVec3]>,
-    v: impl Fn(usize, f64) -> (f64, f64) + Sync + Send,
+    v: impl Fn(usize, f64) -> (f64, f64),
 ) -> f64 {
-    if let Some(force) = force
-        .as_deref_mut()
-        .filter(|_| crate::parallel::splits(edges.len()))
-    {
-        // Per-edge work in parallel, added in edge order.
-        return crate::parallel::accumulate(
-            edges,
-            force,
-            per_edge,
-            |e| {
-                let (d, l, s) = sample(e);
-                let (value, slope) = v(s, l);
-                let f = d * (slope / l);
-                (value, [f, -f])
-            },
-            |f, c| *f += c,
-        );
-    }
     let mut energy = 0.0;
     for (e, &[a, b]) in edges.iter().enumerate() {
         let (a, b) = (a as usize, b as usize);
@@ -86,7 +69,6 @@ fn edge_loop(
 impl VinForces {
     fn run(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let (edges, p, seg) = (&ctx.topology.edges, ctx.positions, &*self.segmentation);
-        let per_edge = &mut self.per_edge;
         let linear = |s: usize, l: f64| seg.linear_in(s, l);
         let exact = |_: usize, l: f64| (seg.exact(l), seg.params().derivative(l));
         // The tick's edge samples when the Gather stage measured them (the
@@ -98,8 +80,8 @@ impl VinForces {
                 (s.d, s.length, s.segment as usize)
             };
             return match self.form {
-                VinForm::PiecewiseLinear => edge_loop(edges, sample, per_edge, force, linear),
-                VinForm::Exact => edge_loop(edges, sample, per_edge, force, exact),
+                VinForm::PiecewiseLinear => edge_loop(edges, sample, force, linear),
+                VinForm::Exact => edge_loop(edges, sample, force, exact),
             };
         }
         let sample = |e: usize| {
@@ -109,8 +91,8 @@ impl VinForces {
             (d, l, seg.segment_of(l))
         };
         match self.form {
-            VinForm::PiecewiseLinear => edge_loop(edges, sample, per_edge, force, linear),
-            VinForm::Exact => edge_loop(edges, sample, per_edge, force, exact),
+            VinForm::PiecewiseLinear => edge_loop(edges, sample, force, linear),
+            VinForm::Exact => edge_loop(edges, sample, force, exact),
         }
     }
 }
