@@ -253,6 +253,37 @@ impl Membrane {
         }
     }
 
+    /// Writes dense positions and total forces back to the world's
+    /// [`Position`] and [`Force`] components in one pass over the vertices
+    /// (in parallel batches on a large mesh; each entity's components are
+    /// written by one task, so the result does not depend on the threads).
+    pub fn scatter_positions_and_forces(&mut self, positions: &[DVec3], forces: &[DVec3]) {
+        use rayon::prelude::*;
+        let slot_of = &self.topology.slot_of;
+        let write = |e: Entity, p: &mut Position, f: &mut Force| {
+            let slot = slot_of[e.id() as usize] as usize;
+            p.0 = positions[slot];
+            f.0 = forces[slot];
+        };
+        let query = self
+            .world
+            .query_mut::<(Entity, &mut Position, &mut Force)>();
+        if crate::parallel::splits(positions.len()) {
+            let batches: Vec<_> = query
+                .into_iter_batched(crate::parallel::grain() as u32)
+                .collect();
+            batches.into_par_iter().for_each(|batch| {
+                for (e, p, f) in batch {
+                    write(e, p, f);
+                }
+            });
+        } else {
+            for (e, p, f) in query {
+                write(e, p, f);
+            }
+        }
+    }
+
     /// Writes dense lipid densities back to the world (no-op without lipid).
     pub fn scatter_lipid(&mut self, density: &[f64]) {
         if !self.has_lipid {
@@ -261,14 +292,6 @@ impl Membrane {
         let t = &self.topology;
         for (e, rho) in self.world.query_mut::<(Entity, &mut LipidDensity)>() {
             rho.0 = density[t.slot_of[e.id() as usize] as usize];
-        }
-    }
-
-    /// Writes dense total forces back to the world's [`Force`] components.
-    pub fn scatter_forces(&mut self, forces: &[DVec3]) {
-        let t = &self.topology;
-        for (e, f) in self.world.query_mut::<(Entity, &mut Force)>() {
-            f.0 = forces[t.slot_of[e.id() as usize] as usize];
         }
     }
 

@@ -111,15 +111,11 @@ impl System for LangevinIntegration {
         let step = mu * dt;
         let total = &buffers.evaluation.total;
         let positions = &mut positions.0;
-        self.previous.clear();
-        self.previous.extend_from_slice(positions);
-        if crate::parallel::splits(positions.len()) {
-            crate::parallel::for_each_mut(positions, |v, p| *p += step * total[v]);
-        } else {
-            for (p, f) in positions.iter_mut().zip(total) {
-                *p += step * *f;
-            }
-        }
+        // The positions before the step become `previous` (a swap, not a
+        // copy) and the drifted positions are written over the old buffer.
+        std::mem::swap(&mut self.previous, positions);
+        let previous = &self.previous;
+        crate::parallel::fill_vec(positions, previous.len(), |v| previous[v] + step * total[v]);
         let kbt = dynamics.temperature;
         if kbt > 0.0 {
             let amplitude = (2.0 * mu * kbt * dt).sqrt();
@@ -190,8 +186,7 @@ impl System for LangevinIntegration {
                 dt,
             });
         }
-        membrane.scatter_positions(positions);
-        membrane.scatter_forces(total);
+        membrane.scatter_positions_and_forces(positions, total);
         clock.iteration += 1;
         clock.time += dt;
         Ok(())
