@@ -229,8 +229,7 @@ impl ForceBuffers {
         out.energies.resize(self.terms.len(), 0.0);
         out.term_forces.resize_with(self.terms.len(), Vec::new);
         for buf in &mut out.term_forces {
-            buf.clear();
-            buf.resize(n, DVec3::ZERO);
+            crate::parallel::fill_vec(buf, n, |_| DVec3::ZERO);
         }
     }
 
@@ -267,30 +266,35 @@ impl ForceBuffers {
         // Sized by the vertices, not the terms: with no term at all (pure
         // diffusion) the total is zero, not empty.
         let n = self.vertices;
-        out.total.clear();
-        out.total.resize(n, DVec3::ZERO);
-        out.smoothed_penalty.clear();
         let has_penalty = self.terms.iter().any(|t| t.kind == ForceKind::Penalty);
-        if has_penalty {
-            out.smoothed_penalty.resize(n, DVec3::ZERO);
-        }
         if crate::parallel::splits(n) {
-            // Per vertex, the same additions in the same term order.
+            // Per vertex, the same additions in the same term order, from
+            // zero; each sum is written once (no separate zeroing pass).
             let (terms, forces) = (&self.terms, &out.term_forces);
             let sum_into = |penalty: bool, sum: &mut Vec<DVec3>| {
-                crate::parallel::for_each_mut(sum, |v, s| {
+                crate::parallel::fill_vec(sum, n, |v| {
+                    let mut s = DVec3::ZERO;
                     for (term, buf) in terms.iter().zip(forces) {
                         if (term.kind == ForceKind::Penalty) == penalty {
-                            *s += buf[v];
+                            s += buf[v];
                         }
                     }
+                    s
                 })
             };
             sum_into(false, &mut out.total);
             if has_penalty {
                 sum_into(true, &mut out.smoothed_penalty);
+            } else {
+                out.smoothed_penalty.clear();
             }
         } else {
+            out.total.clear();
+            out.total.resize(n, DVec3::ZERO);
+            out.smoothed_penalty.clear();
+            if has_penalty {
+                out.smoothed_penalty.resize(n, DVec3::ZERO);
+            }
             Self::sum_terms(
                 &self.terms,
                 &out.term_forces,
