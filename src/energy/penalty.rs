@@ -57,21 +57,27 @@ pub fn area_penalty(
     gradient: &mut Vec<DVec3>,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    let twice_area: f64 = geometry.iter().map(|c| c.twice_area).sum();
-    let area = 0.5 * twice_area;
-    let energy = k * (area - target).powi(2) / target;
-    let Some(force) = force else {
-        return energy;
+    let energy_of = |twice_area: f64| {
+        let area = 0.5 * twice_area;
+        (area, k * (area - target).powi(2) / target)
     };
-    // ∂(2A_f)/∂p_k = n̂ × e_k with e_k the edge opposite corner k.
+    let Some(force) = force else {
+        return energy_of(geometry.iter().map(|c| c.twice_area).sum()).1;
+    };
+    // One pass over the faces sums the area and the unscaled gradient
+    // ∂(2A_f)/∂p_k = n̂ × e_k (e_k the edge opposite corner k): the face
+    // geometry, the largest per-face array, is read once.
     gradient.clear();
     gradient.resize(force.len(), DVec3::ZERO);
+    let mut twice_area = 0.0;
     for (f, c) in faces.iter().zip(geometry) {
+        twice_area += c.twice_area;
         let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
         gradient[i0] += c.n_hat.cross(c.e[0]);
         gradient[i1] += c.n_hat.cross(c.e[1]);
         gradient[i2] += c.n_hat.cross(c.e[2]);
     }
+    let (area, energy) = energy_of(twice_area);
     let g = k * (area - target) / target;
     for (f, grad) in force.iter_mut().zip(gradient.iter()) {
         *f -= g * *grad;
