@@ -227,6 +227,27 @@ pub fn vertex_curvature_terms(
     geometry: &[Corners],
     areas: &mut Vec<f64>,
     laplacians: &mut Vec<DVec3>,
+    normals: Option<&mut Vec<DVec3>>,
+    vertex_count: usize,
+) {
+    accumulate_curvature_terms(
+        faces,
+        |k| geometry[k],
+        areas,
+        laplacians,
+        normals,
+        vertex_count,
+    );
+}
+
+/// [`vertex_curvature_terms`] with each face's [`Corners`] computed from
+/// `corners(k)` as the faces are visited, in face order (the same sums,
+/// bit for bit, whether the geometry is stored or computed on the fly).
+fn accumulate_curvature_terms(
+    faces: &[[u32; 3]],
+    corners: impl Fn(usize) -> Corners,
+    areas: &mut Vec<f64>,
+    laplacians: &mut Vec<DVec3>,
     mut normals: Option<&mut Vec<DVec3>>,
     vertex_count: usize,
 ) {
@@ -238,7 +259,8 @@ pub fn vertex_curvature_terms(
         nb.clear();
         nb.resize(vertex_count, DVec3::ZERO);
     }
-    for (f, c) in faces.iter().zip(geometry) {
+    for (k, f) in faces.iter().enumerate() {
+        let c = corners(k);
         let a = c.mixed_areas();
         let l = c.laplacian();
         let (i0, i1, i2) = (f[0] as usize, f[1] as usize, f[2] as usize);
@@ -258,9 +280,14 @@ pub fn vertex_curvature_terms(
 }
 
 /// Mean-curvature vector K_i = L_i / (2 A_i) of every vertex.
+/// Each face's geometry is computed as its turn comes, not stored: a frame
+/// of a large mesh does not hold a second copy of every face's [`Corners`].
 pub fn curvature_vectors(positions: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> {
-    let (mut a, mut l, mut g) = (Vec::new(), Vec::new(), Vec::new());
-    face_geometry(positions, faces, &mut g);
-    vertex_curvature_terms(faces, &g, &mut a, &mut l, None, positions.len());
+    let (mut a, mut l) = (Vec::new(), Vec::new());
+    let corners_of = |k: usize| {
+        let (p0, p1, p2) = corners(positions, &faces[k]);
+        Corners::new(p0, p1, p2)
+    };
+    accumulate_curvature_terms(faces, corners_of, &mut a, &mut l, None, positions.len());
     l.iter().zip(&a).map(|(l, a)| *l / (2.0 * a)).collect()
 }
