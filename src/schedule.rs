@@ -472,6 +472,12 @@ pub struct SystemTiming {
     pub per_tick_us: f64,
     /// Share of the time spent in all systems.
     pub share: f64,
+    /// For a named part of a system (a force term of `force_terms`), that
+    /// system. Parts may run concurrently, so their times can overlap and
+    /// add up to more than their system's own row: the rows without
+    /// `part_of` add up to the whole time.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub part_of: Option<String>,
 }
 
 impl Schedule {
@@ -558,31 +564,36 @@ impl Schedule {
     /// Per-system timing table.
     ///
     /// A system with named parts ([`System::sub_timings`], the force terms)
-    /// is listed part by part. Shares are of the wall time of all systems;
-    /// parts that ran concurrently overlap, so theirs may add up to more
-    /// than their system's.
+    /// is listed with its own wall time, then part by part (`part_of` set).
+    /// Shares are of the wall time of all systems: the systems' rows add up
+    /// to 1; parts that ran concurrently overlap, so theirs may add up to
+    /// more than their system's.
     pub fn timings(&self) -> Vec<SystemTiming> {
         let total: f64 = self.timings.iter().map(Duration::as_secs_f64).sum();
         let ticks = self.ticks.max(1) as f64;
-        let row = |system: String, stage: Stage, t: &Duration| SystemTiming {
-            system,
-            stage: stage.name(),
-            total_s: t.as_secs_f64(),
-            per_tick_us: t.as_secs_f64() / ticks * 1e6,
-            share: if total > 0.0 {
-                t.as_secs_f64() / total
-            } else {
-                0.0
-            },
-        };
+        let row =
+            |system: String, stage: Stage, t: &Duration, part_of: Option<&str>| SystemTiming {
+                system,
+                stage: stage.name(),
+                total_s: t.as_secs_f64(),
+                per_tick_us: t.as_secs_f64() / ticks * 1e6,
+                share: if total > 0.0 {
+                    t.as_secs_f64() / total
+                } else {
+                    0.0
+                },
+                part_of: part_of.map(str::to_string),
+            };
         let mut rows = Vec::new();
         for (e, t) in self.entries.iter().zip(&self.timings) {
+            let name = e.system.name();
+            rows.push(row(name.to_string(), e.stage, t, None));
             let parts = e.system.sub_timings();
-            if parts.is_empty() {
-                rows.push(row(e.system.name().to_string(), e.stage, t));
-            } else {
-                rows.extend(parts.iter().map(|(name, d)| row(name.clone(), e.stage, d)));
-            }
+            rows.extend(
+                parts
+                    .iter()
+                    .map(|(part, d)| row(part.clone(), e.stage, d, Some(name))),
+            );
         }
         rows
     }
@@ -600,14 +611,22 @@ pub fn format_timings(timings: &[SystemTiming]) -> String {
         "system", "stage", "total s", "µs/tick", "share"
     );
     for t in timings {
+        let name = match &t.part_of {
+            Some(_) => format!("  {}", t.system),
+            None => t.system.clone(),
+        };
         s += &format!(
             "{:<24} {:<13} {:>10.3} {:>12.2} {:>6.1}%\n",
-            t.system,
+            name,
             t.stage,
             t.total_s,
             t.per_tick_us,
             100.0 * t.share
         );
+    }
+    if timings.iter().any(|t| t.part_of.is_some()) {
+        s += "(indented rows: parts of the system above them, which may run concurrently and \
+              overlap; the other rows add up to the whole)\n";
     }
     s
 }

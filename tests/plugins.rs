@@ -87,11 +87,22 @@ fn a_force_term_added_after_the_scene_is_built_moves_the_centroid_by_mu_f_t() {
     assert!((total / n - FIELD).length() < 1e-9, "{total:?}");
     drop(buffers);
     let timings = sim.schedule().unwrap().timings();
+    assert!(timings.iter().any(|t| t.system == "uniform_field"
+        && t.stage == "Forces"
+        && t.part_of.as_deref() == Some("force_terms")));
+    // The force stage has its own row; the rows that are no system's part
+    // add up to the whole time.
     assert!(
         timings
             .iter()
-            .any(|t| t.system == "uniform_field" && t.stage == "Forces")
+            .any(|t| t.system == "force_terms" && t.part_of.is_none())
     );
+    let whole: f64 = timings
+        .iter()
+        .filter(|t| t.part_of.is_none())
+        .map(|t| t.share)
+        .sum();
+    assert!((whole - 1.0).abs() < 1e-9, "shares add up to {whole}");
 }
 
 #[test]
