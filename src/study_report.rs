@@ -607,8 +607,8 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
 
 /// Time spent in the systems that step the membrane (s): every stage but
 /// Observe (frames, series rows), so scene building and output are left
-/// out. Concurrent force terms (meshes from 16384 elements on more than one
-/// thread) are counted by their own times, so there this is an upper bound.
+/// out. The force terms count through their system's own row (`part_of`
+/// rows are parts of a system and may overlap in time).
 fn systems_time(summary: &serde_json::Value) -> f64 {
     summary
         .get("timings")
@@ -616,6 +616,7 @@ fn systems_time(summary: &serde_json::Value) -> f64 {
         .map_or(f64::NAN, |t| {
             t.iter()
                 .filter(|s| s.get("stage").and_then(|x| x.as_str()) != Some("Observe"))
+                .filter(|s| s.get("part_of").is_none())
                 .map(|s| number(s, "total_s"))
                 .sum()
         })
@@ -1010,4 +1011,22 @@ pub fn write_report(report: &StudyReport, out: &Path) -> Result<(), StudyError> 
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn systems_time_counts_each_system_once_and_leaves_out_observers() {
+        let summary = serde_json::json!({"timings": [
+            {"system": "gather_state", "stage": "Gather", "total_s": 0.5},
+            {"system": "force_terms", "stage": "Forces", "total_s": 1.0},
+            {"system": "bending", "stage": "Forces", "total_s": 0.8, "part_of": "force_terms"},
+            {"system": "area", "stage": "Forces", "total_s": 0.7, "part_of": "force_terms"},
+            {"system": "frames", "stage": "Observe", "total_s": 5.0},
+        ]});
+        assert_eq!(systems_time(&summary), 1.5);
+        assert!(systems_time(&serde_json::json!({})).is_nan());
+    }
 }
