@@ -245,14 +245,6 @@ impl Membrane {
         }
     }
 
-    /// Writes dense positions back to the world's [`Position`] components.
-    pub fn scatter_positions(&mut self, positions: &[DVec3]) {
-        let t = &self.topology;
-        for (e, p) in self.world.query_mut::<(Entity, &mut Position)>() {
-            p.0 = positions[t.slot_of[e.id() as usize] as usize];
-        }
-    }
-
     /// Writes dense positions and total forces back to the world's
     /// [`Position`] and [`Force`] components in one pass over the vertices
     /// (in parallel batches on a large mesh; each entity's components are

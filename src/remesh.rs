@@ -367,17 +367,20 @@ fn choose_checked(
         Vec::with_capacity(base.add_faces.len() + 2 * candidates.quads.len());
     let mut lengths = [0.0; MAX_QUADS];
     let mut scores: [Option<(f64, f64)>; 1 << MAX_QUADS] = [None; 1 << MAX_QUADS];
-    for (bits, score_of) in scores.iter_mut().enumerate().take(candidates.len()) {
-        faces.clear();
-        faces.extend_from_slice(&base.add_faces);
-        candidates.push_quad_faces(bits, &mut faces);
-        let Some(kept) = &kept else { continue };
-        let mut valences = ValenceSums::default();
-        kept.for_each_valence(m, &faces, &base.remove_vertices, |_, v| valences.add(v));
-        for (l, (a, b)) in lengths.iter_mut().zip(candidates.diagonal_edges(bits)) {
-            *l = position_of(a).distance(position_of(b));
+    // Without the kept faces (a face to remove is not live) nothing is
+    // scored.
+    if let Some(kept) = &kept {
+        for (bits, score_of) in scores.iter_mut().enumerate().take(candidates.len()) {
+            faces.clear();
+            faces.extend_from_slice(&base.add_faces);
+            candidates.push_quad_faces(bits, &mut faces);
+            let mut valences = ValenceSums::default();
+            kept.for_each_valence(m, &faces, &base.remove_vertices, |_, v| valences.add(v));
+            for (l, (a, b)) in lengths.iter_mut().zip(candidates.diagonal_edges(bits)) {
+                *l = position_of(a).distance(position_of(b));
+            }
+            *score_of = Some(score(&valences, &lengths[..candidates.quads.len()]));
         }
-        *score_of = Some(score(&valences, &lengths[..candidates.quads.len()]));
     }
     // s beats the best so far (candidates taken in index order).
     let better = |s: (f64, f64), best: Option<(f64, f64)>| {
