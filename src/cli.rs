@@ -477,6 +477,18 @@ fn report_run(
                     summary.last.volume,
                     summary.last.reduced_volume
                 );
+                if let Some(m) = &summary.minimiser {
+                    eprintln!(
+                        "minimiser: stopped by {} (largest force {:.3e} Ē/l̄, constraint violation {:.1e}, {} restarts)",
+                        m.stopped_by, m.force_residual, m.constraint_violation, m.restarts
+                    );
+                }
+                if let Some(c) = &summary.constraints {
+                    eprintln!(
+                        "constraints: tension σ = {:.6e} Ē/l̄², pressure Δp = {:.6e} Ē/l̄³",
+                        c.reactions.tension, c.reactions.pressure
+                    );
+                }
                 eprintln!("outputs in {}", out.display());
                 let table = crate::schedule::format_timings(&summary.timings);
                 eprint!("{table}");
@@ -881,6 +893,35 @@ fn check(path: &Path) -> Result<(), String> {
         say!("    {system:?}");
     }
     say!("  penalty smoothing passes {}", scene.penalty_smoothing);
+    if let Some(c) = &scene.constraints {
+        let (area, volume) = c.targets(initial.area, initial.volume);
+        let show = |x: Option<f64>| x.map_or("free".to_string(), |x| format!("{x:.4}"));
+        let reduced = match (area, volume) {
+            (Some(a), Some(v)) => format!(
+                " (reduced volume {:.4})",
+                crate::geometry::reduced_volume(v, a)
+            ),
+            _ => String::new(),
+        };
+        say!(
+            "  constraints  area {} l̄², volume {} l̄³{reduced}, held exactly",
+            show(area),
+            show(volume)
+        );
+    }
+    match scene.dynamics.method {
+        crate::params::Method::Overdamped => say!(
+            "  dynamics     overdamped, {} iterations",
+            scene.dynamics.iterations
+        ),
+        crate::params::Method::Minimise(m) => say!(
+            "  dynamics     FIRE minimiser, at most {} iterations, until the largest force < {:e} Ē/l̄ or |ΔE|/E < {:e} over {}",
+            scene.dynamics.iterations,
+            m.force_tolerance,
+            m.energy_tolerance,
+            m.energy_window
+        ),
+    }
     say!("  control points {}", scene.control_points.len());
     Ok(())
 }

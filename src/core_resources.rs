@@ -51,3 +51,9 @@ impl Default for CheckInvariants {
         Self(cfg!(debug_assertions))
     }
 }
+
+/// Why a system asked the run to end after the current tick (`None`: it
+/// goes on to its iterations or duration). The minimiser sets it when a
+/// convergence criterion holds; the run driver reads it after every tick.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct StopRequest(pub Option<String>);

@@ -65,6 +65,21 @@ pub enum SimError {
         /// The step (s).
         dt: f64,
     },
+    /// The minimiser could not take a step without turning a face over,
+    /// even after shrinking its step to the smallest it allows.
+    #[error(
+        "minimiser stuck at iteration {iteration}: every step down to Δt = {dt:e} turned face {face} (vertices {vertices:?}) over; the mesh is too distorted for its forces (lower dynamics.method.Minimise.max_step, or start from a smoother mesh)"
+    )]
+    MinimiserStuck {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// The last step tried (fictitious time).
+        dt: f64,
+        /// Face slot that turned over.
+        face: usize,
+        /// Its vertex slots.
+        vertices: [u32; 3],
+    },
     /// An output could not be written.
     #[error("{0}")]
     Output(String),

@@ -119,8 +119,12 @@ pub struct ForceEvaluation {
     /// Sum of the penalty terms' forces after 1-ring smoothing (Ē/l̄); empty
     /// when there are no penalty terms. Included in `total`.
     pub smoothed_penalty: Vec<DVec3>,
-    /// Total force by dense slot (Ē/l̄).
+    /// Total force by dense slot (Ē/l̄). With exact constraints, their
+    /// reactions are removed from it ([`crate::constraint`]).
     pub total: Vec<DVec3>,
+    /// The exact constraints' multipliers and the area and volume they
+    /// were measured at; `None` when the scene holds no constraint.
+    pub constraint: Option<crate::constraint::ConstraintState>,
 }
 
 impl ForceEvaluation {

@@ -17,7 +17,7 @@ use crate::mesh::io::{VertexScalar, write_ply_to};
 use crate::recorder::{FrameData, PointArray, Recorder};
 use crate::resources::{Access, CheckedResources};
 use crate::schedule::DynamicSystem;
-use crate::simulation::{Clock, DensePositions, SimError};
+use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
 use std::path::{Path, PathBuf};
 use vtkio::model::{
     Attribute, Attributes, ByteOrder, DataSet, IOBuffer, Piece, PolyDataPiece, Version,
@@ -473,13 +473,17 @@ impl FrameSchedule {
 /// every recorder and writes the frame and its series row into the
 /// [`RunOutput`] resource.
 ///
-/// Stage: Observe. Reads: [`Clock`], [`Membrane`], [`DensePositions`] and
+/// Stage: Observe. Reads: [`Clock`], [`Membrane`], [`DensePositions`],
+/// [`StopRequest`] (a run asked to stop writes its final state) and
 /// whatever the recorders declare. Writes: [`RunOutput`].
 pub struct FrameWriter {
     title: String,
     schedule: FrameSchedule,
     recorders: Vec<Box<dyn Recorder>>,
     access: Access,
+    /// The iteration of the last frame written (a run that stops early
+    /// writes its final state once, even when a frame was due at it).
+    last_written: Option<u64>,
 }
 
 /// Name of the frame-writing system.
@@ -493,6 +497,7 @@ impl FrameWriter {
             .read::<Clock>()
             .read::<Membrane>()
             .read::<DensePositions>()
+            .read_optional::<StopRequest>()
             .write::<RunOutput>();
         for r in &recorders {
             access.merge(&r.access());
@@ -502,6 +507,7 @@ impl FrameWriter {
             schedule,
             recorders,
             access,
+            last_written: None,
         }
     }
 }
@@ -561,9 +567,14 @@ impl DynamicSystem for FrameWriter {
             source,
         };
         let clock = *s.get::<Clock>().map_err(err)?;
-        if !self.schedule.due(clock.iteration, clock.time) {
+        // A run that a system asked to stop (a converged minimisation)
+        // ends here: its state gets a frame, once.
+        let stopping = s.get::<StopRequest>().is_ok_and(|r| r.0.is_some());
+        let due = self.schedule.due(clock.iteration, clock.time);
+        if stopping && self.last_written == Some(clock.iteration) || !(due || stopping) {
             return Ok(());
         }
+        self.last_written = Some(clock.iteration);
         let mut data = FrameData::default();
         for r in &mut self.recorders {
             r.record(s, &mut data)?;

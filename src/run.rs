@@ -123,10 +123,40 @@ pub struct RunSummary {
     /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
+    /// How the minimisation ended (scenes with `method: Minimise` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub minimiser: Option<MinimiserSummary>,
+    /// The exact constraints at the final state: targets, area, volume and
+    /// the multipliers σ (`tension`, Ē/l̄²) and Δp (`pressure`, Ē/l̄³)
+    /// (scenes with `constraints` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub constraints: Option<crate::constraint::ConstraintState>,
     /// Frames written.
     pub frames: Vec<crate::output::FrameRecord>,
     /// Wall time per system.
     pub timings: Vec<SystemTiming>,
+}
+
+/// How a minimisation ended, in `summary.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MinimiserSummary {
+    /// `force_residual` or `energy_change` (the criterion that held), or
+    /// `iteration_cap` (neither held within `iterations`).
+    pub stopped_by: &'static str,
+    /// Whether a convergence criterion held.
+    pub converged: bool,
+    /// The largest force on a vertex at the final state, constraint
+    /// reactions removed (Ē/l̄).
+    pub force_residual: f64,
+    /// |ΔE| / |E| over the energy window at the end (absent until the
+    /// window had filled since the last restart).
+    pub energy_change: Option<f64>,
+    /// The largest relative constraint violation at the end.
+    pub constraint_violation: f64,
+    /// Restarts after topology changes.
+    pub restarts: u64,
+    /// Steps undone because they folded a face.
+    pub folds_undone: u64,
 }
 
 /// Remeshing counts in `summary.json`.
@@ -486,6 +516,9 @@ pub fn drive_run(
             stop = Some(e);
             break;
         }
+        if sim.resource::<crate::simulation::StopRequest>().0.is_some() {
+            break;
+        }
         if let Some(source) = &source
             && it.is_multiple_of(source.every)
             && it < iterations
@@ -612,7 +645,30 @@ fn summarize(
             relax_iterations: stats.relax_iterations,
             event_position_spread: stats.position_spread(),
         },
+        minimiser: minimiser_summary(sim),
+        constraints: sim
+            .resource::<crate::force::ForceBuffers>()
+            .evaluation
+            .constraint,
         frames: out.frames.clone(),
         timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),
     }
+}
+
+fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
+    let status = sim
+        .resources()
+        .get::<crate::minimise::MinimiserStatus>()
+        .ok()?;
+    let buffers = sim.resource::<crate::force::ForceBuffers>();
+    let ev = &buffers.evaluation;
+    Some(MinimiserSummary {
+        stopped_by: status.stopped_by.map_or("iteration_cap", |r| r.name()),
+        converged: status.stopped_by.is_some(),
+        force_residual: ev.total.iter().map(|f| f.length()).fold(0.0, f64::max),
+        energy_change: status.energy_change,
+        constraint_violation: ev.constraint.map_or(0.0, |c| c.violation()),
+        restarts: status.restarts,
+        folds_undone: status.folds_undone,
+    })
 }

@@ -75,6 +75,10 @@ pub struct Scene {
     /// k_BT > 0 (default none).
     #[serde(default)]
     pub edge_flips: Option<crate::params::EdgeFlipParams>,
+    /// Exact area and volume constraints held by Lagrange multipliers, in
+    /// place of the Area and Volume penalties (default none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub constraints: Option<crate::params::ConstraintParams>,
 }
 
 fn default_seed() -> u64 {
@@ -671,10 +675,119 @@ impl Scene {
                 ),
             ));
         }
+        self.validate_method(path)?;
+        self.validate_constraints(path)?;
         if self.penalty_smoothing > 64 {
             return Err(invalid(
                 "penalty_smoothing",
                 format!("must be at most 64 passes (got {})", self.penalty_smoothing),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the minimiser's settings and what it cannot do: a
+    /// minimisation has no temperature and no physical time.
+    fn validate_method(&self, path: &Path) -> Result<(), SceneError> {
+        let crate::params::Method::Minimise(m) = self.dynamics.method else {
+            return Ok(());
+        };
+        let invalid = |field: &str, reason: String| SceneError::Invalid {
+            path: path.to_owned(),
+            field: field.to_string(),
+            reason,
+        };
+        let d = &self.dynamics;
+        if d.temperature > 0.0 {
+            return Err(invalid(
+                "dynamics.temperature",
+                format!(
+                    "a minimiser finds zero-temperature equilibria (got k_BT = {}); use                      `method: Overdamped` for thermal runs",
+                    d.temperature
+                ),
+            ));
+        }
+        for (set, field) in [
+            (d.duration.is_some(), "dynamics.duration"),
+            (d.frame_time.is_some(), "dynamics.frame_time"),
+        ] {
+            if set {
+                return Err(invalid(
+                    field,
+                    "a minimisation has no physical time: bound it with `iterations` and                      space frames with `frames`"
+                        .into(),
+                ));
+            }
+        }
+        if let Some(i) = self.control_point_schedule.iter().position(|c| {
+            matches!(
+                c.when,
+                crate::systems::control_point_schedule::When::EveryTime { .. }
+            )
+        }) {
+            return Err(invalid(
+                &format!("control_point_schedule[{i}].when"),
+                "a minimisation has no physical time: schedule by iterations (`Every`)".into(),
+            ));
+        }
+        if m.energy_window == 0 {
+            return Err(invalid(
+                "dynamics.method.Minimise.energy_window",
+                "must be at least 1 iteration".into(),
+            ));
+        }
+        if m.dt_max < m.dt_start {
+            return Err(invalid(
+                "dynamics.method.Minimise.dt_max",
+                format!("must be at least dt_start ({} < {})", m.dt_max, m.dt_start),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the exact constraints against the rest of the scene.
+    fn validate_constraints(&self, path: &Path) -> Result<(), SceneError> {
+        let Some(c) = self.constraints else {
+            return Ok(());
+        };
+        let invalid = |field: &str, reason: String| SceneError::Invalid {
+            path: path.to_owned(),
+            field: field.to_string(),
+            reason,
+        };
+        if c.area.is_none() && c.volume.is_none() {
+            return Err(invalid(
+                "constraints",
+                "holds nothing: give `area`, `volume` or both".into(),
+            ));
+        }
+        if matches!(c.volume, Some(crate::params::VolumeConstraint::Reduced(_))) && c.area.is_none()
+        {
+            return Err(invalid(
+                "constraints.volume",
+                "a reduced volume is held at the area constraint's target: give `area` too".into(),
+            ));
+        }
+        for (held, kind, field) in [
+            (c.area.is_some(), "Area", "constraints.area"),
+            (c.volume.is_some(), "Volume", "constraints.volume"),
+        ] {
+            if let Some(i) = self.energy.iter().position(|t| t.kind() == kind)
+                && held
+            {
+                return Err(invalid(
+                    field,
+                    format!(
+                        "energy[{i}] is a {kind} penalty on the quantity this constraint holds                          exactly: keep one of the two"
+                    ),
+                ));
+            }
+        }
+        if self.dynamics.temperature > 0.0 {
+            return Err(invalid(
+                "constraints",
+                "exact constraints are not implemented for thermal noise (a projected Langevin                  step needs a metric correction to sample the right ensemble): use the Area and                  Volume penalties at k_BT > 0"
+                    .into(),
             ));
         }
         Ok(())
@@ -798,7 +911,13 @@ impl Scene {
                 penalty_smoothing: self.penalty_smoothing,
                 remesh: self.remesh,
             }))
-            .map_err(build_err)?
+            .map_err(build_err)?;
+        if let Some(c) = self.constraints {
+            builder
+                .add_plugin(plugins::constraints(c))
+                .map_err(|e| invalid_at("constraints".into(), e))?;
+        }
+        builder
             .add_plugin(plugins::recorders(
                 self.tube_radius.clone(),
                 self.control_points

@@ -4,7 +4,7 @@
 //! resources and the errors are re-exported here.
 
 pub use crate::core_resources::{
-    CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed,
+    CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed, StopRequest,
 };
 pub use crate::error::{BuildError, SimError};
 use crate::force::{ForceBuffers, ForceTerm, TermInfo};

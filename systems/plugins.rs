@@ -5,9 +5,10 @@
 //!
 //! | plugin | resources it inserts | systems (stage) |
 //! |---|---|---|
-//! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), `barrier_check` (BarrierCheck) |
+//! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
 //! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
 //! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
+//! | [`constraints`] | `Constraints` | `constraint_reactions` (Forces), `constraint_projection` (Integrate) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
@@ -52,7 +53,8 @@ pub struct CoreSettings {
 }
 
 /// The core of every simulation: gather, face geometry, force sum, time
-/// step, integration and barrier check, with their resources.
+/// step and integration (or, with `Method::Minimise`, the FIRE minimiser
+/// in their place) and barrier check, with their resources.
 pub fn core(settings: CoreSettings) -> impl Plugin {
     move |b: &mut SimBuilder| {
         b.insert_resource(Clock::default())
@@ -66,6 +68,7 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             .insert_resource(AbnormalEdges::default())
             .insert_resource(Seed(settings.seed))
             .insert_resource(CheckInvariants::default())
+            .insert_resource(crate::simulation::StopRequest::default())
             .persist_resource::<Clock>()
             .persist_resource::<TimeStepChoice>()
             .persist_resource::<AbnormalEdges>();
@@ -79,11 +82,23 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
         )
         .before(crate::force::FORCE_TOTAL);
         b.add_system(Stage::Forces, force_total::ForceTotal);
-        b.add_system(Stage::TimeStep, adaptive_time_step::AdaptiveTimeStep);
-        b.add_system(
-            Stage::Integrate,
-            crate::systems::langevin_integration::LangevinIntegration::default(),
-        );
+        match settings.dynamics.method {
+            crate::params::Method::Overdamped => {
+                b.add_system(Stage::TimeStep, adaptive_time_step::AdaptiveTimeStep);
+                b.add_system(
+                    Stage::Integrate,
+                    crate::systems::langevin_integration::LangevinIntegration::default(),
+                );
+            }
+            crate::params::Method::Minimise(params) => {
+                b.insert_resource(crate::minimise::MinimiserStatus::default())
+                    .persist_resource::<crate::minimise::MinimiserStatus>();
+                b.add_system(
+                    Stage::Integrate,
+                    crate::systems::fire_minimiser::FireMinimiser::new(params),
+                );
+            }
+        }
         b.add_system(Stage::BarrierCheck, BarrierCheck);
         Ok(())
     }
@@ -150,6 +165,32 @@ pub fn area(params: AreaParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
         let target = params.target.resolve(initial(b, "Area")?.area);
         b.add_force_term(AreaForces::new(params.k, target))?;
+        Ok(())
+    }
+}
+
+/// Exact area and volume constraints (targets resolved against the
+/// initial mesh): the reactions are removed from the total force after
+/// `force_total`, and the positions are projected back onto the
+/// constraints after the integrator (or minimiser) has moved them.
+pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::systems::constraint_projection::ConstraintProjection;
+        use crate::systems::constraint_reactions::ConstraintReactions;
+        let init = initial(b, "constraints")?;
+        let (area, volume) = params.targets(init.area, init.volume);
+        b.insert_resource(crate::constraint::Constraints {
+            targets: crate::constraint::ConstraintTargets { area, volume },
+            max_correction: params.max_correction,
+        });
+        b.add_system(Stage::Forces, ConstraintReactions::default())
+            .after(crate::force::FORCE_TOTAL);
+        let integrator = match b.resources().contains::<crate::minimise::MinimiserStatus>() {
+            true => crate::systems::fire_minimiser::FIRE_MINIMISER,
+            false => "langevin_integration",
+        };
+        b.add_system(Stage::Integrate, ConstraintProjection::default())
+            .after(integrator);
         Ok(())
     }
 }
@@ -272,7 +313,9 @@ pub fn edge_flips(
 }
 
 /// The built-in recorders (state columns, force, mean curvature, lipid
-/// density) and one tube-radius recorder per probe.
+/// density; the constraints' multipliers and the minimiser's progress
+/// when the [`constraints`] plugin and the minimiser were added before),
+/// and one tube-radius recorder per probe.
 pub fn recorders(
     probes: Vec<crate::tube_radius::TubeProbe>,
     named_points: Vec<(String, u32)>,
@@ -283,6 +326,12 @@ pub fn recorders(
             .add_recorder(ForceField)
             .add_recorder(MeanCurvatureField)
             .add_recorder(LipidDensityField);
+        if b.resources().contains::<crate::constraint::Constraints>() {
+            b.add_recorder(ConstraintColumns);
+        }
+        if b.resources().contains::<crate::minimise::MinimiserStatus>() {
+            b.add_recorder(MinimiserColumns);
+        }
         for probe in probes {
             b.add_recorder(TubeRadius::new(probe));
         }

@@ -9,6 +9,10 @@
 //! - [`LipidDensityField`]: point data `density` (only with lipid density).
 //! - [`TubeRadius`]: `radius_<name>` and `radius_<name>_norm` (divided by
 //!   the first frame's radius) of one tube probe.
+//! - [`ConstraintColumns`]: `tension` σ and `pressure` Δp, the exact
+//!   constraints' multipliers, and `constraint_violation`.
+//! - [`MinimiserColumns`]: `force_residual` (the largest force on a
+//!   vertex) and `energy_change` of the FIRE minimiser.
 //! - [`ControlPointForce`]: `force_<name>` and `force_<name>_x`, `_y`, `_z`,
 //!   the force one named control point's springs exert on the membrane.
 
@@ -270,6 +274,62 @@ impl Recorder for ControlPointForce {
         frame.column(format!("force_{name}_x"), force.x);
         frame.column(format!("force_{name}_y"), force.y);
         frame.column(format!("force_{name}_z"), force.z);
+        Ok(())
+    }
+}
+
+/// The exact constraints' multipliers: `tension` σ (Ē/l̄²), `pressure` Δp
+/// (Ē/l̄³) and `constraint_violation`, the largest relative violation.
+pub struct ConstraintColumns;
+
+impl Recorder for ConstraintColumns {
+    fn name(&self) -> &str {
+        "constraints"
+    }
+
+    fn access(&self) -> Access {
+        Access::default().read::<ForceBuffers>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let buffers = s.get::<ForceBuffers>().map_err(read_error("constraints"))?;
+        let c = buffers.evaluation.constraint.unwrap_or_default();
+        frame.column("tension", c.reactions.tension);
+        frame.column("pressure", c.reactions.pressure);
+        frame.column("constraint_violation", c.violation());
+        Ok(())
+    }
+}
+
+/// The minimiser's progress: `force_residual`, the largest force on a
+/// vertex of the recorded state (Ē/l̄), and `energy_change` (relative,
+/// over its window up to the previous iteration; NaN until the window
+/// has filled).
+pub struct MinimiserColumns;
+
+impl Recorder for MinimiserColumns {
+    fn name(&self) -> &str {
+        "minimiser"
+    }
+
+    fn access(&self) -> Access {
+        Access::default()
+            .read::<ForceBuffers>()
+            .read::<crate::minimise::MinimiserStatus>()
+    }
+
+    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+        let err = read_error("minimiser");
+        let buffers = s.get::<ForceBuffers>().map_err(&err)?;
+        let residual = buffers
+            .evaluation
+            .total
+            .iter()
+            .map(|f| f.length())
+            .fold(0.0, f64::max);
+        let status = s.get::<crate::minimise::MinimiserStatus>().map_err(&err)?;
+        frame.column("force_residual", residual);
+        frame.column("energy_change", status.energy_change.unwrap_or(f64::NAN));
         Ok(())
     }
 }

@@ -1,0 +1,54 @@
+//! Removes the exact constraints' reactions from the total force
+//! ([`crate::constraint::remove_reactions`]): what is left moves the shape
+//! without changing the held area and volume, and the multipliers are the
+//! tension σ and pressure Δp that hold them.
+//!
+//! Stage: Forces (after `force_total`). Reads: [`Membrane`] (faces),
+//! [`DensePositions`], [`Constraints`]. Writes: the total force and
+//! `evaluation.constraint` in [`ForceBuffers`].
+
+use crate::constraint::{ConstraintState, Constraints, Gradients, remove_reactions};
+use crate::force::ForceBuffers;
+use crate::membrane::Membrane;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{DensePositions, SimError};
+
+/// The constraint-reaction system.
+#[derive(Default)]
+pub struct ConstraintReactions {
+    gradients: Gradients,
+}
+
+/// Its name in the schedule.
+pub const CONSTRAINT_REACTIONS: &str = "constraint_reactions";
+
+impl System for ConstraintReactions {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, Constraints>,
+        ResMut<'a, ForceBuffers>,
+    );
+
+    fn name(&self) -> &str {
+        CONSTRAINT_REACTIONS
+    }
+
+    fn run(
+        &mut self,
+        (membrane, positions, constraints, mut buffers): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let g = &mut self.gradients;
+        g.measure(&positions.0, &membrane.cached_topology().faces);
+        let targets = constraints.targets;
+        let reactions = remove_reactions(g, targets, &mut buffers.evaluation.total);
+        buffers.evaluation.constraint = Some(ConstraintState {
+            targets,
+            area: g.area,
+            volume: g.volume,
+            reactions,
+        });
+        Ok(())
+    }
+}

@@ -1,0 +1,196 @@
+//! The FIRE minimiser ([`crate::minimise`]), in place of the overdamped
+//! integrator when a scene declares `dynamics: (method: Minimise(...))`.
+//!
+//! Stage: Integrate. Reads: the total force and energies in
+//! [`ForceBuffers`] (with the constraints' reactions removed when the
+//! scene holds any), [`RemeshStats`] and [`FlipStats`] when present (a
+//! change in their counts is a topology change: FIRE restarts from rest).
+//! Writes: [`DensePositions`], the world's `Position` and `Force` (in
+//! [`Membrane`]), [`Clock`] (iterations; simulated time stays 0),
+//! [`TimeStepChoice`] (FIRE's step, for the `dt` column),
+//! [`MinimiserStatus`] and, once a convergence criterion holds,
+//! [`StopRequest`] (the state is then left where it is).
+//!
+//! A step that turns a face over or the membrane inside out is undone: the
+//! step is halved and FIRE restarts from rest. Below a millionth of the
+//! first step the run stops with [`SimError::MinimiserStuck`].
+
+use crate::force::ForceBuffers;
+use crate::membrane::Membrane;
+use crate::minimise::{Fire, MinimiserStatus, StopReason};
+use crate::params::MinimiserParams;
+use crate::remesh::RemeshStats;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
+use crate::systems::edge_flips::FlipStats;
+use crate::systems::langevin_integration::check_step;
+use crate::timestep::{Limiter, TimeStepChoice};
+use std::collections::VecDeque;
+
+/// The smallest step tried after folds, as a fraction of the first.
+const SMALLEST_RETRY: f64 = 1e-6;
+
+/// The minimiser system.
+pub struct FireMinimiser {
+    params: MinimiserParams,
+    state: SavedFire,
+    previous: Vec<glam::DVec3>,
+}
+
+/// What carries from one iteration to the next (checkpointed).
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+struct SavedFire {
+    fire: Option<Fire>,
+    /// Remesh successes plus accepted flips when FIRE last stepped.
+    edits_seen: u64,
+    /// Total energies since the last restart, the newest last (at most
+    /// `energy_window` + 1).
+    energies: VecDeque<f64>,
+}
+
+impl FireMinimiser {
+    /// A minimiser with `params`.
+    pub fn new(params: MinimiserParams) -> Self {
+        Self {
+            params,
+            state: SavedFire::default(),
+            previous: Vec::new(),
+        }
+    }
+}
+
+/// Its name in the schedule.
+pub const FIRE_MINIMISER: &str = "fire_minimiser";
+
+impl System for FireMinimiser {
+    type Data<'a> = (
+        Res<'a, ForceBuffers>,
+        Option<Res<'a, RemeshStats>>,
+        Option<Res<'a, FlipStats>>,
+        ResMut<'a, DensePositions>,
+        ResMut<'a, Membrane>,
+        ResMut<'a, Clock>,
+        ResMut<'a, TimeStepChoice>,
+        ResMut<'a, MinimiserStatus>,
+        ResMut<'a, StopRequest>,
+    );
+
+    fn name(&self) -> &str {
+        FIRE_MINIMISER
+    }
+
+    fn run(
+        &mut self,
+        (
+            buffers,
+            remesh,
+            flips,
+            mut positions,
+            mut membrane,
+            mut clock,
+            mut time_step,
+            mut status,
+            mut stop,
+        ): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let p = &self.params;
+        let ev = &buffers.evaluation;
+        let n = positions.0.len();
+        let edits = remesh.map_or(0, |s| s.successes()) + flips.map_or(0, |s| s.accepted);
+        let s = &mut self.state;
+        let fire = match &mut s.fire {
+            Some(f) if f.velocity.len() == n && s.edits_seen == edits => f,
+            fire => {
+                if fire.is_some() {
+                    status.restarts += 1;
+                }
+                s.energies.clear();
+                s.edits_seen = edits;
+                fire.insert(Fire::new(n, p))
+            }
+        };
+        // Convergence of the state the forces were evaluated at.
+        let residual = ev.total.iter().map(|f| f.length()).fold(0.0, f64::max);
+        let energy = ev.total_energy();
+        s.energies.push_back(energy);
+        while s.energies.len() > p.energy_window as usize + 1 {
+            s.energies.pop_front();
+        }
+        let change = (s.energies.len() == p.energy_window as usize + 1).then(|| {
+            let first = s.energies.front().copied().unwrap_or(energy);
+            (energy - first).abs() / energy.abs().max(f64::MIN_POSITIVE)
+        });
+        let violation = ev.constraint.map_or(0.0, |c| c.violation());
+        status.force_residual = residual;
+        status.energy = energy;
+        status.energy_change = change;
+        status.constraint_violation = violation;
+        let held = violation <= p.constraint_tolerance;
+        let reason = if held && residual <= p.force_tolerance {
+            Some(StopReason::ForceResidual)
+        } else if held
+            && p.energy_tolerance > 0.0
+            && change.is_some_and(|c| c <= p.energy_tolerance)
+        {
+            Some(StopReason::EnergyChange)
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
+            status.stopped_by = Some(reason);
+            stop.0 = Some(format!("minimiser converged ({})", reason.name()));
+            return Ok(());
+        }
+        let positions = &mut positions.0;
+        self.previous.clone_from(positions);
+        loop {
+            fire.step(positions, &ev.total, p);
+            if let Some(v) = positions.iter().position(|x| !x.is_finite()) {
+                return Err(SimError::BlowUp {
+                    iteration: clock.iteration + 1,
+                    quantity: "position",
+                    term: FIRE_MINIMISER.into(),
+                    element: format!("vertex {v}"),
+                    value: format!("{:?}", positions[v]),
+                });
+            }
+            let faces = &membrane.cached_topology().faces;
+            let (turned, volume) = check_step(faces, &self.previous, positions);
+            if turned.is_none() && volume > 0.0 {
+                break;
+            }
+            // Undo, halve the step and start again from rest.
+            positions.copy_from_slice(&self.previous);
+            status.folds_undone += 1;
+            let dt = 0.5 * fire.dt;
+            if dt < SMALLEST_RETRY * p.dt_start {
+                let face = turned.unwrap_or(0);
+                return Err(SimError::MinimiserStuck {
+                    iteration: clock.iteration + 1,
+                    dt,
+                    face,
+                    vertices: faces.get(face).copied().unwrap_or_default(),
+                });
+            }
+            fire.restart(n, p);
+            fire.dt = dt;
+        }
+        membrane.scatter_positions_and_forces(positions, &ev.total);
+        clock.iteration += 1;
+        *time_step = TimeStepChoice {
+            dt: fire.last_step,
+            limiter: Limiter::Cap,
+        };
+        Ok(())
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        serde_json::to_value(&self.state).ok()
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        self.state = serde_json::from_value(state).map_err(|e| e.to_string())?;
+        Ok(())
+    }
+}
