@@ -163,38 +163,108 @@ pub struct Projection {
 }
 
 /// Relative violation below which [`project`] stops.
-const PROJECTION_TOLERANCE: f64 = 1e-13;
+const PROJECTION_TOLERANCE: f64 = 1e-12;
 /// Most Gauss-Newton steps of one projection.
 const PROJECTION_STEPS: u32 = 8;
 
-/// Moves `positions` onto A = A_t, V = V_t by Gauss-Newton steps along ∇A
-/// and ∇V, none moving a vertex by more than `max_correction` (l̄): a
-/// target farther away is approached by one scaled step per call.
-/// `scratch` holds the gradients.
+/// Area and volume only (the check between Gauss-Newton steps), summed as
+/// in [`Gradients::measure`].
+fn area_and_volume(positions: &[DVec3], faces: &[[u32; 3]]) -> (f64, f64) {
+    let origin = positions.first().copied().unwrap_or(DVec3::ZERO);
+    let (mut twice_area, mut six_volume) = (0.0, 0.0);
+    for f in faces {
+        let [a, b, c] = f.map(|v| positions[v as usize]);
+        twice_area += (b - a).cross(c - a).length();
+        six_volume += (a - origin).dot((b - origin).cross(c - origin));
+    }
+    (0.5 * twice_area, six_volume / 6.0)
+}
+
+/// Reusable buffers of [`project`].
+#[derive(Clone, Debug, Default)]
+pub struct ProjectionScratch {
+    gradients: Gradients,
+    /// The correction directions: ∇A and ∇V averaged over 1-rings.
+    directions: [Vec<DVec3>; 2],
+    smoothing: crate::energy::penalty::SmoothingScratch,
+}
+
+/// Solves M c = r for the active constraints, M_ij = g_i · d_j, with a
+/// relative Tikhonov term of 1e-12 against a singular pair (a sphere).
+fn solve_directions(
+    g: [&[DVec3]; 2],
+    d: [&[DVec3]; 2],
+    t: ConstraintTargets,
+    r: [f64; 2],
+) -> [f64; 2] {
+    let m = |i: usize, j: usize| dot(g[i], d[j]);
+    match (t.area.is_some(), t.volume.is_some()) {
+        (false, false) => [0.0, 0.0],
+        (true, false) => [r[0] / nonzero(m(0, 0)), 0.0],
+        (false, true) => [0.0, r[1] / nonzero(m(1, 1))],
+        (true, true) => {
+            let (a, b, c, e) = (m(0, 0), m(0, 1), m(1, 0), m(1, 1));
+            // Scale rows and columns to unit diagonal before regularising.
+            let (sa, se) = (nonzero(a.abs()).sqrt(), nonzero(e.abs()).sqrt());
+            let (a, b, c, e) = (a / (sa * sa), b / (sa * se), c / (se * sa), e / (se * se));
+            let (a, e) = (a + 1e-12 * a.signum(), e + 1e-12 * e.signum());
+            let (ra, re) = (r[0] / sa, r[1] / se);
+            let det = a * e - b * c;
+            [(e * ra - b * re) / det / sa, (a * re - c * ra) / det / se]
+        }
+    }
+}
+
+fn nonzero(x: f64) -> f64 {
+    if x == 0.0 { f64::MIN_POSITIVE } else { x }
+}
+
+/// Moves `positions` onto A = A_t, V = V_t by Gauss-Newton steps
+/// Δx = c_A d_A + c_V d_V with c solving ∇C·Δx = −C. The directions d are
+/// ∇A and ∇V averaged `smoothing` times over closed 1-rings: the exact
+/// gradients carry the discrete curvature's vertex-to-vertex noise, and a
+/// large correction along them (a target approached from afar) wrinkles
+/// the mesh; smoothed directions reach the same targets (the steps solve
+/// with the exact gradients) without the noise. No step moves a vertex by
+/// more than `max_correction` (l̄): a target farther away is approached by
+/// one scaled step per call. Between steps only A and V are measured.
 pub fn project(
     positions: &mut [DVec3],
-    faces: &[[u32; 3]],
+    topology: &crate::topology::Topology,
     t: ConstraintTargets,
     max_correction: f64,
-    scratch: &mut Gradients,
+    smoothing: u32,
+    scratch: &mut ProjectionScratch,
 ) -> Projection {
+    let faces = &topology.faces;
     let mut out = Projection::default();
-    for _ in 0..PROJECTION_STEPS {
-        scratch.measure(positions, faces);
-        let r = [
-            t.area.map_or(0.0, |a| a - scratch.area),
-            t.volume.map_or(0.0, |v| v - scratch.volume),
-        ];
-        let held = |r: f64, target: Option<f64>| {
-            target.is_none_or(|x| r.abs() <= PROJECTION_TOLERANCE * x.abs())
-        };
-        if held(r[0], t.area) && held(r[1], t.volume) {
-            break;
+    let held = |r: f64, target: Option<f64>| {
+        target.is_none_or(|x| r.abs() <= PROJECTION_TOLERANCE * x.abs())
+    };
+    let residual = |(area, volume): (f64, f64)| {
+        [
+            t.area.map_or(0.0, |a| a - area),
+            t.volume.map_or(0.0, |v| v - volume),
+        ]
+    };
+    let mut r = residual(area_and_volume(positions, faces));
+    while out.steps < PROJECTION_STEPS && !(held(r[0], t.area) && held(r[1], t.volume)) {
+        let ProjectionScratch {
+            gradients: g,
+            directions: [da, dv],
+            smoothing: smoothing_scratch,
+        } = scratch;
+        g.measure(positions, faces);
+        da.clone_from(&g.area_gradient);
+        dv.clone_from(&g.volume_gradient);
+        if smoothing > 0 {
+            use crate::energy::penalty::smooth_over_rings;
+            smooth_over_rings(da, topology, smoothing, smoothing_scratch);
+            smooth_over_rings(dv, topology, smoothing, smoothing_scratch);
         }
-        let c = solve(scratch, t, r);
-        let (ga, gv) = (&scratch.area_gradient, &scratch.volume_gradient);
+        let c = solve_directions([&g.area_gradient, &g.volume_gradient], [da, dv], t, r);
         let largest = (0..positions.len())
-            .map(|i| (c[0] * ga[i] + c[1] * gv[i]).length())
+            .map(|i| (c[0] * da[i] + c[1] * dv[i]).length())
             .fold(0.0, f64::max);
         let scale = if largest > max_correction {
             out.limited = true;
@@ -203,12 +273,13 @@ pub fn project(
             1.0
         };
         for (i, p) in positions.iter_mut().enumerate() {
-            *p += scale * (c[0] * ga[i] + c[1] * gv[i]);
+            *p += scale * (c[0] * da[i] + c[1] * dv[i]);
         }
         out.steps += 1;
         if out.limited {
             break;
         }
+        r = residual(area_and_volume(positions, faces));
     }
     out
 }
@@ -221,4 +292,6 @@ pub struct Constraints {
     pub targets: ConstraintTargets,
     /// Largest displacement of any vertex by one tick's projection (l̄).
     pub max_correction: f64,
+    /// Passes of 1-ring averaging of the projection's directions.
+    pub smoothing: u32,
 }

@@ -655,7 +655,10 @@ fn summarize(
     }
 }
 
-fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
+/// How the minimisation of `sim` stands (`None` unless it runs the
+/// minimiser): the largest force and constraint violation of the last
+/// force evaluation, the rest from its [`crate::minimise::MinimiserStatus`].
+pub fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
     let status = sim
         .resources()
         .get::<crate::minimise::MinimiserStatus>()

@@ -77,7 +77,7 @@ pub struct Scene {
     pub edge_flips: Option<crate::params::EdgeFlipParams>,
     /// Exact area and volume constraints held by Lagrange multipliers, in
     /// place of the Area and Volume penalties (default none).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub constraints: Option<crate::params::ConstraintParams>,
 }
 

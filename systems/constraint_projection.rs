@@ -9,7 +9,7 @@
 //! [`Membrane`]). A non-finite position stops the run with a blow-up error
 //! naming the vertex.
 
-use crate::constraint::{Constraints, Gradients, project};
+use crate::constraint::{Constraints, ProjectionScratch, project};
 use crate::force::ForceBuffers;
 use crate::membrane::Membrane;
 use crate::resources::{Res, ResMut};
@@ -19,7 +19,7 @@ use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
 /// The constraint-projection system.
 #[derive(Default)]
 pub struct ConstraintProjection {
-    gradients: Gradients,
+    scratch: ProjectionScratch,
 }
 
 impl System for ConstraintProjection {
@@ -43,13 +43,13 @@ impl System for ConstraintProjection {
         if stop.0.is_some() {
             return Ok(());
         }
-        let faces = &membrane.cached_topology().faces;
         let done = project(
             &mut positions.0,
-            faces,
+            membrane.cached_topology(),
             constraints.targets,
             constraints.max_correction,
-            &mut self.gradients,
+            constraints.smoothing,
+            &mut self.scratch,
         );
         if done.steps == 0 {
             return Ok(());

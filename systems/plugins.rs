@@ -182,6 +182,7 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
         b.insert_resource(crate::constraint::Constraints {
             targets: crate::constraint::ConstraintTargets { area, volume },
             max_correction: params.max_correction,
+            smoothing: params.smoothing,
         });
         b.add_system(Stage::Forces, ConstraintReactions::default())
             .after(crate::force::FORCE_TOTAL);

@@ -70,7 +70,7 @@ impl VinForces {
     fn run(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let (edges, p, seg) = (&ctx.topology.edges, ctx.positions, &*self.segmentation);
         let linear = |s: usize, l: f64| seg.linear_in(s, l);
-        let exact = |_: usize, l: f64| (seg.exact(l), seg.params().derivative(l));
+        let exact = |_: usize, l: f64| seg.exact_and_slope(l);
         // The tick's edge samples when the Gather stage measured them (the
         // same vectors, lengths and segments this would compute).
         let samples = ctx.edge_samples;

@@ -239,3 +239,58 @@ fn the_bundled_rbc_protocol_checks() {
     assert_eq!(loaded.scenes[1].0.name, "red_blood_cell_stiff");
     assert_eq!(loaded.scenes[1].0.dynamics.iterations, 25000);
 }
+
+/// A protocol relaxes with the minimiser, then runs dynamics from the
+/// equilibrium (the bundled `minimise_then_dynamics.ron`, its dynamics
+/// phase shortened): the stiff-penalty dynamics, whose targets are the
+/// minimiser's constraints, keeps the shape.
+#[test]
+fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let bundled = scenes.join("protocols/minimise_then_dynamics.ron");
+    let loaded = remembrane::protocol::Protocol::load(&bundled).unwrap();
+    assert!(matches!(
+        loaded.scenes[0].0.dynamics.method,
+        remembrane::params::Method::Minimise(_)
+    ));
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let protocol = write(
+        d,
+        "relax.ron",
+        &format!(
+            r#"Protocol(
+    name: "relax",
+    phases: [
+        (name: "minimise", scene: "{}"),
+        (name: "dynamics", scene: "{}", start: Previous, iterations: 300),
+    ],
+)"#,
+            scenes.join("minimise/red_blood_cell.ron").display(),
+            scenes.join("red_blood_cell_stiff.ron").display()
+        ),
+    );
+    let out = d.join("out");
+    let out_s = out.display().to_string();
+    assert_eq!(
+        cli(&[&"run", &protocol, &"--out", &out_s, &"--quiet"]),
+        ExitCode::SUCCESS
+    );
+    let summary = |phase: &str| -> serde_json::Value {
+        serde_json::from_slice(&bytes(out.join(phase).join("summary.json"))).unwrap()
+    };
+    let (relaxed, moved) = (summary("minimise"), summary("dynamics"));
+    assert_eq!(relaxed["minimiser"]["converged"], true);
+    let bending = |s: &serde_json::Value| {
+        s["energies"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["term"] == "bending")
+            .unwrap()["energy"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!((moved["reduced_volume"].as_f64().unwrap() - 0.6).abs() < 0.01);
+    assert!((bending(&moved) / bending(&relaxed) - 1.0).abs() < 0.02);
+}

@@ -311,6 +311,118 @@ impl PySimulation {
         }
     }
 
+    /// Minimises the energy with the FIRE minimiser (`dynamics.method:
+    /// Minimise`) until a convergence criterion holds or `max_iterations`
+    /// more iterations (default: the scene's `iterations`) have run; the
+    /// state stays at the result. Remeshing, flips, constraints and
+    /// Python force terms take part as in a run.
+    ///
+    /// Keyword settings (`force_tolerance=`, `energy_tolerance=`,
+    /// `energy_window=`, `constraint_tolerance=`, `max_step=`, `dt_start=`,
+    /// `dt_max=`) override the scene's minimiser settings. A scene whose
+    /// method is `Overdamped` is switched to the minimiser; both need a
+    /// simulation that has not stepped yet.
+    ///
+    /// Returns a dict: `stopped_by` (`force_residual`, `energy_change` or
+    /// `iteration_cap`), `converged`, `iterations` (in all),
+    /// `force_residual` (Ē/l̄), `energy_change`, `constraint_violation`,
+    /// `restarts`, `folds_undone`, `energy` (Ē) and, with constraints,
+    /// `tension` σ (Ē/l̄²) and `pressure` Δp (Ē/l̄³).
+    #[pyo3(signature = (max_iterations=None, **settings))]
+    fn minimise<'py>(
+        &self,
+        py: Python<'py>,
+        max_iterations: Option<u64>,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        use remembrane::params::Method;
+        let mut guard = self.lock()?;
+        let inner = &mut *guard;
+        if inner.ran {
+            return Err(simulation_error(
+                "this simulation has done its run(); build a new Simulation to minimise",
+            ));
+        }
+        let mut changes = serde_json::Map::new();
+        for (k, v) in settings.into_iter().flat_map(|d| d.iter()) {
+            changes.insert(k.extract()?, crate::convert::py_to_json(&v)?);
+        }
+        let current = inner.scene.scene.dynamics.method;
+        if !changes.is_empty() || !matches!(current, Method::Minimise(_)) {
+            let done = inner.run.sim.clock().iteration;
+            if done > 0 {
+                return Err(simulation_error(format!(
+                    "minimise(): this simulation has stepped {done} iterations of its {} \
+                     method; changing the method or its settings needs a new Simulation (or a \
+                     scene with `dynamics: (method: Minimise(...))`)",
+                    if matches!(current, Method::Minimise(_)) {
+                        "minimiser"
+                    } else {
+                        "overdamped"
+                    }
+                )));
+            }
+            let params = match current {
+                Method::Minimise(p) => p,
+                Method::Overdamped => Default::default(),
+            };
+            let mut value = serde_json::to_value(params).map_err(simulation_error)?;
+            if let Some(map) = value.as_object_mut() {
+                map.extend(changes);
+            }
+            let changed = remembrane::scene_override::set_parameters(
+                &inner.scene.scene,
+                &inner.scene.path,
+                &[(
+                    "dynamics.method".to_string(),
+                    serde_json::json!({ "Minimise": value }),
+                )],
+            )
+            .map_err(|e| scene_error(py, &e))?;
+            inner.scene = PyScene {
+                scene: changed,
+                path: inner.scene.path.clone(),
+            };
+            inner.rebuild(py)?;
+        }
+        let cap = max_iterations.unwrap_or(inner.scene.scene.dynamics.iterations);
+        inner.errors.take();
+        let sim = &mut inner.run.sim;
+        let errors = inner.errors.clone();
+        let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
+            let start = sim.clock().iteration;
+            while sim.clock().iteration - start < cap {
+                sim.tick()?;
+                let done = sim
+                    .resource::<remembrane::simulation::StopRequest>()
+                    .0
+                    .is_some();
+                if done || stop() || errors.interrupted() {
+                    break;
+                }
+            }
+            sim.evaluate_forces().map(|_| ())
+        });
+        if let Some(e) = raised {
+            return Err(e);
+        }
+        result.map_err(|e| inner.step_error(e))?;
+        let sim = &inner.run.sim;
+        let summary = remembrane::run::minimiser_summary(sim)
+            .ok_or_else(|| simulation_error("the minimiser is not part of this simulation"))?;
+        let mut value = serde_json::to_value(&summary).map_err(simulation_error)?;
+        let buffers = sim.resource::<ForceBuffers>();
+        if let Some(map) = value.as_object_mut() {
+            map.insert("iterations".into(), sim.clock().iteration.into());
+            map.insert("energy".into(), buffers.evaluation.total_energy().into());
+            if let Some(c) = buffers.evaluation.constraint {
+                map.insert("tension".into(), c.reactions.tension.into());
+                map.insert("pressure".into(), c.reactions.pressure.into());
+            }
+        }
+        json_to_py(py, &value)
+    }
+
     /// Simulated time (s).
     #[getter]
     fn time(&self) -> PyResult<f64> {
