@@ -216,6 +216,18 @@ pub struct AxisymmetricShape {
     pub is_constrained_minimum: bool,
     /// Newton iterations spent at this resolution (after continuation).
     pub newton_iterations: usize,
+    /// Pressure difference Δp = p_in − p_out that holds the volume (units
+    /// of `κ / R0³`): Δp = ∂E/∂V at fixed area, from the volume
+    /// constraint's multiplier λ_v (`𝓛 = E + λ_r r_N + λ_v (v(ψ) − v)`, so
+    /// dE/dv = −λ_v and Δp = −λ_v · 3/(4π)). 0 at `v = 1`, where the volume
+    /// is not constrained (a sphere under bending alone needs no pressure).
+    pub pressure: f64,
+    /// Tension σ that holds the area (units of `κ / R0²`). The bending
+    /// energy is scale-invariant, so a uniform dilation changes nothing:
+    /// 2σA = 3ΔpV, σ = Δp · v / 2. With these signs the equilibrium is
+    /// −∇E = σ∇A − Δp∇V, the convention of the engine's constraints
+    /// ([`crate::constraint`]).
+    pub tension: f64,
 }
 
 /// A Richardson-extrapolated quantity with an error bar.
@@ -886,6 +898,14 @@ fn finish(problem: Problem, v: f64, sol: &Solution) -> Result<AxisymmetricShape,
         .hessian(&sol.x, &sol.lambda)
         .ok_or_else(|| SolveError::NotConverged("Hessian left the valid domain".into()))?;
     let min_eig = tangent_min_eigenvalue(&hess, &kkt.jacobian) / h;
+    // The volume constraint's multiplier is the second (the first closes
+    // the curve); there is none at v = 1.
+    let lambda_v = if problem.constraint_count() == 2 {
+        sol.lambda[1]
+    } else {
+        0.0
+    };
+    let pressure = -lambda_v * 3.0 / (4.0 * PI);
     Ok(AxisymmetricShape {
         reduced_volume: v,
         energy_over_8pi_kappa: ev.energy / (8.0 * PI),
@@ -904,6 +924,8 @@ fn finish(problem: Problem, v: f64, sol: &Solution) -> Result<AxisymmetricShape,
         min_tangent_hessian_eigenvalue: min_eig,
         is_constrained_minimum: min_eig > 0.0,
         newton_iterations: sol.iterations,
+        pressure,
+        tension: pressure * v / 2.0,
     })
 }
 
@@ -1130,6 +1152,33 @@ mod tests {
     use super::*;
     use std::sync::OnceLock;
     use std::time::Instant;
+
+    /// The reported pressure is the thermodynamic one: Δp = ∂E/∂V at fixed
+    /// area, checked against central differences of the minimal energy in
+    /// v (an envelope-theorem check, independent of the multiplier's sign
+    /// convention), and the tension obeys the dilation identity
+    /// 2σA = 3ΔpV. On the sphere (v = 1, bending alone) both vanish: the
+    /// Laplace relation Δp = 2σ/R holds as 0 = 0.
+    #[test]
+    fn the_multipliers_are_the_pressure_and_tension_that_hold_the_shape() {
+        let n = 200;
+        for v in [0.6, 0.8] {
+            let dv = 1e-4;
+            let shape = solve(v, n).unwrap();
+            let e = |v: f64| solve(v, n).unwrap().energy_over_8pi_kappa * 8.0 * PI;
+            let de_dv = (e(v + dv) - e(v - dv)) / (2.0 * dv);
+            let fd_pressure = de_dv * 3.0 / (4.0 * PI);
+            assert!(
+                (shape.pressure - fd_pressure).abs() < 1e-5 * fd_pressure.abs().max(1.0),
+                "v = {v}: Δp = {} against ∂E/∂V = {fd_pressure}",
+                shape.pressure
+            );
+            let (a, vol) = (shape.area, shape.volume);
+            assert!((2.0 * shape.tension * a - 3.0 * shape.pressure * vol).abs() < 1e-6);
+        }
+        let sphere = solve(1.0, n).unwrap();
+        assert_eq!((sphere.pressure, sphere.tension), (0.0, 0.0));
+    }
 
     fn converged_cached(v: f64) -> &'static ConvergedShape {
         static V060: OnceLock<ConvergedShape> = OnceLock::new();
