@@ -261,15 +261,7 @@ fn the_bundled_red_blood_cell_minimises_to_a_discocyte_at_v_0_6() {
     let area = s["area"].as_f64().unwrap();
     assert!((v - 0.6).abs() < 1e-4, "v = {v}");
     assert!((area / 553.0 - 1.0).abs() < 1e-4, "A = {area}");
-    let bending = s["energies"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|e| e["term"] == "bending")
-        .unwrap()["energy"]
-        .as_f64()
-        .unwrap();
-    let reduced = bending / (8.0 * std::f64::consts::PI * 5.0);
+    let reduced = common::term_energy(&s, "bending") / (8.0 * std::f64::consts::PI * 5.0);
     assert!(
         (reduced / 1.95568 - 1.0).abs() < 0.02,
         "E_b/8πκ = {reduced}"
@@ -413,4 +405,39 @@ fn impossible_minimiser_and_constraint_settings_are_refused() {
         message.contains("constraints.area") && message.contains("energy[1]"),
         "{message}"
     );
+}
+
+/// Control points and springs under the minimiser: a vesicle held at its
+/// area and volume and pulled by two named points on opposite sides. The
+/// constraints' reactions carry no net force (∇A and ∇V sum to zero over
+/// the vertices), so at equilibrium the two spring forces balance.
+#[test]
+fn springs_pulling_a_constrained_vesicle_balance_at_equilibrium() {
+    let scene = scene_from(
+        "Scene(
+            membrane: Icosphere(level: 2),
+            energy: [Bending(kappa: 1.0), Springs(stiffness: 0.5, coupling: Centroid)],
+            control_points: [
+                (position: (-4.5, 0.0, 0.0), name: Some(\"left\")),
+                (position: (5.0, 0.0, 0.0), name: Some(\"right\")),
+            ],
+            constraints: (area: OfInitial(1.0), volume: OfInitial(1.0)),
+            dynamics: (method: Minimise(force_tolerance: 1e-6), iterations: 20000, frames: 1),
+        )",
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("pulled");
+    run_scene(
+        &scene,
+        Path::new("pulled.ron"),
+        &common::quiet_options(&out),
+        |_| Ok(()),
+    )
+    .unwrap();
+    let s = summary_of(&out);
+    assert_eq!(s["minimiser"]["converged"], true, "{}", s["minimiser"]);
+    let left = *common::series_column(&out, "force_left_x").last().unwrap();
+    let right = *common::series_column(&out, "force_right_x").last().unwrap();
+    assert!(left < -1e-3 && right > 1e-3, "{left}, {right}");
+    assert!((left + right).abs() < 1e-3 * right, "{left} + {right}");
 }

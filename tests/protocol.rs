@@ -281,16 +281,7 @@ fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
     };
     let (relaxed, moved) = (summary("minimise"), summary("dynamics"));
     assert_eq!(relaxed["minimiser"]["converged"], true);
-    let bending = |s: &serde_json::Value| {
-        s["energies"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|e| e["term"] == "bending")
-            .unwrap()["energy"]
-            .as_f64()
-            .unwrap()
-    };
+    let bending = |s: &serde_json::Value| common::term_energy(s, "bending");
     assert!((moved["reduced_volume"].as_f64().unwrap() - 0.6).abs() < 0.01);
     assert!((bending(&moved) / bending(&relaxed) - 1.0).abs() < 0.02);
 }

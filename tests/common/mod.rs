@@ -112,3 +112,16 @@ pub fn closest_non_neighbours(out: &Path) -> f64 {
     }
     closest
 }
+
+/// The energy of term `term` in a run's `summary.json` (Ē).
+#[allow(dead_code)]
+pub fn term_energy(summary: &serde_json::Value, term: &str) -> f64 {
+    summary["energies"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["term"] == term)
+        .unwrap_or_else(|| panic!("no term {term} in the summary"))["energy"]
+        .as_f64()
+        .unwrap()
+}
