@@ -441,3 +441,58 @@ fn springs_pulling_a_constrained_vesicle_balance_at_equilibrium() {
     assert!(left < -1e-3 && right > 1e-3, "{left}, {right}");
     assert!((left + right).abs() < 1e-3 * right, "{left} + {right}");
 }
+
+/// The constraints with the overdamped dynamics (k_BT = 0): a jittered
+/// sphere under bending and a tension term, its volume held exactly while
+/// the area relaxes; the projection runs after the Langevin step.
+#[test]
+fn overdamped_dynamics_hold_the_constraints_exactly() {
+    let scene = scene_from(
+        "Scene(
+            membrane: Icosphere(level: 2, jitter: 0.05),
+            energy: [Bending(kappa: 1.0), Tension(sigma: 0.2)],
+            constraints: (volume: OfInitial(0.97)),
+            dynamics: (iterations: 300, frames: 3, mobility: 100.0),
+        )",
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("overdamped");
+    run_scene(
+        &scene,
+        Path::new("overdamped.ron"),
+        &common::quiet_options(&out),
+        |_| Ok(()),
+    )
+    .unwrap();
+    let s = summary_of(&out);
+    assert!(s.get("minimiser").is_none());
+    let target = s["constraints"]["targets"]["volume"].as_f64().unwrap();
+    let volumes = common::series_column(&out, "volume");
+    // The first frame is the initial mesh; every later one holds the target.
+    for v in &volumes[1..] {
+        assert!((v / target - 1.0).abs() < 1e-10, "V = {v}, target {target}");
+    }
+    let pressure = common::series_column(&out, "pressure");
+    assert!(
+        pressure.last().unwrap() > &0.0,
+        "a tense sphere needs Δp > 0"
+    );
+}
+
+/// A minimiser scene with V_in's piecewise-linear form gets a caution
+/// (its forces jump at segment ends and FIRE stalls); the exact form none.
+#[test]
+fn the_minimiser_with_piecewise_linear_vin_is_cautioned() {
+    let text = |form: &str| {
+        format!(
+            "Scene(membrane: Icosphere(level: 2), energy: [Vin({form}), Bending()], \
+             dynamics: (method: Minimise()))"
+        )
+    };
+    let cautions = scene_from(&text("")).cautions();
+    assert!(
+        cautions.iter().any(|c| c.contains("Vin(form: Exact)")),
+        "{cautions:?}"
+    );
+    assert!(scene_from(&text("form: Exact")).cautions().is_empty());
+}
