@@ -132,6 +132,12 @@ impl ForceEvaluation {
     pub fn total_energy(&self) -> f64 {
         self.energies.iter().sum()
     }
+
+    /// The largest total force on any vertex (Ē/l̄; 0 without vertices):
+    /// the minimiser's residual.
+    pub fn largest_force(&self) -> f64 {
+        self.total.iter().map(|f| f.length()).fold(0.0, f64::max)
+    }
 }
 
 /// Per-face geometry at the current positions, shared by the force terms

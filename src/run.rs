@@ -668,7 +668,7 @@ pub fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
     Some(MinimiserSummary {
         stopped_by: status.stopped_by.map_or("iteration_cap", |r| r.name()),
         converged: status.stopped_by.is_some(),
-        force_residual: ev.total.iter().map(|f| f.length()).fold(0.0, f64::max),
+        force_residual: ev.largest_force(),
         energy_change: status.energy_change,
         constraint_violation: ev.constraint.map_or(0.0, |c| c.violation()),
         restarts: status.restarts,

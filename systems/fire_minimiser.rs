@@ -111,7 +111,7 @@ impl System for FireMinimiser {
             }
         };
         // Convergence of the state the forces were evaluated at.
-        let residual = ev.total.iter().map(|f| f.length()).fold(0.0, f64::max);
+        let residual = ev.largest_force();
         let energy = ev.total_energy();
         s.energies.push_back(energy);
         while s.energies.len() > p.energy_window as usize + 1 {

@@ -321,12 +321,7 @@ impl Recorder for MinimiserColumns {
     fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         let err = read_error("minimiser");
         let buffers = s.get::<ForceBuffers>().map_err(&err)?;
-        let residual = buffers
-            .evaluation
-            .total
-            .iter()
-            .map(|f| f.length())
-            .fold(0.0, f64::max);
+        let residual = buffers.evaluation.largest_force();
         let status = s.get::<crate::minimise::MinimiserStatus>().map_err(&err)?;
         frame.column("force_residual", residual);
         frame.column("energy_change", status.energy_change.unwrap_or(f64::NAN));
