@@ -189,21 +189,21 @@ pub struct ProjectionScratch {
     smoothing: crate::energy::penalty::SmoothingScratch,
 }
 
-/// Solves M c = r for the active constraints, M_ij = g_i · d_j, with a
-/// relative Tikhonov term of 1e-12 against a singular pair (a sphere).
-fn solve_directions(
-    g: [&[DVec3]; 2],
-    d: [&[DVec3]; 2],
-    t: ConstraintTargets,
-    r: [f64; 2],
-) -> [f64; 2] {
+/// M_ij = g_i · d_j, the change of constraint i along direction j.
+fn response(g: [&[DVec3]; 2], d: [&[DVec3]; 2]) -> [[f64; 2]; 2] {
     let m = |i: usize, j: usize| dot(g[i], d[j]);
+    [[m(0, 0), m(0, 1)], [m(1, 0), m(1, 1)]]
+}
+
+/// Solves M c = r for the active constraints, with a relative Tikhonov
+/// term of 1e-12 against a singular pair (a sphere).
+fn solve_response(m: [[f64; 2]; 2], t: ConstraintTargets, r: [f64; 2]) -> [f64; 2] {
     match (t.area.is_some(), t.volume.is_some()) {
         (false, false) => [0.0, 0.0],
-        (true, false) => [r[0] / nonzero(m(0, 0)), 0.0],
-        (false, true) => [0.0, r[1] / nonzero(m(1, 1))],
+        (true, false) => [r[0] / nonzero(m[0][0]), 0.0],
+        (false, true) => [0.0, r[1] / nonzero(m[1][1])],
         (true, true) => {
-            let (a, b, c, e) = (m(0, 0), m(0, 1), m(1, 0), m(1, 1));
+            let [[a, b], [c, e]] = m;
             // Scale rows and columns to unit diagonal before regularising.
             let (sa, se) = (nonzero(a.abs()).sqrt(), nonzero(e.abs()).sqrt());
             let (a, b, c, e) = (a / (sa * sa), b / (sa * se), c / (se * sa), e / (se * se));
@@ -219,8 +219,9 @@ fn nonzero(x: f64) -> f64 {
     if x == 0.0 { f64::MIN_POSITIVE } else { x }
 }
 
-/// Moves `positions` onto A = A_t, V = V_t by Gauss-Newton steps
-/// Δx = c_A d_A + c_V d_V with c solving ∇C·Δx = −C. The directions d are
+/// Moves `positions` onto A = A_t, V = V_t by Newton steps
+/// Δx = c_A d_A + c_V d_V with c solving ∇C·Δx = −C (the response ∇C·d
+/// measured at the first step and after every two chord steps). The directions d are
 /// ∇A and ∇V averaged `smoothing` times over closed 1-rings: the exact
 /// gradients carry the discrete curvature's vertex-to-vertex noise, and a
 /// large correction along them (a target approached from afar) wrinkles
@@ -248,21 +249,31 @@ pub fn project(
         ]
     };
     let mut r = residual(area_and_volume(positions, faces));
+    // The directions and their response are measured at the first step
+    // and again after every two chord steps that did not reach the target
+    // (the residual after a Newton step is second order, so near the
+    // constraint one measurement per call is enough).
+    let ProjectionScratch {
+        gradients: g,
+        directions: [da, dv],
+        smoothing: smoothing_scratch,
+    } = scratch;
+    let mut m = [[0.0; 2]; 2];
+    let mut chord_steps = 0;
     while out.steps < PROJECTION_STEPS && !(held(r[0], t.area) && held(r[1], t.volume)) {
-        let ProjectionScratch {
-            gradients: g,
-            directions: [da, dv],
-            smoothing: smoothing_scratch,
-        } = scratch;
-        g.measure(positions, faces);
-        da.clone_from(&g.area_gradient);
-        dv.clone_from(&g.volume_gradient);
-        if smoothing > 0 {
-            use crate::energy::penalty::smooth_over_rings;
-            smooth_over_rings(da, topology, smoothing, smoothing_scratch);
-            smooth_over_rings(dv, topology, smoothing, smoothing_scratch);
+        if out.steps == 0 || chord_steps == 2 {
+            g.measure(positions, faces);
+            da.clone_from(&g.area_gradient);
+            dv.clone_from(&g.volume_gradient);
+            if smoothing > 0 {
+                use crate::energy::penalty::smooth_over_rings;
+                smooth_over_rings(da, topology, smoothing, smoothing_scratch);
+                smooth_over_rings(dv, topology, smoothing, smoothing_scratch);
+            }
+            m = response([&g.area_gradient, &g.volume_gradient], [da, dv]);
+            chord_steps = 0;
         }
-        let c = solve_directions([&g.area_gradient, &g.volume_gradient], [da, dv], t, r);
+        let c = solve_response(m, t, r);
         let largest = (0..positions.len())
             .map(|i| (c[0] * da[i] + c[1] * dv[i]).length())
             .fold(0.0, f64::max);
@@ -276,6 +287,7 @@ pub fn project(
             *p += scale * (c[0] * da[i] + c[1] * dv[i]);
         }
         out.steps += 1;
+        chord_steps += 1;
         if out.limited {
             break;
         }

