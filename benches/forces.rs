@@ -6,6 +6,10 @@
 //! pass (`vin_edge_samples`), V_in and the time-step rule reading it, and
 //! both measuring the edges themselves (`*_in_place`).
 //!
+//! The minimiser's per-tick kernels (`constraints`): the constraint
+//! reactions (gradients of A and V, least-squares removal), the projection
+//! back onto a target 1e-6 away (4 smoothing passes), and one FIRE step.
+//!
 //! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
@@ -209,5 +213,58 @@ fn rbc_all_forces(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, each_system, rbc_all_forces);
+fn constraints(c: &mut Criterion) {
+    use remembrane::constraint::{
+        ConstraintTargets, Gradients, ProjectionScratch, project, remove_reactions,
+    };
+    use remembrane::minimise::Fire;
+    let mut g = configure(c, "constraints");
+    for level in LEVELS {
+        let mut m = membrane(level);
+        let mut pos = Vec::new();
+        m.gather_positions(&mut pos);
+        let topology = m.topology().unwrap().clone();
+        let n = pos.len();
+        let mut gradients = Gradients::default();
+        gradients.measure(&pos, &topology.faces);
+        let targets = ConstraintTargets {
+            area: Some(gradients.area),
+            volume: Some(gradients.volume),
+        };
+        let force: Vec<DVec3> = pos.iter().map(|p| -0.01 * *p).collect();
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::new("reactions", n), &n, |b, _| {
+            let mut f = force.clone();
+            b.iter(|| {
+                gradients.measure(&pos, &topology.faces);
+                f.copy_from_slice(&force);
+                black_box(remove_reactions(&gradients, targets, &mut f))
+            })
+        });
+        let near = ConstraintTargets {
+            area: Some(gradients.area * (1.0 + 1e-6)),
+            volume: Some(gradients.volume * (1.0 - 1e-6)),
+        };
+        let mut scratch = ProjectionScratch::default();
+        g.bench_with_input(BenchmarkId::new("projection", n), &n, |b, _| {
+            let mut p = pos.clone();
+            b.iter(|| {
+                p.copy_from_slice(&pos);
+                black_box(project(&mut p, &topology, near, 0.02, 4, &mut scratch))
+            })
+        });
+        let params = Default::default();
+        g.bench_with_input(BenchmarkId::new("fire_step", n), &n, |b, _| {
+            let mut fire = Fire::new(n, &params);
+            let mut p = pos.clone();
+            b.iter(|| {
+                p.copy_from_slice(&pos);
+                black_box(fire.step(&mut p, &force, &params))
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, each_system, rbc_all_forces, constraints);
 criterion_main!(benches);
