@@ -489,6 +489,9 @@ fn report_run(
                         c.reactions.tension, c.reactions.pressure
                     );
                 }
+                if let Some(line) = model_line(&summary.model) {
+                    eprintln!("{line}");
+                }
                 eprintln!("outputs in {}", out.display());
                 let table = crate::schedule::format_timings(&summary.timings);
                 eprint!("{table}");
@@ -500,6 +503,26 @@ fn report_run(
             ExitCode::from(e.exit_code())
         }
     }
+}
+
+/// One line on the membrane model: V_in's shear modulus and γ, and in the
+/// fluid model its residuals (`None` when there is nothing to say).
+fn model_line(m: &crate::fluid::ModelSummary) -> Option<String> {
+    let mut parts = Vec::new();
+    if let Some(v) = m.vin_moduli {
+        parts.push(format!("V_in shear modulus {:.3e} Ē/l̄²", v.shear));
+    }
+    if let Some(g) = m.foppl_von_karman {
+        parts.push(format!("γ = Y·A/(4πκ) = {g:.3}"));
+    }
+    if let Some(r) = m.residuals {
+        parts.push(format!(
+            "normal residual {:.3e} Ē/l̄, net force {:.1e} Ē/l̄",
+            r.normal_residual, r.net_force
+        ));
+    }
+    (m.name == "fluid" || !parts.is_empty())
+        .then(|| format!("model {}: {}", m.name, parts.join(", ")))
 }
 
 /// `remembrane run PROTOCOL`: every phase in order into one directory.
@@ -893,6 +916,15 @@ fn check(path: &Path) -> Result<(), String> {
         say!("    {system:?}");
     }
     say!("  penalty smoothing passes {}", scene.penalty_smoothing);
+    say!(
+        "  model        {}",
+        match scene.model {
+            crate::params::MembraneModel::Paper =>
+                "Paper (V_in acts on the shape: an elastic shell)",
+            crate::params::MembraneModel::Fluid(_) =>
+                "Fluid (V_in acts in the tangent planes only: no shear modulus)",
+        }
+    );
     if let Some(c) = &scene.constraints {
         let (area, volume) = c.targets(initial.area, initial.volume);
         let show = |x: Option<f64>| x.map_or("free".to_string(), |x| format!("{x:.4}"));

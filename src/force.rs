@@ -71,6 +71,11 @@ pub enum ForceKind {
     /// A global penalty (volume, area, local tension): its force is averaged
     /// over closed 1-rings `penalty_smoothing` times (SPEC §2; 0 = exact).
     Penalty,
+    /// Mesh maintenance (V_in): it keeps the triangles regular and is no
+    /// physics of the membrane. Used as computed in the paper's model; in
+    /// the fluid model ([`crate::params::MembraneModel::Fluid`]) only its
+    /// component in each vertex's tangent plane acts.
+    Maintenance,
 }
 
 /// An energy term with an analytic force.

@@ -13,6 +13,7 @@ pub mod edge_flip;
 pub mod edit;
 pub mod energy;
 pub mod error;
+pub mod fluid;
 pub mod geometry;
 pub mod job_pool;
 pub mod membrane;

@@ -583,3 +583,35 @@ pub struct DiffusionParams {
 fn default_sweeps() -> u32 {
     50
 }
+
+/// The membrane model (SPEC §8): what the mesh-maintenance forces act on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum MembraneModel {
+    /// The paper's model: V_in acts on every degree of freedom, so on a
+    /// fixed connectivity the mesh is a pre-stressed spring network with a
+    /// shear modulus (an elastic shell).
+    #[default]
+    Paper,
+    /// A two-dimensional fluid: the forces of mesh-maintenance terms
+    /// ([`crate::force::ForceKind::Maintenance`], V_in) are projected onto
+    /// the vertices' tangent planes, and so are the local relaxations and
+    /// kicks of remesh events. V_in then keeps the triangles regular without
+    /// acting on the shape, which only the physical terms move (bending,
+    /// tension, pressure or volume, area, plugins): no shear modulus.
+    Fluid(FluidParams),
+}
+
+impl MembraneModel {
+    /// Whether this is the fluid model.
+    pub fn is_fluid(&self) -> bool {
+        matches!(self, MembraneModel::Fluid(_))
+    }
+}
+
+/// Settings of the fluid model. The vertex normal of the projection is the
+/// area-weighted one, n_i ∝ Σ_f∋i A_f n_f ∝ ∇_i V, so tangential moves keep
+/// the enclosed volume to first order; it has no setting.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FluidParams {}

@@ -60,6 +60,11 @@ pub struct Patch {
     pub edges: Vec<[usize; 2]>,
     /// Index of the target edge in `edges`, if any.
     pub target: Option<usize>,
+    /// Unit normals of the moveable vertices, frozen when the patch was
+    /// taken; when given (the fluid model), every force on them loses its
+    /// normal component, so the relaxation slides vertices within the
+    /// surface instead of moving it. Empty: forces act in full.
+    pub normals: Vec<DVec3>,
 }
 
 impl Patch {
@@ -103,9 +108,20 @@ impl Patch {
                 moveable: moveable.len(),
                 edges,
                 target: target_index,
+                normals: Vec::new(),
             },
             slots,
         )
+    }
+
+    /// Freezes the area-weighted normals of the moveable vertices (slots
+    /// `slots[..moveable]` of `topology` at `positions`), so that the
+    /// relaxation moves them only tangentially.
+    pub fn freeze_normals(&mut self, topology: &Topology, positions: &[DVec3], slots: &[u32]) {
+        self.normals = slots[..self.moveable]
+            .iter()
+            .map(|&s| crate::fluid::vertex_normal(positions, topology, s as usize))
+            .collect();
     }
 }
 
@@ -293,6 +309,9 @@ pub fn relax(
         }
         for f in &mut force[moveable..] {
             *f = DVec3::ZERO;
+        }
+        for (f, n) in force.iter_mut().zip(&patch.normals) {
+            *f -= f.dot(*n) * *n;
         }
         let mu = settings.mobility;
         let mut dt = f64::INFINITY;

@@ -131,6 +131,9 @@ pub struct RunSummary {
     /// (scenes with `constraints` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub constraints: Option<crate::constraint::ConstraintState>,
+    /// The membrane model and what V_in's in-plane elasticity weighs at
+    /// the final state ([`crate::fluid::ModelSummary`]).
+    pub model: crate::fluid::ModelSummary,
     /// Frames written.
     pub frames: Vec<crate::output::FrameRecord>,
     /// Wall time per system.
@@ -614,6 +617,9 @@ fn summarize(
     let stats = sim.resources().get::<RemeshStats>().ok();
     let none = RemeshStats::default();
     let stats = stats.as_deref().unwrap_or(&none);
+    let model = model_summary(sim);
+    let mut cautions = scene.cautions();
+    cautions.extend(model.caution());
     RunSummary {
         scene_file: scene_path.display().to_string(),
         seed: scene.seed,
@@ -630,7 +636,7 @@ fn summarize(
         last: EnergyReport::new(name, sim),
         shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
-        cautions: scene.cautions(),
+        cautions,
         edge_flips: sim
             .resources()
             .get::<crate::systems::edge_flips::FlipStats>()
@@ -650,8 +656,77 @@ fn summarize(
             .resource::<crate::force::ForceBuffers>()
             .evaluation
             .constraint,
+        model,
         frames: out.frames.clone(),
         timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),
+    }
+}
+
+/// The membrane model of `sim` and V_in's network moduli at its current
+/// positions; in the fluid model also the residuals of the last force
+/// evaluation.
+pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
+    use crate::systems::vin_forces::VinSegmentation;
+    let model = sim.resources().get::<crate::params::MembraneModel>().ok();
+    let fluid = model.is_some_and(|m| m.is_fluid());
+    let membrane = sim.membrane();
+    let t = membrane.cached_topology();
+    let positions = &sim.resource::<DensePositions>().0;
+    let has_vin = sim
+        .resource::<crate::force::ForceBuffers>()
+        .terms()
+        .iter()
+        .any(|term| term.kind == crate::force::ForceKind::Maintenance);
+    let vin_moduli = sim
+        .resources()
+        .get::<VinSegmentation>()
+        .ok()
+        .filter(|_| has_vin && positions.len() == t.vertex_count())
+        .map(|seg| {
+            let lengths = t
+                .edges
+                .iter()
+                .map(|&[a, b]| positions[a as usize].distance(positions[b as usize]));
+            crate::energy::vin_elasticity::network_moduli(&seg.0, lengths)
+        });
+    let kappa = sim
+        .resources()
+        .get::<crate::systems::adaptive_time_step::BendingRigidity>()
+        .ok()
+        .map(|k| k.0)
+        .filter(|k| *k > 0.0);
+    let foppl_von_karman = vin_moduli.zip(kappa).map(|(m, kappa)| {
+        let area = crate::geometry::total_area(positions, &t.faces);
+        crate::energy::vin_elasticity::foppl_von_karman(m.young, area, kappa)
+    });
+    let residuals = fluid
+        .then(|| {
+            let normals = sim
+                .resources()
+                .get::<crate::systems::vertex_normals::VertexNormals>()
+                .ok()?;
+            let buffers = sim.resource::<crate::force::ForceBuffers>();
+            let ev = &buffers.evaluation;
+            let n = ev.total.len();
+            if normals.0.len() != n {
+                return None;
+            }
+            let mut maintenance = vec![glam::DVec3::ZERO; n];
+            for (term, buf) in buffers.terms().iter().zip(&ev.term_forces) {
+                if term.kind == crate::force::ForceKind::Maintenance && buf.len() == n {
+                    for (m, f) in maintenance.iter_mut().zip(buf) {
+                        *m += *f;
+                    }
+                }
+            }
+            Some(crate::fluid::residuals(&ev.total, &maintenance, &normals.0))
+        })
+        .flatten();
+    crate::fluid::ModelSummary {
+        name: if fluid { "fluid" } else { "paper" }.to_string(),
+        vin_moduli,
+        foppl_von_karman,
+        residuals,
     }
 }
 

@@ -79,6 +79,11 @@ pub struct Scene {
     /// place of the Area and Volume penalties (default none).
     #[serde(default)]
     pub constraints: Option<crate::params::ConstraintParams>,
+    /// The membrane model: `Paper` (default; V_in acts on the shape, an
+    /// elastic shell) or `Fluid()` (V_in acts only in the tangent planes:
+    /// a fluid membrane without shear modulus).
+    #[serde(default)]
+    pub model: crate::params::MembraneModel,
 }
 
 fn default_seed() -> u64 {
@@ -690,6 +695,7 @@ impl Scene {
         }
         self.validate_method(path)?;
         self.validate_constraints(path)?;
+        self.validate_model(path)?;
         if self.penalty_smoothing > 64 {
             return Err(invalid(
                 "penalty_smoothing",
@@ -753,6 +759,73 @@ impl Scene {
             return Err(invalid(
                 "dynamics.method.Minimise.dt_max",
                 format!("must be at least dt_start ({} < {})", m.dt_max, m.dt_start),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses what the fluid model cannot do yet, naming what works
+    /// instead (a silently wrong result is worse than none).
+    fn validate_model(&self, path: &Path) -> Result<(), SceneError> {
+        if !self.model.is_fluid() {
+            return Ok(());
+        }
+        let invalid = |field: &str, reason: String| SceneError::Invalid {
+            path: path.to_owned(),
+            field: field.to_string(),
+            reason,
+        };
+        if self.dynamics.temperature > 0.0 {
+            return Err(invalid(
+                "dynamics.temperature",
+                format!(
+                    "the fluid model is deterministic (got k_BT = {}): its tangential projection \
+                     of V_in has no known equilibrium distribution. For a thermal fluid membrane \
+                     use the paper's model with Metropolis `edge_flips` and the widened well \
+                     (scenes/fluctuating/flips.ron)",
+                    self.dynamics.temperature
+                ),
+            ));
+        }
+        if let Some(i) = self.energy.iter().position(|t| t.kind() == "LocalTension") {
+            return Err(invalid(
+                &format!("energy[{i}]"),
+                "LocalTension reads the lipid density carried by the vertices, and in the fluid \
+                 model vertices slide within the membrane, so that density is no longer a field \
+                 of the lipids (it would need remapping). Use Tension(sigma) or the `area` \
+                 constraint, or the paper's model"
+                    .into(),
+            ));
+        }
+        if self.lipid_density || self.diffusion.is_some() {
+            let field = if self.diffusion.is_some() {
+                "diffusion"
+            } else {
+                "lipid_density"
+            };
+            return Err(invalid(
+                field,
+                "lipid density and its diffusion are carried by the vertices, which slide within \
+                 the membrane in the fluid model (the density would need remapping): use the \
+                 paper's model"
+                    .into(),
+            ));
+        }
+        if let Some(i) = self.energy.iter().position(|t| t.kind() == "Springs") {
+            return Err(invalid(
+                &format!("energy[{i}]"),
+                "control-point springs in the fluid model need a coupling along the surface \
+                 normal (a fluid membrane at uniform tension holds no tangential point load), \
+                 which is not built yet: use the paper's model for control points"
+                    .into(),
+            ));
+        }
+        if self.edge_flips.is_some() {
+            return Err(invalid(
+                "edge_flips",
+                "Metropolis edge flips need k_BT > 0, which the fluid model refuses; its \
+                 zero-temperature maintenance flips are not built yet"
+                    .into(),
             ));
         }
         Ok(())
@@ -925,6 +998,11 @@ impl Scene {
                 remesh: self.remesh,
             }))
             .map_err(build_err)?;
+        if let crate::params::MembraneModel::Fluid(f) = self.model {
+            builder
+                .add_plugin(plugins::fluid(f))
+                .map_err(|e| invalid_at("model".into(), e))?;
+        }
         if let Some(c) = self.constraints {
             builder
                 .add_plugin(plugins::constraints(c))

@@ -5,7 +5,8 @@
 //! s_max), the V_in segmentation and the tick's edge samples when a Vin
 //! plugin inserted them, and the
 //! bending rigidity when a bending term did (for the explicit bending
-//! step's stability bound in scenes without V_in). Writes:
+//! step's stability bound in scenes without V_in or in the fluid model),
+//! the [`crate::params::MembraneModel`] when inserted. Writes:
 //! [`TimeStepChoice`]. Units: s.
 
 use crate::energy::vin::VinEdgeSamples;
@@ -37,6 +38,7 @@ impl System for AdaptiveTimeStep {
         Option<Res<'a, VinSegmentation>>,
         Option<Res<'a, VinEdgeSamples>>,
         Option<Res<'a, BendingRigidity>>,
+        Option<Res<'a, crate::params::MembraneModel>>,
         ResMut<'a, TimeStepChoice>,
     );
 
@@ -46,7 +48,18 @@ impl System for AdaptiveTimeStep {
 
     fn run(
         &mut self,
-        (membrane, positions, buffers, d, clock, segmentation, samples, bending, mut time_step): Self::Data<'_>,
+        (
+            membrane,
+            positions,
+            buffers,
+            d,
+            clock,
+            segmentation,
+            samples,
+            bending,
+            model,
+            mut time_step,
+        ): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let segmentation = segmentation.filter(|_| d.vin_step_limit);
         let mut choice = choose_time_step(
@@ -59,7 +72,13 @@ impl System for AdaptiveTimeStep {
             d.dt_max,
             d.max_displacement,
         );
-        if let Some(kappa) = bending.filter(|_| d.bending_step_limit && segmentation.is_none()) {
+        // V_in's edge rule bounds the step where V_in acts on the shape; in
+        // the fluid model (V_in tangential) the normal dynamics is
+        // bending-limited, so the bending bound applies as without V_in.
+        let fluid = model.is_some_and(|m| m.is_fluid());
+        if let Some(kappa) =
+            bending.filter(|_| d.bending_step_limit && (segmentation.is_none() || fluid))
+        {
             let (dt, edge) = bending_step_limit(
                 &membrane.cached_topology().edges,
                 &positions.0,

@@ -8,6 +8,7 @@
 //! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
 //! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
 //! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
+//! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `tangential_maintenance` (Forces) |
 //! | [`constraints`] | `Constraints` | `constraint_reactions` (Forces), `constraint_projection` (Integrate) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
@@ -192,6 +193,27 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
         };
         b.add_system(Stage::Integrate, ConstraintProjection::default())
             .after(integrator);
+        Ok(())
+    }
+}
+
+/// The fluid membrane model: the forces of mesh-maintenance terms
+/// (V_in) act only in the vertices' tangent planes, and so do the local
+/// relaxations of remesh events. Inserts `MembraneModel` and
+/// `VertexNormals`; adds `vertex_normals` (Gather, after `gather_state`)
+/// and `tangential_maintenance` (Forces, after `force_terms`, before
+/// `force_total`).
+pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::systems::tangential_maintenance::TangentialMaintenance;
+        use crate::systems::vertex_normals::{VertexNormals, VertexNormalsSystem};
+        b.insert_resource(crate::params::MembraneModel::Fluid(params))
+            .insert_resource(VertexNormals::default());
+        b.add_system(Stage::Gather, VertexNormalsSystem)
+            .after("gather_state");
+        b.add_system(Stage::Forces, TangentialMaintenance)
+            .after(TangentialMaintenance::AFTER)
+            .before(TangentialMaintenance::BEFORE);
         Ok(())
     }
 }

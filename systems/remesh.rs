@@ -62,6 +62,8 @@ struct State<'a> {
     valence: ValenceRange,
     iteration: u64,
     check_invariants: bool,
+    /// The fluid model: relaxations move vertices only tangentially.
+    tangential: bool,
 }
 
 impl System for Remesh {
@@ -74,6 +76,7 @@ impl System for Remesh {
             Res<'a, Seed>,
             Res<'a, Clock>,
             Res<'a, CheckInvariants>,
+            Option<Res<'a, crate::params::MembraneModel>>,
         ),
         (
             ResMut<'a, Membrane>,
@@ -92,7 +95,7 @@ impl System for Remesh {
     fn run(
         &mut self,
         (
-            (seg, params, valence, dynamics, seed, clock, check),
+            (seg, params, valence, dynamics, seed, clock, check, model),
             (mut membrane, mut positions, mut lipid, mut abnormal, mut stats, mut triggered),
         ): Self::Data<'_>,
     ) -> Result<(), SimError> {
@@ -128,6 +131,7 @@ impl System for Remesh {
             valence: *valence,
             iteration: clock.iteration,
             check_invariants: check.0,
+            tangential: model.is_some_and(|m| m.is_fluid()),
         };
         let mut attempted: HashSet<(Entity, Entity)> = HashSet::new();
         let mut events = 0;
@@ -327,6 +331,9 @@ fn process(
                 &moveable,
                 None,
             );
+            if state.tangential {
+                post.freeze_normals(t, state.positions, &post_slots);
+            }
             let relaxed = relax(&mut post, Goal::Normalize, seg, settings, kicks, rng);
             state.remesh_stats.relax_iterations.post += u64::from(relaxed.iterations);
             if relaxed.outcome != RelaxOutcome::Failure {
@@ -399,6 +406,9 @@ fn relax_around_edge(
     for (depth, settings) in attempts {
         let moveable = rings(t, &[a, b], *depth);
         let (mut patch, slots) = Patch::around(t, state.positions, &moveable, Some([a, b]));
+        if state.tangential {
+            patch.freeze_normals(t, state.positions, &slots);
+        }
         let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
         iterations += u64::from(relaxed.iterations);
         last = (relaxed.outcome, patch, slots);

@@ -6,7 +6,7 @@
 //! the chord slope of l's segment (piecewise-linear form) or the exact slope.
 
 use crate::energy::vin::{Segmentation, VinForm};
-use crate::force::{ForceContext, ForceTerm};
+use crate::force::{ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -100,6 +100,10 @@ impl VinForces {
 impl ForceTerm for VinForces {
     fn name(&self) -> &str {
         "vin"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::Maintenance
     }
 
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {

@@ -122,7 +122,15 @@ fn checkpoint_corpus(root: &Path) -> Vec<u8> {
 fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut out = Vec::new();
-    for sub in ["", "hard", "scaled", "protocols", "fluctuating", "minimise"] {
+    for sub in [
+        "",
+        "hard",
+        "scaled",
+        "protocols",
+        "fluctuating",
+        "minimise",
+        "fluid",
+    ] {
         let dir = scenes.join(sub);
         std::fs::create_dir_all(root.join("scenes").join(sub)).unwrap();
         for entry in std::fs::read_dir(&dir).unwrap() {

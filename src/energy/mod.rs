@@ -7,3 +7,4 @@ pub mod self_avoidance;
 pub mod springs;
 pub mod tension;
 pub mod vin;
+pub mod vin_elasticity;

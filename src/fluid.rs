@@ -1,0 +1,161 @@
+//! The fluid membrane model's kernels (SPEC §8; `MembraneModel::Fluid`).
+//!
+//! A lipid membrane is a two-dimensional fluid: it resists bending and
+//! area change, not in-plane shear. On a fixed connectivity the paper's
+//! V_in makes the mesh a pre-stressed spring network, an elastic shell.
+//! The fluid model keeps V_in as mesh maintenance but lets only its
+//! component in each vertex's tangent plane act: the normal (shape)
+//! equation then holds bending, tension and pressure alone.
+//!
+//! The vertex normal is the area-weighted one, n_i ∝ Σ_{f∋i} A_f n̂_f, which
+//! is parallel to ∇_i V (the enclosed volume's gradient): a tangential move
+//! changes the volume only at second order.
+
+use crate::topology::Topology;
+use glam::DVec3;
+
+/// Unit area-weighted normal of vertex `v`: Σ over its faces of
+/// (p1 − p0) × (p2 − p0), normalised (zero for a degenerate ring).
+#[inline]
+pub fn vertex_normal(positions: &[DVec3], topology: &Topology, v: usize) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for &f in topology.ring_faces_of(v) {
+        let [a, b, c] = topology.faces[f as usize].map(|i| positions[i as usize]);
+        n += (b - a).cross(c - a);
+    }
+    n.normalize_or_zero()
+}
+
+/// The unit area-weighted normal of every vertex, by dense slot (each
+/// vertex computed on its own, so the same bits on any thread count).
+pub fn vertex_normals(positions: &[DVec3], topology: &Topology, out: &mut Vec<DVec3>) {
+    crate::parallel::fill_vec(out, positions.len(), |v| {
+        vertex_normal(positions, topology, v)
+    });
+}
+
+/// Removes from every force its component along the vertex normal:
+/// f ← f − (f·n) n.
+pub fn keep_tangential(forces: &mut [DVec3], normals: &[DVec3]) {
+    crate::parallel::for_each_mut(forces, |v, f| {
+        let n = normals[v];
+        *f -= f.dot(n) * n;
+    });
+}
+
+/// What the fluid model measures of a force evaluation (Ē/l̄).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FluidResiduals {
+    /// Largest normal component of the total force, max_i |n_i·F_i|: the
+    /// residual of the discrete shape equation (0 at equilibrium).
+    pub normal_residual: f64,
+    /// Largest tangential force of the maintenance terms, max_i |P_T F_i|
+    /// (what keeps the triangles regular; it does not act on the shape).
+    pub maintenance_tangential: f64,
+    /// Net force on the membrane, |Σ_i F_i|: zero for a free membrane in
+    /// the paper's model (every term is translation-invariant); the fluid
+    /// model's projection breaks action and reaction, so this is its
+    /// tangential leak.
+    pub net_force: f64,
+}
+
+/// Measures [`FluidResiduals`] from the total force and the (projected)
+/// maintenance forces.
+pub fn residuals(total: &[DVec3], maintenance: &[DVec3], normals: &[DVec3]) -> FluidResiduals {
+    let normal_residual = total
+        .iter()
+        .zip(normals)
+        .map(|(f, n)| f.dot(*n).abs())
+        .fold(0.0, f64::max);
+    let maintenance_tangential = maintenance.iter().map(|f| f.length()).fold(0.0, f64::max);
+    let net_force = total.iter().copied().sum::<DVec3>().length();
+    FluidResiduals {
+        normal_residual,
+        maintenance_tangential,
+        net_force,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::enclosed_volume;
+
+    #[test]
+    fn normal_is_the_volume_gradient_direction() {
+        let mesh = crate::mesh::icosphere(2, 1.0);
+        let mut m = crate::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+        let t = m.topology().unwrap().clone();
+        let mut p = mesh.positions.clone();
+        // Perturb so that the ring is not symmetric.
+        for (i, x) in p.iter_mut().enumerate() {
+            *x *= 1.0 + 0.05 * ((i * 7919) % 13) as f64 / 13.0;
+        }
+        let mut normals = Vec::new();
+        vertex_normals(&p, &t, &mut normals);
+        for v in [0usize, 5, 17, 40] {
+            let h = 1e-6;
+            let mut g = DVec3::ZERO;
+            for k in 0..3 {
+                let mut q = p.clone();
+                q[v][k] += h;
+                let up = enclosed_volume(&q, &t.faces, DVec3::ZERO);
+                q[v][k] -= 2.0 * h;
+                let down = enclosed_volume(&q, &t.faces, DVec3::ZERO);
+                g[k] = (up - down) / (2.0 * h);
+            }
+            let cos = g.normalize().dot(normals[v]);
+            assert!(cos > 1.0 - 1e-9, "vertex {v}: cos = {cos}");
+        }
+    }
+
+    #[test]
+    fn projection_leaves_no_normal_component() {
+        let normals = vec![DVec3::Z, DVec3::new(1.0, 1.0, 0.0).normalize()];
+        let mut f = vec![DVec3::new(1.0, 2.0, 3.0), DVec3::new(2.0, 0.0, 1.0)];
+        keep_tangential(&mut f, &normals);
+        assert_eq!(f[0], DVec3::new(1.0, 2.0, 0.0));
+        assert!(f[1].dot(normals[1]).abs() < 1e-15);
+        assert!((f[1].z - 1.0).abs() < 1e-15);
+    }
+}
+
+/// The membrane model of a run and what its in-plane mechanics weigh, in
+/// `summary.json` (every model).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ModelSummary {
+    /// `paper` or `fluid`.
+    pub name: String,
+    /// The moduli V_in gives the mesh at its edges' lengths (Ē/l̄²; `None`
+    /// without V_in). In the paper's model they act on the shape; in the
+    /// fluid model they do not.
+    pub vin_moduli: Option<crate::energy::vin_elasticity::NetworkModuli>,
+    /// Föppl-von Kármán number γ = Y·A/(4πκ) of that network against
+    /// bending (`None` without V_in or bending).
+    pub foppl_von_karman: Option<f64>,
+    /// The fluid model's residuals of the last force evaluation (`None` in
+    /// the paper's model).
+    pub residuals: Option<FluidResiduals>,
+}
+
+/// Above this Föppl-von Kármán number the paper's model is cautioned: its
+/// elastic shell competes with bending.
+pub const FVK_CAUTION: f64 = 1.0;
+
+impl ModelSummary {
+    /// The caution a paper-model run earns when V_in's shell competes with
+    /// bending (γ > [`FVK_CAUTION`]).
+    pub fn caution(&self) -> Option<String> {
+        let gamma = self.foppl_von_karman?;
+        let mu = self.vin_moduli?.shear;
+        (self.name == "paper" && gamma > FVK_CAUTION).then(|| {
+            format!(
+                "V_in makes this mesh an elastic shell (shear modulus {mu:.3} Ē/l̄², \
+                 Föppl-von Kármán number γ = Y·A/(4πκ) = {gamma:.2} > {FVK_CAUTION}): its \
+                 in-plane elasticity competes with bending, so results depend on the vesicle's \
+                 size in l̄, not only on its shape (measured: the RBC 0.9 % above the continuum \
+                 at 2562 vertices, 9.7 % at 10242); `model: Fluid()` removes it"
+            )
+        })
+    }
+}

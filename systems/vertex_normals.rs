@@ -1,0 +1,39 @@
+//! The area-weighted vertex normals of the tick ([`crate::fluid`]).
+//!
+//! Stage: Gather (after `gather_state`). Reads: [`Membrane`] (faces around
+//! each vertex), [`DensePositions`]. Writes: [`VertexNormals`].
+
+use crate::fluid::vertex_normals;
+use crate::membrane::Membrane;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::{DensePositions, SimError};
+use glam::DVec3;
+
+/// Unit area-weighted vertex normals, n_i ∝ Σ_{f∋i} A_f n̂_f ∝ ∇_i V, by
+/// dense slot (inserted by the fluid plugin).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VertexNormals(pub Vec<DVec3>);
+
+/// Its name in the schedule.
+pub const VERTEX_NORMALS: &str = "vertex_normals";
+
+/// The vertex-normal system.
+pub struct VertexNormalsSystem;
+
+impl System for VertexNormalsSystem {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        ResMut<'a, VertexNormals>,
+    );
+
+    fn name(&self) -> &str {
+        VERTEX_NORMALS
+    }
+
+    fn run(&mut self, (membrane, positions, mut normals): Self::Data<'_>) -> Result<(), SimError> {
+        vertex_normals(&positions.0, membrane.cached_topology(), &mut normals.0);
+        Ok(())
+    }
+}
