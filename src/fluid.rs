@@ -43,6 +43,15 @@ pub fn keep_tangential(forces: &mut [DVec3], normals: &[DVec3]) {
     });
 }
 
+/// Keeps of every force only its component along the vertex normal:
+/// f ← (f·n) n.
+pub fn keep_normal(forces: &mut [DVec3], normals: &[DVec3]) {
+    crate::parallel::for_each_mut(forces, |v, f| {
+        let n = normals[v];
+        *f = f.dot(n) * n;
+    });
+}
+
 /// What the fluid model measures of a force evaluation (Ē/l̄).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FluidResiduals {

@@ -76,6 +76,11 @@ pub enum ForceKind {
     /// the fluid model ([`crate::params::MembraneModel::Fluid`]) only its
     /// component in each vertex's tangent plane acts.
     Maintenance,
+    /// A load applied from outside (control-point springs). Used as
+    /// computed in the paper's model; in the fluid model only its component
+    /// along each vertex normal acts (a fluid membrane at uniform tension
+    /// holds no tangential point load).
+    External,
 }
 
 /// An energy term with an analytic force.

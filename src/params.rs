@@ -180,9 +180,10 @@ impl Default for SpringParams {
     }
 }
 
-/// How a control point c pulls the patch P = {i} ∪ 1-ring(i) of its nearest
-/// vertex i (n = |P| vertices, centroid x̄).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// How a control point c pulls the membrane: the patch P = {i} ∪ 1-ring(i)
+/// of its nearest vertex i (n = |P| vertices, centroid x̄), or a smooth
+/// patch of physical radius.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub enum SpringCoupling {
     /// As run (SPEC §2): every patch vertex j is pulled toward c itself,
     /// F_j = k (c − x_j), E = ½k Σ_j |c − x_j|². By the parallel-axis
@@ -195,6 +196,21 @@ pub enum SpringCoupling {
     /// The same net force on the patch without the squeeze: the centroid is
     /// tied to c, E = ½k n |c − x̄|², F_j = k (c − x̄) for every j in P.
     Centroid,
+    /// A smooth patch of physical size (the fluid model's coupling): the
+    /// weighted centroid x̄ = Σ g_j x_j / Σ g_j of the vertices within 3a of
+    /// c, with g_j = exp(−r_j²/2a²) − exp(−9/2) (r_j = |x_j − c|, zero at
+    /// the cut-off), is tied to c: E = ½k|c − x̄|², k the point's whole
+    /// stiffness (not per vertex). The weights follow the vertices, so a
+    /// remesh event near c changes the pull continuously, and the force is
+    /// the exact gradient (weights included). With no vertex within 3a the
+    /// nearest vertex alone is tied to c. In the fluid model only the
+    /// forces' components along the vertex normals act: a fluid membrane
+    /// at uniform tension holds no tangential point load.
+    Gaussian {
+        /// Patch radius a (l̄; 1-1.5 mean edge lengths resolve it).
+        #[serde(deserialize_with = "crate::validate::positive")]
+        radius: f64,
+    },
 }
 
 fn default_k_volume() -> f64 {

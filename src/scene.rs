@@ -811,14 +811,20 @@ impl Scene {
                     .into(),
             ));
         }
-        if let Some(i) = self.energy.iter().position(|t| t.kind() == "Springs") {
-            return Err(invalid(
-                &format!("energy[{i}]"),
-                "control-point springs in the fluid model need a coupling along the surface \
-                 normal (a fluid membrane at uniform tension holds no tangential point load), \
-                 which is not built yet: use the paper's model for control points"
-                    .into(),
-            ));
+        for (i, term) in self.energy.iter().enumerate() {
+            if let EnergyTerm::Springs(p) = term
+                && !matches!(p.coupling, crate::params::SpringCoupling::Gaussian { .. })
+            {
+                return Err(invalid(
+                    &format!("energy[{i}].coupling"),
+                    format!(
+                        "{:?} ties a control point to the nearest vertex's 1-ring, which slides \
+                         away in the fluid model; use `coupling: Gaussian(radius: a)` (a smooth \
+                         patch of physical radius a ≈ 1-1.5 l̄, pulled along the surface normal)",
+                        p.coupling
+                    ),
+                ));
+            }
         }
         if self.edge_flips.is_some() {
             return Err(invalid(

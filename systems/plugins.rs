@@ -8,7 +8,7 @@
 //! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
 //! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
 //! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
-//! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `tangential_maintenance` (Forces) |
+//! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `fluid_projection` (Forces) |
 //! | [`constraints`] | `Constraints` | `constraint_reactions` (Forces), `constraint_projection` (Integrate) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
@@ -199,21 +199,22 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
 
 /// The fluid membrane model: the forces of mesh-maintenance terms
 /// (V_in) act only in the vertices' tangent planes, and so do the local
-/// relaxations of remesh events. Inserts `MembraneModel` and
+/// relaxations of remesh events; external loads (control-point springs)
+/// act only along the normals. Inserts `MembraneModel` and
 /// `VertexNormals`; adds `vertex_normals` (Gather, after `gather_state`)
-/// and `tangential_maintenance` (Forces, after `force_terms`, before
+/// and `fluid_projection` (Forces, after `force_terms`, before
 /// `force_total`).
 pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::systems::tangential_maintenance::TangentialMaintenance;
+        use crate::systems::fluid_projection::FluidProjection;
         use crate::systems::vertex_normals::{VertexNormals, VertexNormalsSystem};
         b.insert_resource(crate::params::MembraneModel::Fluid(params))
             .insert_resource(VertexNormals::default());
         b.add_system(Stage::Gather, VertexNormalsSystem)
             .after("gather_state");
-        b.add_system(Stage::Forces, TangentialMaintenance)
-            .after(TangentialMaintenance::AFTER)
-            .before(TangentialMaintenance::BEFORE);
+        b.add_system(Stage::Forces, FluidProjection)
+            .after(FluidProjection::AFTER)
+            .before(FluidProjection::BEFORE);
         Ok(())
     }
 }
@@ -250,6 +251,7 @@ pub fn self_avoidance(params: crate::params::SelfAvoidanceParams) -> impl Plugin
 /// [`control_points`]).
 pub fn springs(coupling: SpringCoupling) -> impl Plugin {
     move |b: &mut SimBuilder| {
+        b.insert_resource(coupling);
         b.add_force_term(SpringForces::new(coupling))?;
         Ok(())
     }

@@ -243,6 +243,8 @@ impl Recorder for ControlPointForce {
         Access::default()
             .read::<Membrane>()
             .read::<DensePositions>()
+            .read_optional::<crate::params::SpringCoupling>()
+            .read_optional::<crate::params::MembraneModel>()
     }
 
     fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
@@ -250,6 +252,13 @@ impl Recorder for ControlPointForce {
         let err = read_error(&self.name);
         let membrane = s.get::<Membrane>().map_err(&err)?;
         let p = &s.get::<DensePositions>().map_err(&err)?.0;
+        let coupling = s
+            .get::<crate::params::SpringCoupling>()
+            .map(|c| *c)
+            .unwrap_or_default();
+        let fluid = s
+            .get::<crate::params::MembraneModel>()
+            .is_ok_and(|m| m.is_fluid());
         let t = membrane.cached_topology();
         let point = membrane
             .world
@@ -262,10 +271,7 @@ impl Recorder for ControlPointForce {
                 // The force stage's nearest vertex (its cell list gives the
                 // brute-force answer).
                 let i = crate::energy::springs::nearest_vertex(p, cp.position);
-                std::iter::once(i as u32)
-                    .chain(t.neighbours(i).iter().copied())
-                    .map(|j| cp.stiffness * (cp.position - p[j as usize]))
-                    .sum()
+                crate::energy::springs::delivered_force(p, t, &cp, coupling, i, fluid)
             }
             _ => glam::DVec3::NAN,
         };

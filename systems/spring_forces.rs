@@ -9,7 +9,7 @@
 use crate::cell_list::CellList;
 use crate::components::ControlPoint;
 use crate::energy::springs::control_point_springs;
-use crate::force::{ForceContext, ForceTerm};
+use crate::force::{ForceContext, ForceKind, ForceTerm};
 use crate::params::SpringCoupling;
 use glam::DVec3;
 
@@ -61,6 +61,10 @@ impl SpringForces {
 impl ForceTerm for SpringForces {
     fn name(&self) -> &str {
         "springs"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::External
     }
 
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {

@@ -223,3 +223,50 @@ fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     // The paper's model earns the elastic-shell caution; the fluid one not.
     assert!(!summary.cautions.iter().any(|c| c.contains("elastic shell")));
 }
+
+#[test]
+fn fluid_tether_pulls_along_the_normals_and_reports_what_it_delivers() {
+    let out = tempfile::tempdir().unwrap();
+    let path = Path::new("scenes/fluid/tether_tube.ron");
+    let scene = Scene::load(path).unwrap();
+    let dir = out.path().join("run");
+    let mut springs_sum = DVec3::ZERO;
+    let summary =
+        remembrane::run::run_scene(&scene, path, &common::quiet_options(&dir), |_| Ok(())).unwrap();
+    assert!(summary.minimiser.as_ref().unwrap().converged);
+    // The final state's springs buffer: every vertex force along its
+    // normal; the top point's share (z > 0) is what force_top reports.
+    let mut opts = common::quiet_options(&out.path().join("again"));
+    opts.from = Some(dir.join("state.json"));
+    let mut run = remembrane::run::prepare_run(&scene, path, &opts).unwrap();
+    let sim = &mut run.sim;
+    let buffers = sim.evaluate_forces().unwrap();
+    let k = buffers.names().iter().position(|n| n == "springs").unwrap();
+    let springs = buffers.evaluation.term_forces[k].clone();
+    drop(buffers);
+    let p = sim.positions();
+    let t = sim.membrane().cached_topology().clone();
+    for (v, f) in springs.iter().enumerate() {
+        let n = vertex_normal(&p, &t, v);
+        assert!((*f - f.dot(n) * n).length() < 1e-12, "vertex {v}: {f:?}");
+        if p[v].z > 0.0 {
+            springs_sum += *f;
+        }
+    }
+    let force_top = *common::series_column(&dir, "force_top").last().unwrap();
+    assert!(
+        (springs_sum.length() / force_top - 1.0).abs() < 1e-9,
+        "force_top {force_top} against the delivered {}",
+        springs_sum.length()
+    );
+    // DJP: r0 = 2.0893, f0 = 3.0073. Measured: radius -1.5 %, force -9.5 %
+    // (top) and -12.6 % (bottom): the discrete bending force's tangential
+    // part at the tip, held by V_in, is what the normal coupling misses
+    // (benches/RESULTS.md, session 17). These bounds guard that state.
+    let radius = *common::series_column(&dir, "radius_tube").last().unwrap();
+    assert!((radius / 2.0893 - 1.0).abs() < 0.02, "radius {radius}");
+    let bottom = *common::series_column(&dir, "force_bottom").last().unwrap();
+    for f in [force_top, bottom] {
+        assert!(f > 0.85 * 3.0073 && f < 3.0073, "force {f}");
+    }
+}

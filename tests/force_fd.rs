@@ -187,7 +187,11 @@ fn local_tension_force_matches_finite_differences() {
 fn spring_force_matches_finite_differences() {
     for (level, seed) in [(2, 81), (3, 82)] {
         let mesh = perturbed(level, seed);
-        for coupling in [SpringCoupling::OneRing, SpringCoupling::Centroid] {
+        for coupling in [
+            SpringCoupling::OneRing,
+            SpringCoupling::Centroid,
+            SpringCoupling::Gaussian { radius: 1.2 },
+        ] {
             let mut term = SpringForces::new(coupling);
             check(
                 &format!("springs ({coupling:?})"),

@@ -1,0 +1,50 @@
+//! The fluid model's force stage ([`crate::fluid`]): mesh maintenance acts
+//! only in the tangent planes, external loads only along the normals.
+//!
+//! Stage: Forces (after `force_terms`, before `force_total`). Reads:
+//! [`VertexNormals`]. Writes: in [`ForceBuffers`], the buffers of the
+//! [`ForceKind::Maintenance`] terms (V_in), which lose their component
+//! along the area-weighted vertex normal, and of the
+//! [`ForceKind::External`] terms (control-point springs), which keep only
+//! that component. The per-term forces reported are then the ones that act.
+
+use crate::fluid::{keep_normal, keep_tangential};
+use crate::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
+use crate::force_term_system::FORCE_TERMS;
+use crate::resources::{Res, ResMut};
+use crate::schedule::System;
+use crate::simulation::SimError;
+use crate::systems::vertex_normals::VertexNormals;
+
+/// Its name in the schedule.
+pub const FLUID_PROJECTION: &str = "fluid_projection";
+
+/// The fluid-projection system.
+pub struct FluidProjection;
+
+impl FluidProjection {
+    /// Runs after every term and before their sum.
+    pub const AFTER: &'static str = FORCE_TERMS;
+    /// See [`Self::AFTER`].
+    pub const BEFORE: &'static str = FORCE_TOTAL;
+}
+
+impl System for FluidProjection {
+    type Data<'a> = (Res<'a, VertexNormals>, ResMut<'a, ForceBuffers>);
+
+    fn name(&self) -> &str {
+        FLUID_PROJECTION
+    }
+
+    fn run(&mut self, (normals, mut buffers): Self::Data<'_>) -> Result<(), SimError> {
+        let kinds: Vec<ForceKind> = buffers.terms().iter().map(|t| t.kind).collect();
+        for (kind, buf) in kinds.iter().zip(&mut buffers.evaluation.term_forces) {
+            match kind {
+                ForceKind::Maintenance => keep_tangential(buf, &normals.0),
+                ForceKind::External => keep_normal(buf, &normals.0),
+                ForceKind::Conservative | ForceKind::Penalty => {}
+            }
+        }
+        Ok(())
+    }
+}
