@@ -492,6 +492,9 @@ fn report_run(
                 if let Some(line) = model_line(&summary.model) {
                     eprintln!("{line}");
                 }
+                if let Some(caution) = &summary.model.caution {
+                    eprintln!("note: {caution}");
+                }
                 eprintln!("outputs in {}", out.display());
                 let table = crate::schedule::format_timings(&summary.timings);
                 eprint!("{table}");
@@ -875,6 +878,11 @@ fn check(path: &Path) -> Result<(), String> {
     }
     let (scene, mut sim) = load(path)?;
     let initial = *sim.resource::<crate::simulation::InitialState>();
+    let mesh_mean_edge = sim
+        .membrane_mut()
+        .to_mesh()
+        .map_err(|e| e.to_string())?
+        .mean_edge_length();
     let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
     say!("{}: ok", path.display());
     for caution in scene.cautions() {
@@ -925,6 +933,31 @@ fn check(path: &Path) -> Result<(), String> {
                 "Fluid (V_in acts in the tangent planes only: no shear modulus)",
         }
     );
+    let h = scene.resolution.edge_length(mesh_mean_edge);
+    if h != 1.0 {
+        let r = scene.at_resolution(h);
+        say!(
+            "  resolution   h = {h:.5} l̄: V_in well ({:.4}, {:.4}), triggers ({:.4}, {:.4}), \
+             mobility per vertex {:.6e} l̄²/(Ē s)",
+            r.energy
+                .iter()
+                .find_map(|t| match t {
+                    crate::scene::EnergyTerm::Vin(p) => Some(p.near_barrier.1),
+                    _ => None,
+                })
+                .unwrap_or(f64::NAN),
+            r.energy
+                .iter()
+                .find_map(|t| match t {
+                    crate::scene::EnergyTerm::Vin(p) => Some(p.far_barrier.0),
+                    _ => None,
+                })
+                .unwrap_or(f64::NAN),
+            r.remesh.shorter_than,
+            r.remesh.longer_than,
+            r.dynamics.mobility
+        );
+    }
     if let Some(c) = &scene.constraints {
         let (area, volume) = c.targets(initial.area, initial.volume);
         let show = |x: Option<f64>| x.map_or("free".to_string(), |x| format!("{x:.4}"));

@@ -145,6 +145,11 @@ pub struct ModelSummary {
     /// The fluid model's residuals of the last force evaluation (`None` in
     /// the paper's model).
     pub residuals: Option<FluidResiduals>,
+    /// In the paper's model with γ > [`FVK_CAUTION`]: that V_in's elastic
+    /// shell competes with bending, so results depend on the vesicle's size
+    /// (omitted otherwise). The CLI prints it unless `--quiet`.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub caution: Option<String>,
 }
 
 /// Above this Föppl-von Kármán number the paper's model is cautioned: its
@@ -154,7 +159,7 @@ pub const FVK_CAUTION: f64 = 1.0;
 impl ModelSummary {
     /// The caution a paper-model run earns when V_in's shell competes with
     /// bending (γ > [`FVK_CAUTION`]).
-    pub fn caution(&self) -> Option<String> {
+    pub fn elastic_shell_caution(&self) -> Option<String> {
         let gamma = self.foppl_von_karman?;
         let mu = self.vin_moduli?.shear;
         (self.name == "paper" && gamma > FVK_CAUTION).then(|| {

@@ -79,6 +79,7 @@ pub mod relax;
 pub mod remesh;
 pub mod render;
 pub mod report;
+pub mod resolution;
 pub mod resources;
 pub mod rng;
 pub mod run;

@@ -618,8 +618,6 @@ fn summarize(
     let none = RemeshStats::default();
     let stats = stats.as_deref().unwrap_or(&none);
     let model = model_summary(sim);
-    let mut cautions = scene.cautions();
-    cautions.extend(model.caution());
     RunSummary {
         scene_file: scene_path.display().to_string(),
         seed: scene.seed,
@@ -636,7 +634,7 @@ fn summarize(
         last: EnergyReport::new(name, sim),
         shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
-        cautions,
+        cautions: scene.cautions(),
         edge_flips: sim
             .resources()
             .get::<crate::systems::edge_flips::FlipStats>()
@@ -722,12 +720,15 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
             Some(crate::fluid::residuals(&ev.total, &maintenance, &normals.0))
         })
         .flatten();
-    crate::fluid::ModelSummary {
+    let mut summary = crate::fluid::ModelSummary {
         name: if fluid { "fluid" } else { "paper" }.to_string(),
         vin_moduli,
         foppl_von_karman,
         residuals,
-    }
+        caution: None,
+    };
+    summary.caution = summary.elastic_shell_caution();
+    summary
 }
 
 /// How the minimisation of `sim` stands (`None` unless it runs the

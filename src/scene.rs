@@ -84,6 +84,13 @@ pub struct Scene {
     /// a fluid membrane without shear modulus).
     #[serde(default)]
     pub model: crate::params::MembraneModel,
+    /// Target edge length h: `EdgeLength(h)` (l̄; default 1) or `FromMesh`
+    /// (the initial mesh's mean edge length). Every mesh-scale length of the
+    /// scene (V_in's, remeshing's, flips', self-avoidance's, the Gaussian
+    /// spring patch) is written for h = 1 and multiplied by h; the mobility
+    /// per vertex follows a per-area mobility ([`crate::resolution`]).
+    #[serde(default)]
+    pub resolution: crate::resolution::Resolution,
 }
 
 fn default_seed() -> u64 {
@@ -967,6 +974,23 @@ impl Scene {
     /// Builds the world and the force systems this scene declares.
     pub fn build(&self, scene_path: &Path) -> Result<Simulation, SceneError> {
         let (mesh, saved_lipid) = self.initial_state(scene_path)?;
+        let h = self.resolution.edge_length(mesh.mean_edge_length());
+        if h != 1.0 {
+            return self
+                .at_resolution(h)
+                .build_from(mesh, saved_lipid, scene_path);
+        }
+        self.build_from(mesh, saved_lipid, scene_path)
+    }
+
+    /// Builds from the initial mesh (and saved lipid density), with this
+    /// scene's parameters as they stand (already at its resolution).
+    fn build_from(
+        &self,
+        mesh: SurfaceMesh,
+        saved_lipid: Option<Vec<f64>>,
+        scene_path: &Path,
+    ) -> Result<Simulation, SceneError> {
         let lipid_total = match (&saved_lipid, self.lipid_density) {
             (Some(rho), true) => rho.iter().sum(),
             _ => mesh.vertex_count() as f64,

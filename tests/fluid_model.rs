@@ -221,7 +221,15 @@ fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     assert!(r.net_force < 1e-6, "tangential leak {r:?}");
     assert!(model.vin_moduli.unwrap().shear > 0.0);
     // The paper's model earns the elastic-shell caution; the fluid one not.
-    assert!(!summary.cautions.iter().any(|c| c.contains("elastic shell")));
+    assert!(model.caution.is_none());
+    let paper = Path::new("scenes/minimise/red_blood_cell.ron");
+    let mut quick = common::quiet_options(&out.path().join("paper"));
+    quick.iterations = Some(5);
+    let paper = remembrane::run::run_scene(&Scene::load(paper).unwrap(), paper, &quick, |_| Ok(()))
+        .unwrap();
+    let caution = paper.model.caution.expect("γ > 1 in the paper's model");
+    assert!(caution.contains("elastic shell"), "{caution}");
+    assert!(paper.model.foppl_von_karman.unwrap() > 1.0);
 }
 
 #[test]
@@ -269,4 +277,48 @@ fn fluid_tether_pulls_along_the_normals_and_reports_what_it_delivers() {
     for f in [force_top, bottom] {
         assert!(f > 0.85 * 3.0073 && f < 3.0073, "force {f}");
     }
+}
+
+#[test]
+fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
+    // The same cell (A = 553 l̄², v = 0.6) at h = 1 (642 vertices) and
+    // h = 1/2 (2562): in the fluid model the bending energy's error against
+    // the continuum (1.95568) falls at order ≥ 1.5 (measured: -1.87 % and
+    // -0.48 %, order 1.95; the paper's model is an elastic shell whose
+    // weight grows as (R/h)², see README "Fluid membranes").
+    let base = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
+    let error = |level: u32, h: f64, tolerance: f64| -> f64 {
+        let text = base
+            .replace("level: 3,", &format!("level: {level},"))
+            .replace(
+                "model: Fluid(),",
+                &format!("model: Fluid(), resolution: EdgeLength({h}),"),
+            )
+            .replace(
+                "force_tolerance: 1e-3",
+                &format!("force_tolerance: {tolerance}"),
+            );
+        let path = Path::new("refined.ron");
+        let scene = Scene::from_ron_str(&text, path).unwrap();
+        let out = tempfile::tempdir().unwrap();
+        let summary = remembrane::run::run_scene(
+            &scene,
+            path,
+            &common::quiet_options(&out.path().join("run")),
+            |_| Ok(()),
+        )
+        .unwrap();
+        assert!(summary.minimiser.as_ref().unwrap().converged);
+        assert!((summary.last.reduced_volume - 0.6).abs() < 1e-4);
+        let json = serde_json::to_value(&summary).unwrap();
+        common::term_energy(&json, "bending") / (8.0 * std::f64::consts::PI * 5.0) / 1.95568 - 1.0
+    };
+    // The force tolerance is scaled by h² (a vertex's force ∝ its area);
+    // 4e-3 at h = 1/2 stops at the same 1e-3 as the bundled scene, where
+    // the energy agrees with a 4× tighter stop to 1e-4.
+    let (coarse, fine) = (error(3, 1.0, 1e-3), error(4, 0.5, 4e-3));
+    let order = (coarse.abs() / fine.abs()).log2();
+    eprintln!("E_b error: h = 1 {coarse:.4e}, h = 1/2 {fine:.4e}, order {order:.2}");
+    assert!(fine.abs() < coarse.abs());
+    assert!(order >= 1.5, "order {order}");
 }

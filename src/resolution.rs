@@ -1,0 +1,154 @@
+//! Resolution as a scene parameter (SPEC §8): a target edge length h.
+//!
+//! A scene's mesh-scale lengths are written for edges of 1 (the paper's
+//! l̄); with `resolution: EdgeLength(h)` (or `FromMesh`, h the initial
+//! mesh's mean edge length) every one of them is multiplied by h before the
+//! simulation is built, and the quantities that depend on them follow:
+//!
+//! | quantity | scaling |
+//! |---|---|
+//! | V_in: l_min, barriers, l_max, sampling step dl | × h (steepnesses ÷ h: the same curve in l/h, the same segments) |
+//! | remesh: triggers l_∓, goals l_++ and L_−, normal range | × h |
+//! | remesh: kick scale D (a force, V₀/h) | ÷ h |
+//! | edge flips' edge range, self-avoidance distance, Gaussian spring patch radius | × h |
+//! | mobility per vertex (per-area mobility fixed: a vertex's area ∝ h²) | ÷ h² |
+//! | largest displacement per step, minimiser step cap, projection's largest correction | × h |
+//! | minimiser force tolerance (a vertex's force ∝ its area) | × h² |
+//! | projection smoothing passes (its reach √passes·h must follow the shape) | ÷ h², rounded |
+//! | diffusion sweeps per remeshing tick (rate per sweep ∝ h⁻² for the same D) | ÷ h², rounded |
+//!
+//! Energies (V₀, barrier heights, κ, σ, penalty constants), physical
+//! positions (control points, probes, the mesh generators' sizes) and times
+//! do not change. With h = 1 nothing changes: every existing scene builds
+//! exactly as before.
+
+use crate::params::SpringCoupling;
+use crate::scene::{EnergyTerm, Scene};
+use serde::{Deserialize, Serialize};
+
+/// The scene's resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Resolution {
+    /// Target edge length h (l̄; default 1: the paper's mesh scale).
+    EdgeLength(#[serde(deserialize_with = "crate::validate::positive")] f64),
+    /// h is the initial mesh's mean edge length (a generator's size and
+    /// level, or an imported mesh, set it).
+    FromMesh,
+}
+
+impl Default for Resolution {
+    fn default() -> Self {
+        Resolution::EdgeLength(1.0)
+    }
+}
+
+impl Resolution {
+    /// h (l̄) for an initial mesh whose mean edge length is
+    /// `mean_edge_length`.
+    pub fn edge_length(&self, mean_edge_length: f64) -> f64 {
+        match *self {
+            Resolution::EdgeLength(h) => h,
+            Resolution::FromMesh => mean_edge_length,
+        }
+    }
+}
+
+/// `n` divided by h², rounded, at least 1 (for counts that scale so).
+fn count_over_h2(n: u32, h: f64) -> u32 {
+    ((n as f64 / (h * h)).round() as u32).max(1)
+}
+
+impl Scene {
+    /// This scene with every mesh-scale parameter at edge length `h` (see
+    /// the module table). `h = 1` returns an equal scene.
+    pub fn at_resolution(&self, h: f64) -> Scene {
+        let mut s = self.clone();
+        if h == 1.0 {
+            return s;
+        }
+        for term in &mut s.energy {
+            match term {
+                EnergyTerm::Vin(p) => {
+                    p.l_min *= h;
+                    p.l_max *= h;
+                    p.dl *= h;
+                    p.near_barrier = (p.near_barrier.0 * h, p.near_barrier.1 * h);
+                    p.far_barrier = (p.far_barrier.0 * h, p.far_barrier.1 * h);
+                    p.near_steepness = (p.near_steepness.0 / h, p.near_steepness.1 / h);
+                    p.far_steepness = (p.far_steepness.0 / h, p.far_steepness.1 / h);
+                    p.wall_steepness /= h;
+                }
+                EnergyTerm::SelfAvoidance(p) => p.distance *= h,
+                EnergyTerm::Springs(p) => {
+                    if let SpringCoupling::Gaussian { radius } = &mut p.coupling {
+                        *radius *= h;
+                    }
+                }
+                _ => {}
+            }
+        }
+        let r = &mut s.remesh;
+        r.shorter_than *= h;
+        r.longer_than *= h;
+        r.split_done *= h;
+        r.merge_done *= h;
+        r.normal_range = (r.normal_range.0 * h, r.normal_range.1 * h);
+        r.kick_scale /= h;
+        if let Some(f) = &mut s.edge_flips {
+            f.edge_range = (f.edge_range.0 * h, f.edge_range.1 * h);
+        }
+        let d = &mut s.dynamics;
+        d.mobility /= h * h;
+        d.max_displacement *= h;
+        if let crate::params::Method::Minimise(m) = &mut d.method {
+            m.max_step *= h;
+            m.force_tolerance *= h * h;
+        }
+        if let Some(c) = &mut s.constraints {
+            c.max_correction *= h;
+            c.smoothing = count_over_h2(c.smoothing, h);
+        }
+        if let Some(diffusion) = &mut s.diffusion {
+            diffusion.sweeps = count_over_h2(diffusion.sweeps, h);
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::vin::{Segmentation, VinParams};
+
+    #[test]
+    fn vin_at_half_resolution_is_the_same_curve_in_l_over_h() {
+        let scene = Scene::from_ron_str(
+            "Scene(membrane: Icosphere(level: 1), energy: [Vin(form: Exact)])",
+            std::path::Path::new("s.ron"),
+        )
+        .unwrap();
+        let EnergyTerm::Vin(p) = scene.at_resolution(0.5).energy[0] else {
+            panic!()
+        };
+        let (half, unit) = (
+            Segmentation::new(p),
+            Segmentation::new(VinParams::default()),
+        );
+        assert_eq!(half.segment_count(), unit.segment_count());
+        for l in [0.6, 0.8, 1.0, 1.13, 1.4, 1.9] {
+            let (a, b) = (half.exact_and_slope(0.5 * l), unit.exact_and_slope(l));
+            assert!((a.0 - b.0).abs() < 1e-9 * (1.0 + b.0.abs()), "V at {l}");
+            assert!(
+                (a.1 - 2.0 * b.1).abs() < 1e-9 * (1.0 + b.1.abs()),
+                "V' at {l}"
+            );
+        }
+    }
+
+    #[test]
+    fn unit_resolution_changes_nothing() {
+        let scene = Scene::load(std::path::Path::new("scenes/red_blood_cell.ron")).unwrap();
+        assert_eq!(scene.at_resolution(1.0), scene);
+    }
+}
