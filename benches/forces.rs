@@ -10,6 +10,8 @@
 //! reactions (gradients of A and V, least-squares removal), the projection
 //! back onto a target 1e-6 away (4 smoothing passes), and one FIRE step.
 //!
+//! The force stage of the paper's and the fluid model (`model`).
+//!
 //! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
@@ -266,5 +268,35 @@ fn constraints(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, each_system, rbc_all_forces, constraints);
+/// The force stage of the paper's and the fluid model (V_in + bending on
+/// a jittered icosphere, the Gather and Forces stages of a tick): the fluid
+/// model adds the vertex normals and the projection of V_in's force.
+fn models(c: &mut Criterion) {
+    use remembrane::scene::Scene;
+    let mut g = configure(c, "model");
+    for level in [3u32, 4, 5] {
+        for (label, model) in [("paper", "Paper"), ("fluid", "Fluid()")] {
+            let text = format!(
+                "Scene(name: \"m\", membrane: Ellipsoid(level: {level}, \
+                 semi_axes: ({a}, {a}, {c}), jitter: 0.05), \
+                 energy: [Vin(form: Exact), Bending(kappa: 5.0)], model: {model})",
+                a = 6.864 * (1 << (level - 3)) as f64,
+                c = 6.178 * (1 << (level - 3)) as f64,
+            );
+            let path = std::path::Path::new("model.ron");
+            let mut sim = Scene::from_ron_str(&text, path)
+                .unwrap()
+                .build(path)
+                .unwrap();
+            let n = sim.membrane().cached_topology().vertex_count();
+            g.throughput(Throughput::Elements(n as u64));
+            g.bench_with_input(BenchmarkId::new(label, n), &n, |b, _| {
+                b.iter(|| black_box(sim.evaluate_forces().unwrap().evaluation.total_energy()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, each_system, rbc_all_forces, constraints, models);
 criterion_main!(benches);

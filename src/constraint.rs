@@ -274,14 +274,35 @@ pub fn project(
             chord_steps = 0;
         }
         let c = solve_response(m, t, r);
-        let largest = (0..positions.len())
-            .map(|i| (c[0] * da[i] + c[1] * dv[i]).length())
-            .fold(0.0, f64::max);
-        let scale = if largest > max_correction {
-            out.limited = true;
-            max_correction / largest
+        let largest = |c: [f64; 2]| {
+            (0..positions.len())
+                .map(|i| (c[0] * da[i] + c[1] * dv[i]).length())
+                .fold(0.0, f64::max)
+        };
+        let full = largest(c);
+        let (c, scale) = if full <= max_correction {
+            (c, 1.0)
         } else {
-            1.0
+            out.limited = true;
+            // The constraint farther from its target (relatively) is
+            // approached at the rate the cap allows; the nearer one is
+            // corrected in full, so that it does not drift while the other
+            // is approached (a uniform scaling of the whole step lets it
+            // wander by the step's second-order error every iteration).
+            let relative = |k: usize, x: Option<f64>| x.map_or(0.0, |x| (r[k] / x).abs());
+            let far = usize::from(relative(1, t.volume) > relative(0, t.area));
+            let mut near_only = r;
+            near_only[far] = 0.0;
+            let c_near = solve_response(m, t, near_only);
+            let c_far = [c[0] - c_near[0], c[1] - c_near[1]];
+            let near = largest(c_near);
+            if near >= max_correction || t.area.is_none() || t.volume.is_none() {
+                (c, max_correction / full)
+            } else {
+                // |step_near + s step_far| ≤ |step_near| + s |step_far|.
+                let s = ((max_correction - near) / largest(c_far)).min(1.0);
+                ([c_near[0] + s * c_far[0], c_near[1] + s * c_far[1]], 1.0)
+            }
         };
         for (i, p) in positions.iter_mut().enumerate() {
             *p += scale * (c[0] * da[i] + c[1] * dv[i]);

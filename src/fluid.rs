@@ -34,6 +34,24 @@ pub fn vertex_normals(positions: &[DVec3], topology: &Topology, out: &mut Vec<DV
     });
 }
 
+/// [`vertex_normals`] from the tick's per-face geometry (its unit normals
+/// times twice the areas), without a cross product per corner: the same
+/// directions to round-off.
+pub fn vertex_normals_from_faces(
+    faces: &[crate::geometry::Corners],
+    topology: &Topology,
+    out: &mut Vec<DVec3>,
+) {
+    crate::parallel::fill_vec(out, topology.vertex_count(), |v| {
+        let mut n = DVec3::ZERO;
+        for &f in topology.ring_faces_of(v) {
+            let c = &faces[f as usize];
+            n += c.n_hat * c.twice_area;
+        }
+        n.normalize_or_zero()
+    });
+}
+
 /// Removes from every force its component along the vertex normal:
 /// f ← f − (f·n) n.
 pub fn keep_tangential(forces: &mut [DVec3], normals: &[DVec3]) {

@@ -14,12 +14,15 @@
 //! | mobility per vertex (per-area mobility fixed: a vertex's area ∝ h²) | ÷ h² |
 //! | largest displacement per step, minimiser step cap, projection's largest correction | × h |
 //! | minimiser force tolerance (a vertex's force ∝ its area) | × h² |
+//! | minimiser's first time step dt_start | × h |
 //! | projection smoothing passes (its reach √passes·h must follow the shape) | ÷ h², rounded |
 //! | diffusion sweeps per remeshing tick (rate per sweep ∝ h⁻² for the same D) | ÷ h², rounded |
 //!
 //! Energies (V₀, barrier heights, κ, σ, penalty constants), physical
 //! positions (control points, probes, the mesh generators' sizes) and times
-//! do not change. With h = 1 nothing changes: every existing scene builds
+//! do not change, nor does FIRE's largest time step: scaled by h it slowed
+//! the h = 1/2 RBC from 5309 iterations to no convergence in 20 000
+//! (benches/RESULTS.md, session 17). With h = 1 nothing changes: every existing scene builds
 //! exactly as before.
 
 use crate::params::SpringCoupling;
@@ -104,6 +107,7 @@ impl Scene {
         if let crate::params::Method::Minimise(m) = &mut d.method {
             m.max_step *= h;
             m.force_tolerance *= h * h;
+            m.dt_start *= h;
         }
         if let Some(c) = &mut s.constraints {
             c.max_correction *= h;

@@ -201,7 +201,7 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
 /// (V_in) act only in the vertices' tangent planes, and so do the local
 /// relaxations of remesh events; external loads (control-point springs)
 /// act only along the normals. Inserts `MembraneModel` and
-/// `VertexNormals`; adds `vertex_normals` (Gather, after `gather_state`)
+/// `VertexNormals`; adds `vertex_normals` (Gather, after `face_geometry`)
 /// and `fluid_projection` (Forces, after `force_terms`, before
 /// `force_total`).
 pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
@@ -211,7 +211,7 @@ pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
         b.insert_resource(crate::params::MembraneModel::Fluid(params))
             .insert_resource(VertexNormals::default());
         b.add_system(Stage::Gather, VertexNormalsSystem)
-            .after("gather_state");
+            .after("face_geometry");
         b.add_system(Stage::Forces, FluidProjection)
             .after(FluidProjection::AFTER)
             .before(FluidProjection::BEFORE);

@@ -1,9 +1,11 @@
 //! The area-weighted vertex normals of the tick ([`crate::fluid`]).
 //!
-//! Stage: Gather (after `gather_state`). Reads: [`Membrane`] (faces around
-//! each vertex), [`DensePositions`]. Writes: [`VertexNormals`].
+//! Stage: Gather (after `face_geometry`). Reads: [`Membrane`] (faces around
+//! each vertex), [`DensePositions`], [`FaceGeometry`] (its normals and areas
+//! when a force term had them computed). Writes: [`VertexNormals`].
 
-use crate::fluid::vertex_normals;
+use crate::fluid::{vertex_normals, vertex_normals_from_faces};
+use crate::force::FaceGeometry;
 use crate::membrane::Membrane;
 use crate::resources::{Res, ResMut};
 use crate::schedule::System;
@@ -25,6 +27,7 @@ impl System for VertexNormalsSystem {
     type Data<'a> = (
         Res<'a, Membrane>,
         Res<'a, DensePositions>,
+        Res<'a, FaceGeometry>,
         ResMut<'a, VertexNormals>,
     );
 
@@ -32,8 +35,16 @@ impl System for VertexNormalsSystem {
         VERTEX_NORMALS
     }
 
-    fn run(&mut self, (membrane, positions, mut normals): Self::Data<'_>) -> Result<(), SimError> {
-        vertex_normals(&positions.0, membrane.cached_topology(), &mut normals.0);
+    fn run(
+        &mut self,
+        (membrane, positions, faces, mut normals): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let t = membrane.cached_topology();
+        if faces.0.len() == t.faces.len() {
+            vertex_normals_from_faces(&faces.0, t, &mut normals.0);
+        } else {
+            vertex_normals(&positions.0, t, &mut normals.0);
+        }
         Ok(())
     }
 }
