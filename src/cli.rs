@@ -936,23 +936,19 @@ fn check(path: &Path) -> Result<(), String> {
     let h = scene.resolution.edge_length(mesh_mean_edge);
     if h != 1.0 {
         let r = scene.at_resolution(h);
+        let well = r
+            .energy
+            .iter()
+            .find_map(|t| match t {
+                crate::scene::EnergyTerm::Vin(p) => Some((p.near_barrier.1, p.far_barrier.0)),
+                _ => None,
+            })
+            .unwrap_or((f64::NAN, f64::NAN));
         say!(
             "  resolution   h = {h:.5} l̄: V_in well ({:.4}, {:.4}), triggers ({:.4}, {:.4}), \
              mobility per vertex {:.6e} l̄²/(Ē s)",
-            r.energy
-                .iter()
-                .find_map(|t| match t {
-                    crate::scene::EnergyTerm::Vin(p) => Some(p.near_barrier.1),
-                    _ => None,
-                })
-                .unwrap_or(f64::NAN),
-            r.energy
-                .iter()
-                .find_map(|t| match t {
-                    crate::scene::EnergyTerm::Vin(p) => Some(p.far_barrier.0),
-                    _ => None,
-                })
-                .unwrap_or(f64::NAN),
+            well.0,
+            well.1,
             r.remesh.shorter_than,
             r.remesh.longer_than,
             r.dynamics.mobility

@@ -136,6 +136,11 @@ fn twisted_sphere_measures_the_shear_modulus_of_each_model() {
     }
 }
 
+/// Runs `scene` (read from `path`) quietly into `out`.
+fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::run::RunSummary {
+    remembrane::run::run_scene(scene, path, &common::quiet_options(out), |_| Ok(())).unwrap()
+}
+
 /// `text` with `model: Fluid()` parsed and validated as a scene file.
 fn fluid_scene_error(extra: &str) -> String {
     let text = format!(
@@ -179,14 +184,7 @@ fn the_fluid_model_refuses_what_it_cannot_do_yet() {
 fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     let out = tempfile::tempdir().unwrap();
     let path = Path::new("scenes/fluid/red_blood_cell.ron");
-    let scene = Scene::load(path).unwrap();
-    let summary = remembrane::run::run_scene(
-        &scene,
-        path,
-        &common::quiet_options(&out.path().join("run")),
-        |_| Ok(()),
-    )
-    .unwrap();
+    let summary = run(&Scene::load(path).unwrap(), path, &out.path().join("run"));
     let m = summary.minimiser.as_ref().unwrap();
     assert!(m.converged, "{m:?}");
     assert!((summary.last.reduced_volume - 0.6).abs() < 1e-4);
@@ -301,13 +299,7 @@ fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
         let path = Path::new("refined.ron");
         let scene = Scene::from_ron_str(&text, path).unwrap();
         let out = tempfile::tempdir().unwrap();
-        let summary = remembrane::run::run_scene(
-            &scene,
-            path,
-            &common::quiet_options(&out.path().join("run")),
-            |_| Ok(()),
-        )
-        .unwrap();
+        let summary = run(&scene, path, &out.path().join("run"));
         assert!(summary.minimiser.as_ref().unwrap().converged);
         assert!((summary.last.reduced_volume - 0.6).abs() < 1e-4);
         let json = serde_json::to_value(&summary).unwrap();
