@@ -141,6 +141,34 @@ enum Command {
         #[arg(long)]
         partial: bool,
     },
+    /// The vesicle shape diagram: walk each branch of a ShapeDiagram file
+    /// down its reduced volumes with the minimiser, each point from the one
+    /// before, on each mesh; write diagram.csv, diagram.md, diagram.json and
+    /// diagram.png (E_b/8πκ against v beside the axisymmetric solver's
+    /// curves) in OUT and print the table. `remembrane run FILE` does the
+    /// same with the defaults.
+    Diagram {
+        /// Shape-diagram file (RON), e.g. scenes/minimise/shape_diagram.ron.
+        diagram: PathBuf,
+        /// Output directory (default out/<diagram name>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Replace the output directory if it exists.
+        #[arg(long)]
+        overwrite: bool,
+        /// Walk only these meshes (labels, comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        meshes: Option<Vec<String>>,
+        /// Override every point's iteration cap (quick trials).
+        #[arg(long)]
+        iterations: Option<u64>,
+        /// Worker threads (default: all cores). Results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// No per-point lines and no table.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Speed against error: run a study's ladder of settings on reference
     /// problems with independent answers (resumable), then write study.csv,
     /// study.md, study.json and error-vs-cost / convergence charts in OUT
@@ -289,6 +317,26 @@ where
             no_peers,
             quiet,
         } => study_command(&study, out, jobs, quick, no_peers, quiet),
+        Command::Diagram {
+            diagram,
+            out,
+            overwrite,
+            meshes,
+            iterations,
+            threads,
+            quiet,
+        } => diagram_command(
+            &diagram,
+            out,
+            crate::shape_diagram::DiagramOptions {
+                overwrite,
+                meshes,
+                iterations,
+                progress: !quiet,
+                reference: true,
+            },
+            threads,
+        ),
         other => match run(other) {
             Ok(()) => ExitCode::SUCCESS,
             Err(message) => {
@@ -356,6 +404,30 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         && std::fs::read_to_string(p).is_ok_and(|t| crate::protocol::is_protocol(&t))
     {
         return protocol_command(p, args);
+    }
+    if let Some(p) = scene_path
+        && std::fs::read_to_string(p).is_ok_and(|t| crate::shape_diagram::is_shape_diagram(&t))
+    {
+        for (given, flag) in [
+            (args.seed.is_some(), "--seed"),
+            (args.frames.is_some(), "--frames"),
+            (args.from.is_some(), "--from"),
+            (args.checkpoint_every.is_some(), "--checkpoint-every"),
+            (args.check_invariants, "--check-invariants"),
+        ] {
+            if given {
+                eprintln!("error: {flag}: not available for a shape diagram");
+                return ExitCode::from(2);
+            }
+        }
+        let options = crate::shape_diagram::DiagramOptions {
+            overwrite: args.overwrite,
+            meshes: None,
+            iterations: args.iterations,
+            progress: !args.quiet,
+            reference: true,
+        };
+        return diagram_command(p, args.out, options, args.threads);
     }
     let path = scene_path.map_or_else(|| PathBuf::from(BUNDLED_SCENE_NAME), Path::to_path_buf);
     let text = match scene_path {
@@ -743,7 +815,8 @@ fn run(command: Command) -> Result<(), String> {
         | Command::Compare { .. }
         | Command::Sweep { .. }
         | Command::Collect { .. }
-        | Command::Study { .. } => unreachable!("handled in main"),
+        | Command::Study { .. }
+        | Command::Diagram { .. } => unreachable!("handled in main"),
         Command::Check { scene } => check(&scene),
         Command::Spectrum {
             dir,
@@ -1087,6 +1160,43 @@ fn study_command(
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
+    }
+}
+
+/// `remembrane diagram FILE` (and `remembrane run FILE` on a shape
+/// diagram): exit 2 for a bad file, 1 if a point did not complete (the
+/// outputs then stay in OUT.incomplete).
+fn diagram_command(
+    path: &Path,
+    out: Option<PathBuf>,
+    options: crate::shape_diagram::DiagramOptions,
+    threads: Option<usize>,
+) -> ExitCode {
+    use crate::shape_diagram::{ShapeDiagram, markdown, run_diagram};
+    let loaded = match ShapeDiagram::load(path) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(e.exit_code());
+        }
+    };
+    if let Err(code) = set_threads(threads) {
+        return code;
+    }
+    let out = out.unwrap_or_else(|| PathBuf::from("out").join(&loaded.diagram.name));
+    let quiet = !options.progress;
+    match run_diagram(&loaded, &out, &options) {
+        Ok(summary) => {
+            if !quiet {
+                say_raw!("{}", markdown(&summary));
+                eprintln!("wrote {}", out.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.exit_code())
+        }
     }
 }
 

@@ -88,6 +88,7 @@ pub mod scene_override;
 pub mod schedule;
 pub mod setting;
 pub mod shape;
+pub mod shape_diagram;
 pub mod simulation;
 pub mod spectrum;
 pub mod state;

@@ -132,7 +132,7 @@ pub fn is_protocol(text: &str) -> bool {
 }
 
 /// The name before the first `(` of RON text, comments skipped.
-fn top_level_name(text: &str) -> Option<&str> {
+pub(crate) fn top_level_name(text: &str) -> Option<&str> {
     let mut rest = text;
     loop {
         rest = rest.trim_start();

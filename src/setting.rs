@@ -21,6 +21,9 @@ pub enum Setting {
     VolumeStrength(f64),
     /// Bending rigidity κ (Ē).
     Kappa(f64),
+    /// Reduced volume v held exactly by the constraints (`constraints.volume:
+    /// Reduced(v)`; the scene must hold the area, 0 < v ≤ 1).
+    ReducedVolume(f64),
     /// Spring constant of every control point (Ē/l̄²).
     SpringStiffness(f64),
     /// Iterations of the run.
@@ -85,6 +88,17 @@ impl Setting {
                     cp.stiffness = Some(*k);
                 }
             }
+            Setting::ReducedVolume(v) => {
+                let c = scene
+                    .constraints
+                    .as_mut()
+                    .filter(|c| c.area.is_some())
+                    .ok_or("a reduced volume needs exact constraints holding the area")?;
+                if !(v.is_finite() && *v > 0.0 && *v <= 1.0) {
+                    return Err(format!("a reduced volume must be in (0, 1] (got {v})"));
+                }
+                c.volume = Some(crate::params::VolumeConstraint::Reduced(*v));
+            }
             Setting::Iterations(n) => scene.dynamics.iterations = *n,
             Setting::Duration(t) => scene.dynamics.duration = Some(*t),
         }
@@ -109,6 +123,7 @@ impl Setting {
             | Setting::LocalTensionTarget(v)
             | Setting::VolumeStrength(v)
             | Setting::Kappa(v)
+            | Setting::ReducedVolume(v)
             | Setting::SpringStiffness(v)
             | Setting::Duration(v) => Some(*v),
             Setting::DiffusionInstant => Some(f64::INFINITY),

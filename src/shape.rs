@@ -1,6 +1,6 @@
 //! Shape metrics of a closed membrane in its principal frame: diameter,
 //! thickness at the centre and maximal thickness, axisymmetry, and a
-//! discocyte / stomatocyte / convex classification (paper Fig 3A).
+//! discocyte / stomatocyte / convex / prolate classification (paper Fig 3A).
 
 use glam::DVec3;
 use nalgebra::{Matrix3, SymmetricEigen};
@@ -74,7 +74,16 @@ pub enum ShapeClass {
     Stomatocyte,
     /// No dimple.
     Convex,
+    /// Elongated along its symmetry axis: the largest second moment is the
+    /// unique one (more than 10 % above the middle one, which is closer to
+    /// the smallest), as on the prolate branch of vesicle shapes. The
+    /// dimple measures along the thinnest axis mean nothing for it.
+    Prolate,
 }
+
+/// The largest second moment must exceed the middle one by this factor for
+/// a shape to be [`ShapeClass::Prolate`].
+const PROLATE_ELONGATION: f64 = 1.1;
 
 /// Metrics of the shape in its principal frame (lengths in l̄).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -134,7 +143,10 @@ pub fn shape_metrics(positions: &[DVec3], faces: &[[u32; 3]]) -> ShapeMetrics {
     let dent = 0.05 * max_height;
     let top_dimpled = top[centre] < max_top - dent;
     let bottom_dimpled = bottom[centre] > min_bottom + dent;
+    let [m0, m1, m2] = frame.moments;
+    let prolate = m2 > PROLATE_ELONGATION * m1 && m2 - m1 > m1 - m0;
     let class = match (top_dimpled, bottom_dimpled) {
+        _ if prolate => ShapeClass::Prolate,
         (true, true) => ShapeClass::Discocyte,
         (true, false) | (false, true) => ShapeClass::Stomatocyte,
         (false, false) => ShapeClass::Convex,

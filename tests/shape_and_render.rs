@@ -57,6 +57,18 @@ fn classifies_sphere_ellipsoid_discocyte_and_cup() {
     });
     let m = shape_metrics(&cup.positions, &cup.faces);
     assert_eq!(m.class, ShapeClass::Stomatocyte, "{m:?}");
+
+    // Elongated along its symmetry axis: prolate, not a dimpled disc seen
+    // side-on (the thinnest axis is then one of the two short ones).
+    let prolate = mapped(|p| DVec3::new(3.0 * p.x, 3.0 * p.y, 4.5 * p.z));
+    let m = shape_metrics(&prolate.positions, &prolate.faces);
+    assert_eq!(m.class, ShapeClass::Prolate, "{m:?}");
+    // Barely elongated (5 %): below the threshold, convex.
+    let round = mapped(|p| DVec3::new(3.0 * p.x, 3.0 * p.y, 3.15 * p.z));
+    assert_eq!(
+        shape_metrics(&round.positions, &round.faces).class,
+        ShapeClass::Convex
+    );
 }
 
 #[test]

@@ -1,0 +1,150 @@
+//! The shape diagram (`remembrane diagram`, issue 30): a walk down the
+//! reduced volume on the prolate and oblate branches against the
+//! axisymmetric solver's curves, its tables and chart, and its clean
+//! refusals.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn remembrane(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_remembrane"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn branch_scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/minimise/shape_diagram")
+        .join(name)
+}
+
+/// A diagram of the bundled branch scenes at 642 vertices.
+fn diagram(volumes: &str, extra: &str) -> String {
+    format!(
+        "ShapeDiagram(\n  name: \"quick\",\n  reduced_volumes: [{volumes}],\n  branches: [\n    \
+         (name: \"prolate\", scene: \"{}\", reference: Prolate),\n    \
+         (name: \"oblate\", scene: \"{}\", reference: Oblate),\n  ],{extra}\n)\n",
+        branch_scene("prolate.ron").display(),
+        branch_scene("oblate.ron").display()
+    )
+}
+
+#[test]
+fn a_walk_down_two_branches_meets_the_continuum_and_writes_its_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("quick.ron");
+    std::fs::write(&file, diagram("0.95, 0.9", "")).unwrap();
+    let out = dir.path().join("out");
+    let o = remembrane(&[
+        "diagram",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(!dir.path().join("out.incomplete").exists());
+    for name in ["diagram.csv", "diagram.md", "diagram.json", "diagram.png"] {
+        assert!(out.join(name).exists(), "{name}");
+    }
+    // Each point is a run directory; the second starts from the first.
+    assert!(out.join("scene/oblate/v0.9/summary.json").exists());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("diagram.json")).unwrap()).unwrap();
+    let points = summary["points"].as_array().unwrap();
+    assert_eq!(points.len(), 4);
+    let energy = |branch: &str, v: f64| {
+        let p = points
+            .iter()
+            .find(|p| p["branch"] == branch && p["target"] == v)
+            .unwrap();
+        assert_eq!(p["status"], "completed", "{p}");
+        assert!(p["converged"].as_bool().unwrap(), "{p}");
+        assert!((p["reduced_volume"].as_f64().unwrap() - v).abs() < 1e-6);
+        let e = p["energy"].as_f64().unwrap();
+        let reference = p["reference"]["energy"].as_f64().unwrap();
+        // 642 vertices: the cotangent energy reads about 1 % low here
+        // (measured -0.91 to -1.11 %); the issue's bound is 1.5 %.
+        let error = (e - reference) / reference;
+        assert!(error.abs() < 0.015, "{branch} v = {v}: {error}");
+        (e, p["class"].as_str().unwrap().to_string())
+    };
+    let (prolate_95, class) = energy("prolate", 0.95);
+    assert_eq!(class, "prolate");
+    let (oblate_95, class) = energy("oblate", 0.95);
+    assert_eq!(class, "convex");
+    // Above the crossing at v = 0.651 the prolate branch is the lower one.
+    assert!(prolate_95 < oblate_95);
+    let (prolate_90, _) = energy("prolate", 0.9);
+    let (oblate_90, _) = energy("oblate", 0.9);
+    assert!(prolate_90 < oblate_90 && oblate_95 < oblate_90);
+    // The continuum's curves are drawn, and they cross where Seifert,
+    // Berndl & Lipowsky put the prolate/oblate transition only if the walk
+    // reaches it: not here, so no measured crossing is claimed.
+    assert_eq!(summary["curves"].as_array().unwrap().len(), 2);
+    assert!(
+        summary["crossings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|c| c["mesh"] == "continuum")
+    );
+    let csv = std::fs::read_to_string(out.join("diagram.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    assert!(csv.starts_with("mesh,branch,reference_branch,target_v"));
+}
+
+#[test]
+fn bad_diagrams_are_refused_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let run = |text: &str| {
+        let file = dir.path().join("d.ron");
+        std::fs::write(&file, text).unwrap();
+        remembrane(&[
+            "diagram",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    for (text, needle) in [
+        (diagram("0.95, 1.2", ""), "reduced_volumes"),
+        (diagram("", ""), "reduced_volumes"),
+        (
+            diagram("0.9", "\n  meshes: [(label: \"a\"), (label: \"a\")],"),
+            "meshes[1]",
+        ),
+        (
+            diagram(
+                "0.9",
+                "\n  meshes: [(label: \"a\", set: [(\"membrane.Ellipsoid.level\", 99)])],",
+            ),
+            "level",
+        ),
+    ] {
+        let o = run(&text);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{needle}: {stderr}");
+        assert!(stderr.contains(needle), "{needle}: {stderr}");
+        assert!(!out.exists() && !dir.path().join("out.incomplete").exists());
+    }
+    // A branch scene that runs dynamics is refused: a diagram holds
+    // equilibrium shapes.
+    let dynamics = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell.ron");
+    let text = format!(
+        "ShapeDiagram(name: \"d\", reduced_volumes: [0.9], branches: [(name: \"b\", scene: \"{}\", reference: Oblate)])",
+        dynamics.display()
+    );
+    let o = run(&text);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("branches[0].scene"), "{stderr}");
+    // `run` on a diagram refuses the options that mean nothing for it.
+    let file = dir.path().join("d.ron");
+    std::fs::write(&file, diagram("0.9", "")).unwrap();
+    let o = remembrane(&["run", file.to_str().unwrap(), "--seed", "3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--seed"));
+}
