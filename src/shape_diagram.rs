@@ -80,6 +80,9 @@ pub struct DiagramBranch {
     /// diagram's), e.g. where the branch exists.
     #[serde(default)]
     pub reduced_volumes: Option<Vec<f64>>,
+    /// Labels of the meshes this branch is walked on (default: all).
+    #[serde(default)]
+    pub meshes: Option<Vec<String>>,
 }
 
 /// A branch of axisymmetric vesicle shapes (see [`Branch`]).
@@ -267,8 +270,26 @@ impl ShapeDiagram {
         }
         let base = path.parent().unwrap_or(Path::new("."));
         let mut walks = Vec::new();
+        for (i, branch) in diagram.branches.iter().enumerate() {
+            if let Some(labels) = &branch.meshes
+                && let Some(l) = labels
+                    .iter()
+                    .find(|l| !diagram.meshes.iter().any(|m| &&m.label == l))
+            {
+                return Err(err(format!(
+                    "field `branches[{i}].meshes`: no mesh `{l}` in field `meshes`"
+                )));
+            }
+        }
         for mesh in &diagram.meshes {
             for (i, branch) in diagram.branches.iter().enumerate() {
+                if branch
+                    .meshes
+                    .as_ref()
+                    .is_some_and(|m| !m.contains(&mesh.label))
+                {
+                    continue;
+                }
                 let volumes = branch
                     .reduced_volumes
                     .as_deref()

@@ -141,6 +141,15 @@ fn bad_diagrams_are_refused_naming_the_field() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("branches[0].scene"), "{stderr}");
+    // A branch walked on a mesh the diagram does not declare.
+    let text = diagram("0.9", "").replace(
+        "reference: Oblate)",
+        "reference: Oblate, meshes: Some([\"fine\"]))",
+    );
+    let o = run(&text);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("branches[1].meshes"), "{stderr}");
     // `run` on a diagram refuses the options that mean nothing for it.
     let file = dir.path().join("d.ron");
     std::fs::write(&file, diagram("0.9", "")).unwrap();
