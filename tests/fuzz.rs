@@ -36,6 +36,7 @@ enum Kind {
     Scene,
     Protocol,
     Sweep,
+    Diagram,
     State,
     Checkpoint,
     Ply,
@@ -53,6 +54,7 @@ impl Kind {
             Kind::Scene => root.join("scenes/fuzz_scene.ron"),
             Kind::Protocol => root.join("scenes/protocols/fuzz_protocol.ron"),
             Kind::Sweep => root.join("scenes/fuzz_sweep.ron"),
+            Kind::Diagram => root.join("scenes/minimise/fuzz_diagram.ron"),
             Kind::State => root.join("fuzz_state.json"),
             Kind::Checkpoint => root
                 .join(format!("{CHECKPOINT_RUN}.incomplete"))
@@ -68,6 +70,7 @@ impl Kind {
             Kind::Scene => remembrane::scene::Scene::load(path).is_ok(),
             Kind::Protocol => remembrane::protocol::Protocol::load(path).is_ok(),
             Kind::Sweep => remembrane::sweep::Sweep::parse(path).is_ok(),
+            Kind::Diagram => remembrane::shape_diagram::ShapeDiagram::load(path).is_ok(),
             Kind::State => remembrane::state::SavedState::read(path).is_ok(),
             Kind::Checkpoint => read_checkpoint(path),
             Kind::Ply | Kind::Obj => read_mesh(path).is_ok(),
@@ -129,6 +132,7 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
         "protocols",
         "fluctuating",
         "minimise",
+        "minimise/shape_diagram",
         "fluid",
     ] {
         let dir = scenes.join(sub);
@@ -149,6 +153,8 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
             let text = String::from_utf8_lossy(&bytes);
             let kind = if remembrane::protocol::is_protocol(&text) {
                 Kind::Protocol
+            } else if remembrane::shape_diagram::is_shape_diagram(&text) {
+                Kind::Diagram
             } else if text.contains("Sweep(") {
                 Kind::Sweep
             } else {
