@@ -157,3 +157,41 @@ fn bad_diagrams_are_refused_naming_the_field() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--seed"));
 }
+
+#[test]
+fn run_is_the_front_door_for_a_diagram() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("one.ron");
+    let text = format!(
+        "ShapeDiagram(name: \"one\", reduced_volumes: [0.95], branches: [(name: \"oblate\", scene: \"{}\", reference: Oblate)])",
+        branch_scene("oblate.ron").display()
+    );
+    std::fs::write(&file, text).unwrap();
+    let out = dir.path().join("out");
+    let o = remembrane(&[
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // --quiet: no table, no progress.
+    assert!(o.stdout.is_empty() && o.stderr.is_empty());
+    let csv = std::fs::read_to_string(out.join("diagram.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 2, "{csv}");
+    assert!(
+        csv.lines()
+            .nth(1)
+            .unwrap()
+            .starts_with("scene,oblate,oblate,0.95,completed,642,")
+    );
+    // An existing output directory is refused without --overwrite.
+    let o = remembrane(&[
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}
