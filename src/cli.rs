@@ -333,7 +333,6 @@ where
                 meshes,
                 iterations,
                 progress: !quiet,
-                reference: true,
             },
             threads,
         ),
@@ -425,7 +424,6 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
             meshes: None,
             iterations: args.iterations,
             progress: !args.quiet,
-            reference: true,
         };
         return diagram_command(p, args.out, options, args.threads);
     }

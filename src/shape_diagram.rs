@@ -350,8 +350,6 @@ pub struct DiagramOptions {
     pub iterations: Option<u64>,
     /// Print a line per point.
     pub progress: bool,
-    /// Skip the reference solves (tests of the walk alone).
-    pub reference: bool,
 }
 
 /// A reference value with its Richardson error bar.
@@ -541,30 +539,29 @@ pub fn run_diagram(
 
     // The continuum at every walked point, branch by branch.
     let mut references: Vec<(ReferenceBranch, f64, Option<ReferenceValue>)> = Vec::new();
-    if options.reference {
-        for w in &walks {
-            for &(v, _) in &w.points {
-                if references
-                    .iter()
-                    .any(|(b, rv, _)| *b == w.reference && *rv == v)
-                {
-                    continue;
-                }
-                let value = axisymmetric::converged_on_branch(v, w.reference.solver())
-                    .ok()
-                    .and_then(|c| {
-                        let finest = c.levels.last()?;
-                        Some(ReferenceValue {
-                            energy: c.energy_over_8pi_kappa.value,
-                            error: c.energy_over_8pi_kappa.error,
-                            pressure: finest.pressure,
-                            tension: finest.tension,
-                        })
-                    });
-                references.push((w.reference, v, value));
+    for w in &walks {
+        for &(v, _) in &w.points {
+            if references
+                .iter()
+                .any(|(b, rv, _)| *b == w.reference && *rv == v)
+            {
+                continue;
             }
+            let value = axisymmetric::converged_on_branch(v, w.reference.solver())
+                .ok()
+                .and_then(|c| {
+                    let finest = c.levels.last()?;
+                    Some(ReferenceValue {
+                        energy: c.energy_over_8pi_kappa.value,
+                        error: c.energy_over_8pi_kappa.error,
+                        pressure: finest.pressure,
+                        tension: finest.tension,
+                    })
+                });
+            references.push((w.reference, v, value));
         }
     }
+
     let reference_at = |b: ReferenceBranch, v: f64| {
         references
             .iter()
@@ -631,11 +628,7 @@ pub fn run_diagram(
         }
     }
 
-    let curves = if options.reference {
-        reference_curves(&walks)
-    } else {
-        Vec::new()
-    };
+    let curves = reference_curves(&walks);
     let crossings = crossings(&points, &curves);
     let extrapolated = extrapolate(&loaded.diagram.meshes, &points);
     let summary = DiagramSummary {
