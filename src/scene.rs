@@ -782,6 +782,25 @@ impl Scene {
             field: field.to_string(),
             reason,
         };
+        if self.model.direct_edits() {
+            let r = self.remesh;
+            if r.mode == crate::params::RemeshMode::Off {
+                return Err(invalid(
+                    "model.Fluid.edits",
+                    "Direct sets how remesh events edit the mesh, but remesh.mode is Off".into(),
+                ));
+            }
+            if r.longer_than <= 2.0 * r.shorter_than {
+                return Err(invalid(
+                    "remesh.longer_than",
+                    format!(
+                        "direct edits need longer_than > 2 x shorter_than, so that the halves of a \
+                         split edge are never merged again (got {} and {}; for example 1.4 and 0.6)",
+                        r.longer_than, r.shorter_than
+                    ),
+                ));
+            }
+        }
         if self.dynamics.temperature > 0.0 {
             return Err(invalid(
                 "dynamics.temperature",

@@ -15,7 +15,9 @@
 //! triangulation, then relax the new vertex's 1-ring into the normal range;
 //! no valid triangulation, cancel or failure → restore and push the edge
 //! back into range by moving its two ends. An edge still abnormal at the end
-//! of the tick is counted as unresolved (never dropped silently).
+//! of the tick is counted as unresolved (never dropped silently). In the
+//! fluid model every move is tangential, and with direct edits
+//! ([`crate::params::FluidEdits::Direct`]) the pre-relaxation is skipped.
 
 use crate::components::Position;
 use crate::membrane::Membrane;
@@ -64,6 +66,8 @@ struct State<'a> {
     check_invariants: bool,
     /// The fluid model: relaxations move vertices only tangentially.
     tangential: bool,
+    /// The fluid model's direct edits: no pre-relaxation.
+    direct: bool,
 }
 
 impl System for Remesh {
@@ -131,7 +135,8 @@ impl System for Remesh {
             valence: *valence,
             iteration: clock.iteration,
             check_invariants: check.0,
-            tangential: model.is_some_and(|m| m.is_fluid()),
+            tangential: model.as_ref().is_some_and(|m| m.is_fluid()),
+            direct: model.is_some_and(|m| m.direct_edits()),
         };
         let mut attempted: HashSet<(Entity, Entity)> = HashSet::new();
         let mut events = 0;
@@ -259,6 +264,9 @@ fn process(
         push_back(state, a, b, seg, settings, kicks, rng);
         return Ok(());
     }
+    if state.direct {
+        return direct_edit(state, edge, op, seg, settings, kicks, rng);
+    }
     // Pre-relaxation with the 1-ring moveable; under tension the fixed 2-ring
     // may leave no room, so a failure is retried with the 2-ring moveable
     // (the reference code's fallback after repeated failures), and then
@@ -318,27 +326,7 @@ fn process(
             });
             refresh(state)?;
             debug_check_invariants(state)?;
-            // Post-relaxation: the new (or surviving) vertex and its 1-ring.
-            let t = state.membrane.cached_topology();
-            let v = t
-                .vertex_slot(out.vertex)
-                .expect("the edit keeps this vertex");
-            let mut moveable = vec![v];
-            moveable.extend_from_slice(t.neighbours(v as usize));
-            let (mut post, post_slots) = Patch::around(
-                state.membrane.cached_topology(),
-                state.positions,
-                &moveable,
-                None,
-            );
-            if state.tangential {
-                post.freeze_normals(t, state.positions, &post_slots);
-            }
-            let relaxed = relax(&mut post, Goal::Normalize, seg, settings, kicks, rng);
-            state.remesh_stats.relax_iterations.post += u64::from(relaxed.iterations);
-            if relaxed.outcome != RelaxOutcome::Failure {
-                write_back(state, &post, &post_slots);
-            }
+            post_relax(state, out.vertex, seg, settings, kicks, rng);
         }
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
@@ -349,6 +337,78 @@ fn process(
                 ..Default::default()
             };
             write_back(state, &restore, &slots);
+            let t = state.membrane.cached_topology();
+            let (a, b) = (
+                t.vertex_slot(ea).expect("live"),
+                t.vertex_slot(eb).expect("live"),
+            );
+            push_back(state, a, b, seg, settings, kicks, rng);
+        }
+    }
+    Ok(())
+}
+
+/// Post-relaxation: the new (or surviving) vertex of an edit and its 1-ring
+/// relax into the normal range (kept unless the relaxation fails).
+fn post_relax(
+    state: &mut State<'_>,
+    vertex: Entity,
+    seg: &crate::energy::vin::Segmentation,
+    settings: &RelaxSettings,
+    kicks: &KickTable,
+    rng: &mut impl RngExt,
+) {
+    let t = state.membrane.cached_topology();
+    let v = t.vertex_slot(vertex).expect("the edit keeps this vertex");
+    let mut moveable = vec![v];
+    moveable.extend_from_slice(t.neighbours(v as usize));
+    let (mut post, post_slots) = Patch::around(
+        state.membrane.cached_topology(),
+        state.positions,
+        &moveable,
+        None,
+    );
+    if state.tangential {
+        post.freeze_normals(t, state.positions, &post_slots);
+    }
+    let relaxed = relax(&mut post, Goal::Normalize, seg, settings, kicks, rng);
+    state.remesh_stats.relax_iterations.post += u64::from(relaxed.iterations);
+    if relaxed.outcome != RelaxOutcome::Failure {
+        write_back(state, &post, &post_slots);
+    }
+}
+
+/// The fluid model's direct edit ([`crate::params::FluidEdits::Direct`]):
+/// the split or merge is applied at once (the new vertex at the edge's
+/// midpoint), then its 1-ring relaxes tangentially into the normal range.
+/// An edit the mesh cannot take (valence, a fold) is counted as impossible
+/// and the edge pushed back into range, as in the paper's event.
+fn direct_edit(
+    state: &mut State<'_>,
+    edge: u32,
+    op: EdgeOp,
+    seg: &crate::energy::vin::Segmentation,
+    settings: &RelaxSettings,
+    kicks: &KickTable,
+    rng: &mut impl RngExt,
+) -> Result<(), SimError> {
+    let t = state.membrane.cached_topology();
+    let [a, b] = t.edges[edge as usize];
+    let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
+    match op.apply(state.membrane, edge, state.valence) {
+        Ok(out) => {
+            state.remesh_stats.counts_mut(op).success += 1;
+            state.remesh_stats.events.push(crate::remesh::RemeshEvent {
+                iteration: state.iteration,
+                op,
+                position: out.position.to_array(),
+            });
+            refresh(state)?;
+            debug_check_invariants(state)?;
+            post_relax(state, out.vertex, seg, settings, kicks, rng);
+        }
+        Err(_) => {
+            state.remesh_stats.counts_mut(op).impossible += 1;
             let t = state.membrane.cached_topology();
             let (a, b) = (
                 t.vertex_slot(ea).expect("live"),
