@@ -630,7 +630,8 @@ impl MembraneModel {
         matches!(
             self,
             MembraneModel::Fluid(FluidParams {
-                edits: FluidEdits::Direct
+                edits: FluidEdits::Direct,
+                ..
             })
         )
     }
@@ -645,6 +646,36 @@ pub struct FluidParams {
     /// How a remesh event edits the mesh (default `Relaxed`, the paper's
     /// event made tangential).
     pub edits: FluidEdits,
+    /// Delaunay flips as mesh maintenance (default: none). A fluid flows in
+    /// its plane; without flips an elongation stretches the triangles until
+    /// splits and merges cannot follow (see `systems/maintenance_flips.rs`).
+    pub flips: Option<MaintenanceFlipParams>,
+}
+
+/// Delaunay flips as mesh maintenance in the fluid model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaintenanceFlipParams {
+    /// Largest angle between the normals of an edge's two faces at which
+    /// the edge may be flipped (degrees; default 20): the flip moves the
+    /// surface by the tetrahedron between the four corners.
+    #[serde(
+        default = "default_max_dihedral",
+        deserialize_with = "crate::validate::positive"
+    )]
+    pub max_dihedral: f64,
+    /// Iterations between sweeps over the edges (default 1). Every flip is
+    /// a topology change, after which the minimiser restarts from rest.
+    #[serde(default = "default_flip_every")]
+    pub every: u32,
+}
+
+fn default_max_dihedral() -> f64 {
+    20.0
+}
+
+fn default_flip_every() -> u32 {
+    1
 }
 
 /// How a split or merge is carried out in the fluid model.

@@ -123,6 +123,10 @@ pub struct RunSummary {
     /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
+    /// Delaunay maintenance flips of the fluid model (scenes with
+    /// `model: Fluid(flips: ...)` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub maintenance_flips: Option<crate::systems::maintenance_flips::MaintenanceFlipStats>,
     /// How the minimisation ended (scenes with `method: Minimise` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub minimiser: Option<MinimiserSummary>,
@@ -638,6 +642,11 @@ fn summarize(
         edge_flips: sim
             .resources()
             .get::<crate::systems::edge_flips::FlipStats>()
+            .ok()
+            .map(|s| *s),
+        maintenance_flips: sim
+            .resources()
+            .get::<crate::systems::maintenance_flips::MaintenanceFlipStats>()
             .ok()
             .map(|s| *s),
         remesh: RemeshSummary {

@@ -782,6 +782,24 @@ impl Scene {
             field: field.to_string(),
             reason,
         };
+        if let crate::params::MembraneModel::Fluid(crate::params::FluidParams {
+            flips: Some(f),
+            ..
+        }) = self.model
+        {
+            if !(f.max_dihedral > 0.0 && f.max_dihedral <= 90.0) {
+                return Err(invalid(
+                    "model.Fluid.flips.max_dihedral",
+                    format!("must be in (0, 90] degrees (got {})", f.max_dihedral),
+                ));
+            }
+            if f.every == 0 {
+                return Err(invalid(
+                    "model.Fluid.flips.every",
+                    "must be at least 1 (iterations between sweeps)".into(),
+                ));
+            }
+        }
         if self.model.direct_edits() {
             let r = self.remesh;
             if r.mode == crate::params::RemeshMode::Off {
@@ -856,7 +874,8 @@ impl Scene {
             return Err(invalid(
                 "edge_flips",
                 "Metropolis edge flips need k_BT > 0, which the fluid model refuses; its \
-                 zero-temperature maintenance flips are not built yet"
+                 zero-temperature flips are Delaunay maintenance flips: \
+                 `model: Fluid(flips: (max_dihedral: 20.0, every: 1))`"
                     .into(),
             ));
         }
@@ -1105,6 +1124,15 @@ impl Scene {
                 self.control_point_schedule.clone(),
             ))
             .map_err(build_err)?;
+        if let crate::params::MembraneModel::Fluid(crate::params::FluidParams {
+            flips: Some(flips),
+            ..
+        }) = self.model
+        {
+            builder
+                .add_plugin(plugins::maintenance_flips(flips, self.valence))
+                .map_err(|e| invalid_at("model.flips".into(), e))?;
+        }
         if self.remesh.mode != crate::params::RemeshMode::Off {
             builder
                 .add_plugin(plugins::remesh(self.valence))

@@ -3,7 +3,8 @@
 //!
 //! Stage: Integrate. Reads: the total force and energies in
 //! [`ForceBuffers`] (with the constraints' reactions removed when the
-//! scene holds any), [`RemeshStats`] and [`FlipStats`] when present (a
+//! scene holds any), [`RemeshStats`], [`FlipStats`] and
+//! [`MaintenanceFlipStats`] when present (a
 //! change in their counts is a topology change: FIRE restarts from rest).
 //! Writes: [`DensePositions`], the world's `Position` and `Force` (in
 //! [`Membrane`]), [`Clock`] (iterations; simulated time stays 0),
@@ -25,6 +26,7 @@ use crate::schedule::System;
 use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
 use crate::systems::edge_flips::FlipStats;
 use crate::systems::langevin_integration::check_step;
+use crate::systems::maintenance_flips::MaintenanceFlipStats;
 use crate::timestep::{Limiter, TimeStepChoice};
 use std::collections::VecDeque;
 
@@ -68,6 +70,7 @@ impl System for FireMinimiser {
         Res<'a, ForceBuffers>,
         Option<Res<'a, RemeshStats>>,
         Option<Res<'a, FlipStats>>,
+        Option<Res<'a, MaintenanceFlipStats>>,
         ResMut<'a, DensePositions>,
         ResMut<'a, Membrane>,
         ResMut<'a, Clock>,
@@ -86,6 +89,7 @@ impl System for FireMinimiser {
             buffers,
             remesh,
             flips,
+            maintenance,
             mut positions,
             mut membrane,
             mut clock,
@@ -97,7 +101,9 @@ impl System for FireMinimiser {
         let p = &self.params;
         let ev = &buffers.evaluation;
         let n = positions.0.len();
-        let edits = remesh.map_or(0, |s| s.successes()) + flips.map_or(0, |s| s.accepted);
+        let edits = remesh.map_or(0, |s| s.successes())
+            + flips.map_or(0, |s| s.accepted)
+            + maintenance.map_or(0, |s| s.flipped);
         let s = &mut self.state;
         let fire = match &mut s.fire {
             Some(f) if f.velocity.len() == n && s.edits_seen == edits => f,

@@ -22,6 +22,7 @@ pub mod gather_state;
 pub mod langevin_integration;
 pub mod lipid_diffusion;
 pub mod local_tension_forces;
+pub mod maintenance_flips;
 pub mod plugins;
 pub mod recorders;
 pub mod remesh;

@@ -219,6 +219,23 @@ pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
     }
 }
 
+/// Delaunay flips as mesh maintenance in the fluid model, in the Remesh
+/// stage (the scene adds it before [`remesh`], so it runs before any
+/// split/merge); keeps every valence inside `valence`.
+pub fn maintenance_flips(
+    params: crate::params::MaintenanceFlipParams,
+    valence: ValenceRange,
+) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::systems::maintenance_flips::{MaintenanceFlipStats, MaintenanceFlips};
+        b.insert_resource(valence)
+            .insert_resource(MaintenanceFlipStats::default())
+            .persist_resource::<MaintenanceFlipStats>();
+        b.add_system(Stage::Remesh, MaintenanceFlips::new(params));
+        Ok(())
+    }
+}
+
 /// Constant surface tension σA.
 pub fn tension(params: crate::params::TensionParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
