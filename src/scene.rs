@@ -143,6 +143,11 @@ pub enum MembraneSource {
         /// only the mesh quality changes (paper Fig 1).
         #[serde(default, deserialize_with = "crate::validate::non_negative")]
         jitter: f64,
+        /// Rotation of the unit icosphere about the x axis before the
+        /// jitter and the mapping (degrees, default 0): another
+        /// triangulation of the same surface.
+        #[serde(default)]
+        tilt: f64,
     },
     /// A capsule along z, centred at the origin: a cylinder of `radius` and
     /// `length` closed by hemispherical caps, in staggered rings of nearly
@@ -474,6 +479,12 @@ impl Scene {
                         "a capsule of radius {radius} and length {length} with edges of \
                          {mean_edge_length} has more than {MAX_CAPSULE_VERTICES} vertices"
                     ),
+                ));
+            }
+            MembraneSource::Ellipsoid { tilt, .. } if !tilt.is_finite() => {
+                return Err(invalid(
+                    "membrane.tilt",
+                    format!("must be finite (degrees; got {tilt})"),
                 ));
             }
             MembraneSource::Ellipsoid { jitter, .. } if *jitter >= 0.5 => {
@@ -958,7 +969,8 @@ impl Scene {
                 level,
                 semi_axes: (a, b, c),
                 jitter,
-            } => crate::mesh::ellipsoid(*level, [*a, *b, *c], *jitter, self.seed),
+                tilt,
+            } => crate::mesh::ellipsoid_tilted(*level, [*a, *b, *c], *jitter, *tilt, self.seed),
             MembraneSource::Capsule {
                 radius,
                 length,

@@ -100,8 +100,28 @@ pub fn icosphere(level: u32, mean_edge_length: f64) -> SurfaceMesh {
 /// the sphere: the vertices stay on the ellipsoid, the triangles get
 /// irregular.
 pub fn ellipsoid(level: u32, semi_axes: [f64; 3], jitter: f64, seed: u64) -> SurfaceMesh {
+    ellipsoid_tilted(level, semi_axes, jitter, 0.0, seed)
+}
+
+/// [`ellipsoid`] from the unit icosphere rotated by `tilt` degrees about
+/// the x axis before the jitter and the mapping: another triangulation of
+/// the same surface (0: exactly [`ellipsoid`]'s). A fluid membrane's
+/// equilibrium must not depend on it.
+pub fn ellipsoid_tilted(
+    level: u32,
+    semi_axes: [f64; 3],
+    jitter: f64,
+    tilt: f64,
+    seed: u64,
+) -> SurfaceMesh {
     use rand::{RngExt, SeedableRng};
     let mut mesh = icosphere_unit(level);
+    if tilt != 0.0 {
+        let rotation = glam::DQuat::from_rotation_x(tilt.to_radians());
+        for p in &mut mesh.positions {
+            *p = rotation * *p;
+        }
+    }
     if jitter > 0.0 {
         let edge = mesh.mean_edge_length();
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);

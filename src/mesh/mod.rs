@@ -12,7 +12,8 @@ pub mod io;
 pub use capsule::{capsule, capsule_vertex_count};
 pub use docking::docked_pair;
 pub use icosphere::{
-    MAX_ICOSPHERE_LEVEL, ellipsoid, icosphere, icosphere_unit, vertex_count_for_level,
+    MAX_ICOSPHERE_LEVEL, ellipsoid, ellipsoid_tilted, icosphere, icosphere_unit,
+    vertex_count_for_level,
 };
 pub use invariants::{MeshError, MeshReport, ValenceRange, check_mesh};
 
