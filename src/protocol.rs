@@ -61,6 +61,13 @@ pub struct Phase {
     /// Parameter changes, as in sweeps (`Kappa(10.0)`, `VolumeStrength(40.0)`, ...).
     #[serde(default)]
     pub set: Vec<Setting>,
+    /// Times the start state's triangles are split into four at their
+    /// edges' midpoints (default 0, at most 3; needs a `start` state): a
+    /// finer mesh of the shape the phase starts from, for a scene at a
+    /// finer `resolution` (continuation from coarse to fine, as in the
+    /// Surface Evolver).
+    #[serde(default)]
+    pub refine: u32,
 }
 
 /// Where a phase's membrane starts.
@@ -216,6 +223,21 @@ pub fn check_phases(
         }
         if phases[..i].iter().any(|q| q.name == p.name) {
             return Err(err(i, "name", format!("`{}` is used twice", p.name)));
+        }
+        if p.refine > 0 && p.start == Start::Scene {
+            return Err(err(
+                i,
+                "refine",
+                "refines the state the phase starts from: set `start` (Previous, Phase or State)"
+                    .into(),
+            ));
+        }
+        if p.refine > 3 {
+            return Err(err(
+                i,
+                "refine",
+                format!("must be at most 3 (64 times the faces; got {})", p.refine),
+            ));
         }
         match &p.start {
             Start::Previous if i == 0 => {
@@ -395,7 +417,7 @@ pub fn run_phases(
     let mut ran_one = false;
     for (i, (phase, (scene, scene_path))) in phases.iter().zip(scenes).enumerate() {
         let out = dir.join(&phase.name);
-        let from = start_state(phases, i, dir, base);
+        let mut from = start_state(phases, i, dir, base);
         // Recorded relative to the protocol's directory where it is in it
         // (the directory is renamed when the protocol completes).
         let from_record = from.as_ref().map(|f| {
@@ -409,6 +431,7 @@ pub fn run_phases(
             "iterations": options.iterations,
             "frames": options.frames,
             "from": from_record,
+            "refine": phase.refine,
         })
         .to_string();
         let fingerprint_file = out.join(PHASE_FINGERPRINT);
@@ -421,6 +444,24 @@ pub fn run_phases(
             records.push(done);
             continue;
         }
+        // A refined start is the scene's own membrane source (a state with
+        // `refine`), so that the checkpoint's scene text holds it.
+        let refined;
+        let scene = match (from.take(), phase.refine) {
+            (Some(f), refine) if refine > 0 => {
+                let mut s = scene.clone();
+                s.membrane = crate::scene::MembraneSource::State {
+                    path: std::path::absolute(&f).unwrap_or(f),
+                    refine,
+                };
+                refined = s;
+                &refined
+            }
+            (f, _) => {
+                from = f;
+                scene
+            }
+        };
         let resume_phase = options.resume
             && !ran_one
             && crate::checkpoint::staging_of(&out)

@@ -295,7 +295,7 @@ pub fn prepare_run(
     if let Some(from) = &options.from {
         // Absolute, so it does not depend on the scene file's folder.
         let path = std::path::absolute(from).unwrap_or_else(|_| from.clone());
-        scene.membrane = crate::scene::MembraneSource::State { path };
+        scene.membrane = crate::scene::MembraneSource::State { path, refine: 0 };
     }
     let name = run_name(&scene, scene_path);
     let mut sim = scene.build(scene_path)?;

@@ -190,6 +190,13 @@ pub enum MembraneSource {
     State {
         /// Path of the state file.
         path: PathBuf,
+        /// Times every triangle is split into four at its edges' midpoints
+        /// (default 0; at most 3): the saved shape on a mesh with edges
+        /// half as long per step, a start for a finer resolution
+        /// (`resolution: EdgeLength(h / 2)`). Needs a scene without lipid
+        /// density.
+        #[serde(default)]
+        refine: u32,
     },
     /// A mesh given inline (what the Python package's `Scene.with_mesh`
     /// writes): vertex positions and triangles, checked like a file's.
@@ -479,6 +486,20 @@ impl Scene {
                         "a capsule of radius {radius} and length {length} with edges of \
                          {mean_edge_length} has more than {MAX_CAPSULE_VERTICES} vertices"
                     ),
+                ));
+            }
+            MembraneSource::State { refine, .. } if *refine > 3 => {
+                return Err(invalid(
+                    "membrane.refine",
+                    format!("must be at most 3 (64 times the faces; got {refine})"),
+                ));
+            }
+            MembraneSource::State { refine, .. } if *refine > 0 && self.lipid_density => {
+                return Err(invalid(
+                    "membrane.refine",
+                    "a refined state has new vertices without a lipid density: use a scene \
+                     without `lipid_density`, or refine 0"
+                        .into(),
                 ));
             }
             MembraneSource::Ellipsoid { tilt, .. } if !tilt.is_finite() => {
@@ -986,7 +1007,7 @@ impl Scene {
                 m.scale(*scale);
                 m
             }
-            MembraneSource::State { path } => {
+            MembraneSource::State { path, refine } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));
                 let state = crate::state::SavedState::read(&base.join(path)).map_err(|e| {
                     SceneError::Invalid {
@@ -995,8 +1016,14 @@ impl Scene {
                         reason: format!("state file {e}"),
                     }
                 })?;
-                lipid = state.lipid_density.clone();
-                state.mesh()
+                let mut mesh = state.mesh();
+                if *refine == 0 {
+                    lipid = state.lipid_density.clone();
+                }
+                for _ in 0..*refine {
+                    mesh = mesh.subdivided();
+                }
+                mesh
             }
             MembraneSource::Mesh { positions, faces } => SurfaceMesh {
                 positions: positions.clone(),

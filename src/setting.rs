@@ -30,6 +30,9 @@ pub enum Setting {
     Iterations(u64),
     /// Simulated duration of the run (s).
     Duration(f64),
+    /// Target edge length h of the mesh scale (`resolution: EdgeLength(h)`,
+    /// l̄; every mesh-scale length follows it).
+    EdgeLength(f64),
 }
 
 impl Setting {
@@ -101,6 +104,12 @@ impl Setting {
             }
             Setting::Iterations(n) => scene.dynamics.iterations = *n,
             Setting::Duration(t) => scene.dynamics.duration = Some(*t),
+            Setting::EdgeLength(h) => {
+                if !(h.is_finite() && *h > 0.0) {
+                    return Err(format!("an edge length must be positive (got {h})"));
+                }
+                scene.resolution = crate::resolution::Resolution::EdgeLength(*h);
+            }
         }
         Ok(())
     }
@@ -125,6 +134,7 @@ impl Setting {
             | Setting::Kappa(v)
             | Setting::ReducedVolume(v)
             | Setting::SpringStiffness(v)
+            | Setting::EdgeLength(v)
             | Setting::Duration(v) => Some(*v),
             Setting::DiffusionInstant => Some(f64::INFINITY),
             Setting::Iterations(n) => Some(*n as f64),

@@ -480,6 +480,72 @@ fn fluid_tether_pulls_along_the_normals_and_reports_what_it_delivers() {
 }
 
 #[test]
+fn a_protocol_continues_the_fluid_red_blood_cell_onto_a_refined_mesh() {
+    // The first two rungs of scenes/fluid/red_blood_cell_l5.ron from the
+    // CLI: the 642-vertex equilibrium, every triangle split into four, then
+    // minimised at h = 1/2. Measured: the refined start has E_b 380 Ē
+    // (flat facets), 2500 iterations bring it to 244.620 Ē (the converged
+    // 244.617 after 10 554), -0.46 % against the continuum (h = 1: -1.87 %).
+    let dir = tempfile::tempdir().unwrap();
+    let bundled = std::fs::read_to_string("scenes/fluid/red_blood_cell_l5.ron").unwrap();
+    let scene = std::path::absolute("scenes/fluid/red_blood_cell.ron").unwrap();
+    let start = bundled.find("Protocol(").unwrap();
+    let end = bundled
+        .find("        (\n            name: \"h1_4\"")
+        .unwrap();
+    let text = format!("{}    ],\n)\n", &bundled[start..end])
+        .replace(
+            "\"red_blood_cell.ron\"",
+            &format!("{:?}", scene.display().to_string()),
+        )
+        .replace("iterations: 50000", "iterations: 2500");
+    let path = dir.path().join("ladder.ron");
+    std::fs::write(&path, &text).unwrap();
+    let out = dir.path().join("out");
+    assert_eq!(
+        common::cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
+        std::process::ExitCode::SUCCESS,
+        "{text}"
+    );
+    let error = |phase: &str| {
+        let text = std::fs::read_to_string(out.join(phase).join("summary.json")).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert!((json["reduced_volume"].as_f64().unwrap() - 0.6).abs() < 1e-4);
+        assert!((json["area"].as_f64().unwrap() / 553.0 - 1.0).abs() < 1e-4);
+        let eb = common::term_energy(&json, "bending") / (8.0 * std::f64::consts::PI * 5.0);
+        (json["vertices"].as_u64().unwrap(), eb / 1.95568 - 1.0)
+    };
+    let (v1, coarse) = error("h1");
+    let (v2, fine) = error("h1_2");
+    // V' = V + E = V + 3(V - 2) for a closed triangulated sphere.
+    assert_eq!(v2, v1 + 3 * (v1 - 2));
+    let first = common::series_column(&out.join("h1_2"), "vertices")[0];
+    assert_eq!(first as u64, v2);
+    assert!(fine.abs() < 0.006, "h = 1/2: {fine}");
+    let order = (coarse.abs() / fine.abs()).log2();
+    assert!(order >= 1.5, "errors {coarse} and {fine}: order {order}");
+}
+
+#[test]
+fn a_refined_state_is_checked_before_it_is_read() {
+    for (extra, reason) in [
+        ("refine: 4)", "must be at most 3"),
+        ("refine: 1), lipid_density: true", "without a lipid density"),
+    ] {
+        let text = format!(
+            "Scene(name: \"r\", membrane: State(path: \"state.json\", {extra}, \
+             energy: [Vin(), Bending(kappa: 5.0)])"
+        );
+        let e = Scene::from_ron_str(&text, Path::new("refined.ron"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("refined.ron"), "{e}");
+        assert!(e.contains("membrane.refine"), "{e}");
+        assert!(e.contains(reason), "{e}");
+    }
+}
+
+#[test]
 fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
     // The same cell (A = 553 l̄², v = 0.6) at h = 1 (642 vertices) and
     // h = 1/2 (2562): in the fluid model the bending energy's error against

@@ -143,6 +143,18 @@ fn bad_protocols_name_the_field_and_write_nothing() {
             "field `phases[0].duration`: must be a positive time",
         ),
         (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron", refine: 1)])"#,
+            "field `phases[0].refine`: refines the state the phase starts from: set `start`",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron"), (name: "b", scene: "small.ron", start: Previous, refine: 4)])"#,
+            "field `phases[1].refine`: must be at most 3",
+        ),
+        (
+            r#"Protocol(name: "p", phases: [(name: "a", scene: "small.ron", set: [EdgeLength(0.0)])])"#,
+            "field `phases[0].set[0]`: an edge length must be positive",
+        ),
+        (
             r#"Protocol(name: "p", phases: [])"#,
             "field `phases`: a protocol needs at least one phase",
         ),

@@ -63,6 +63,33 @@ impl SurfaceMesh {
         total / edges.len().max(1) as f64
     }
 
+    /// Each triangle split into four at its edges' midpoints (the
+    /// Surface Evolver's `r`): the same polyhedron with edges half as long,
+    /// 4F faces and V + E vertices; new vertices follow the old ones, in
+    /// the order of the sorted edges, so the result is deterministic.
+    /// Orientation is kept. Lipid densities and other per-vertex fields are
+    /// the caller's to transfer.
+    pub fn subdivided(&self) -> SurfaceMesh {
+        let edges = self.edges();
+        let n = self.positions.len() as u32;
+        let mut positions = self.positions.clone();
+        positions.extend(
+            edges
+                .iter()
+                .map(|&[a, b]| 0.5 * (self.positions[a as usize] + self.positions[b as usize])),
+        );
+        let mid = |a: u32, b: u32| -> u32 {
+            let key = [a.min(b), a.max(b)];
+            n + edges.binary_search(&key).expect("an edge of the mesh") as u32
+        };
+        let mut faces = Vec::with_capacity(self.faces.len() * 4);
+        for &[a, b, c] in &self.faces {
+            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+            faces.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        SurfaceMesh { positions, faces }
+    }
+
     /// Scales all positions about the origin by `factor`.
     pub fn scale(&mut self, factor: f64) {
         for p in &mut self.positions {
@@ -93,5 +120,45 @@ impl SurfaceMesh {
         for p in &mut self.positions {
             *p += amplitude * DVec3::new(rng.random(), rng.random(), rng.random());
         }
+    }
+}
+
+#[cfg(test)]
+mod subdivision_tests {
+    use super::*;
+
+    #[test]
+    fn subdividing_an_icosphere_gives_the_next_level_before_projection() {
+        let coarse = icosphere_unit(2);
+        let fine = coarse.subdivided();
+        let (v, e, f) = (
+            coarse.positions.len(),
+            coarse.edges().len(),
+            coarse.faces.len(),
+        );
+        assert_eq!(fine.positions.len(), v + e);
+        assert_eq!(fine.faces.len(), 4 * f);
+        assert_eq!(fine.edges().len(), 2 * e + 3 * f);
+        check_mesh(&fine.positions, &fine.faces, None).unwrap();
+        // The same polyhedron: the old vertices kept, every new one on an
+        // old edge's midpoint, and the edges halved.
+        assert_eq!(&fine.positions[..v], &coarse.positions[..]);
+        let ratio = fine.mean_edge_length() / coarse.mean_edge_length();
+        assert!((ratio - 0.5).abs() < 1e-12, "{ratio}");
+        // Projected onto the sphere it is the next icosphere level (as a set
+        // of points).
+        let key = |p: DVec3| {
+            let q = p.normalize();
+            [q.x, q.y, q.z].map(|c| (c * 1e9).round() as i64)
+        };
+        let mut a: Vec<_> = fine.positions.iter().map(|&p| key(p)).collect();
+        let mut b: Vec<_> = icosphere_unit(3)
+            .positions
+            .iter()
+            .map(|&p| key(p))
+            .collect();
+        a.sort();
+        b.sort();
+        assert_eq!(a, b);
     }
 }
