@@ -10,7 +10,8 @@
 //! reactions (gradients of A and V, least-squares removal), the projection
 //! back onto a target 1e-6 away (4 smoothing passes), and one FIRE step.
 //!
-//! The force stage of the paper's and the fluid model (`model`).
+//! The force stage of the paper's and the fluid model (`model`), and a
+//! whole minimiser tick of the red blood cell in each (`model_tick`).
 //!
 //! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
 
@@ -298,5 +299,46 @@ fn models(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, each_system, rbc_all_forces, constraints, models);
+/// A whole tick of the minimiser red blood cell (`scenes/fluid/red_blood_cell.ron`:
+/// V_in + bending, exact area and volume, FIRE, free-energy remeshing) in
+/// the paper's and the fluid model, at 642 vertices and the same cell at
+/// h = 1/2 (2562), each after 300 warm-up ticks.
+fn model_ticks(c: &mut Criterion) {
+    use remembrane::scene::Scene;
+    let base = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
+    let mut g = configure(c, "model_tick");
+    for (level, h) in [(3u32, 1.0), (4, 0.5)] {
+        for (label, model) in [("paper", "Paper"), ("fluid", "Fluid()")] {
+            let text = base
+                .replace("level: 3,", &format!("level: {level},"))
+                .replace(
+                    "model: Fluid(),",
+                    &format!("model: {model}, resolution: EdgeLength({h}),"),
+                );
+            let path = std::path::Path::new("scenes/fluid/red_blood_cell.ron");
+            let mut sim = Scene::from_ron_str(&text, path)
+                .unwrap()
+                .build(path)
+                .unwrap();
+            for _ in 0..300 {
+                sim.tick().unwrap();
+            }
+            let n = sim.membrane().cached_topology().vertex_count();
+            g.throughput(Throughput::Elements(n as u64));
+            g.bench_with_input(BenchmarkId::new(label, n), &n, |b, _| {
+                b.iter(|| sim.tick().unwrap())
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(
+    benches,
+    each_system,
+    rbc_all_forces,
+    constraints,
+    models,
+    model_ticks
+);
 criterion_main!(benches);

@@ -61,6 +61,21 @@ pub fn keep_tangential(forces: &mut [DVec3], normals: &[DVec3]) {
     });
 }
 
+/// Removes the net force from a force field: f ← f − (1/N) Σ_j f_j. The
+/// projection onto tangent planes breaks action and reaction (a free
+/// vesicle would drift); a uniform force is a rigid translation, which
+/// moves no shape, so taking it away restores momentum conservation
+/// without acting on the shape. At a fluid equilibrium the projected
+/// maintenance force already sums to zero, so the equilibrium is
+/// unchanged. The sum is sequential (the same bits on any thread count).
+pub fn remove_net_force(forces: &mut [DVec3]) {
+    if forces.is_empty() {
+        return;
+    }
+    let mean = forces.iter().copied().sum::<DVec3>() / forces.len() as f64;
+    crate::parallel::for_each_mut(forces, |_, f| *f -= mean);
+}
+
 /// Keeps of every force only its component along the vertex normal:
 /// f ← (f·n) n.
 pub fn keep_normal(forces: &mut [DVec3], normals: &[DVec3]) {
@@ -79,10 +94,10 @@ pub struct FluidResiduals {
     /// Largest tangential force of the maintenance terms, max_i |P_T F_i|
     /// (what keeps the triangles regular; it does not act on the shape).
     pub maintenance_tangential: f64,
-    /// Net force on the membrane, |Σ_i F_i|: zero for a free membrane in
-    /// the paper's model (every term is translation-invariant); the fluid
-    /// model's projection breaks action and reaction, so this is its
-    /// tangential leak.
+    /// Net force on the membrane, |Σ_i F_i|: zero for a free membrane
+    /// (every term is translation-invariant, and the fluid model removes
+    /// the net force its projection would leave), so above round-off it is
+    /// the load of the control points.
     pub net_force: f64,
 }
 

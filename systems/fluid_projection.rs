@@ -4,11 +4,12 @@
 //! Stage: Forces (after `force_terms`, before `force_total`). Reads:
 //! [`VertexNormals`]. Writes: in [`ForceBuffers`], the buffers of the
 //! [`ForceKind::Maintenance`] terms (V_in), which lose their component
-//! along the area-weighted vertex normal, and of the
+//! along the area-weighted vertex normal and then their net force (a rigid
+//! translation, so that a free vesicle does not drift), and of the
 //! [`ForceKind::External`] terms (control-point springs), which keep only
 //! that component. The per-term forces reported are then the ones that act.
 
-use crate::fluid::{keep_normal, keep_tangential};
+use crate::fluid::{keep_normal, keep_tangential, remove_net_force};
 use crate::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
 use crate::force_term_system::FORCE_TERMS;
 use crate::resources::{Res, ResMut};
@@ -40,7 +41,10 @@ impl System for FluidProjection {
         let kinds: Vec<ForceKind> = buffers.terms().iter().map(|t| t.kind).collect();
         for (kind, buf) in kinds.iter().zip(&mut buffers.evaluation.term_forces) {
             match kind {
-                ForceKind::Maintenance => keep_tangential(buf, &normals.0),
+                ForceKind::Maintenance => {
+                    keep_tangential(buf, &normals.0);
+                    remove_net_force(buf);
+                }
                 ForceKind::External => keep_normal(buf, &normals.0),
                 ForceKind::Conservative | ForceKind::Penalty => {}
             }
