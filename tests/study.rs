@@ -84,6 +84,14 @@ fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
     let sphere = errors(problem(&report, "sphere"));
     assert!((sphere[1].1 - 4.74e-3).abs() < 1e-5, "{sphere:?}");
 
+    // The fluid red blood cell at h = 1 (642 vertices, v = 0.6 exactly):
+    // E_b/8πκ 1.87 % below the continuum (tests/fluid_model.rs, README).
+    let fluid = errors(problem(&report, "rbc_fluid"));
+    assert!(
+        fluid.len() == 1 && (fluid[0].1 - 1.871e-2).abs() < 1e-3,
+        "{fluid:?}"
+    );
+
     // The red blood cell against the axisymmetric minimiser at its own v:
     // the errors of E_b/8πκ, D/R0 and the centre thickness fall from level
     // 2 to level 3 (the maximal thickness's is 1.25e-2 at both), and both
