@@ -495,7 +495,7 @@ fn a_protocol_continues_the_fluid_red_blood_cell_onto_a_refined_mesh() {
         .unwrap();
     let text = format!("{}    ],\n)\n", &bundled[start..end])
         .replace(
-            "\"red_blood_cell.ron\"",
+            "\"../fluid/red_blood_cell.ron\"",
             &format!("{:?}", scene.display().to_string()),
         )
         .replace("iterations: 50000", "iterations: 2500");
