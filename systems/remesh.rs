@@ -317,17 +317,7 @@ fn process(
     // The edge's slot is unchanged until the topology changes.
     let result = op.apply(state.membrane, edge, valence);
     match result {
-        Ok(out) => {
-            state.remesh_stats.counts_mut(op).success += 1;
-            state.remesh_stats.events.push(crate::remesh::RemeshEvent {
-                iteration: state.iteration,
-                op,
-                position: out.position.to_array(),
-            });
-            refresh(state)?;
-            debug_check_invariants(state)?;
-            post_relax(state, out.vertex, seg, settings, kicks, rng);
-        }
+        Ok(out) => finish_edit(state, op, &out, seg, settings, kicks, rng)?,
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
             // Restore the pre-relaxation positions, then push the edge back.
@@ -345,6 +335,30 @@ fn process(
             push_back(state, a, b, seg, settings, kicks, rng);
         }
     }
+    Ok(())
+}
+
+/// After a successful edit: counts and records the event, re-gathers the
+/// dense mirror, checks the invariants (when asked) and post-relaxes the
+/// new vertex's 1-ring.
+fn finish_edit(
+    state: &mut State<'_>,
+    op: EdgeOp,
+    out: &crate::remesh::RemeshOutcome,
+    seg: &crate::energy::vin::Segmentation,
+    settings: &RelaxSettings,
+    kicks: &KickTable,
+    rng: &mut impl RngExt,
+) -> Result<(), SimError> {
+    state.remesh_stats.counts_mut(op).success += 1;
+    state.remesh_stats.events.push(crate::remesh::RemeshEvent {
+        iteration: state.iteration,
+        op,
+        position: out.position.to_array(),
+    });
+    refresh(state)?;
+    debug_check_invariants(state)?;
+    post_relax(state, out.vertex, seg, settings, kicks, rng);
     Ok(())
 }
 
@@ -396,17 +410,7 @@ fn direct_edit(
     let [a, b] = t.edges[edge as usize];
     let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
     match op.apply(state.membrane, edge, state.valence) {
-        Ok(out) => {
-            state.remesh_stats.counts_mut(op).success += 1;
-            state.remesh_stats.events.push(crate::remesh::RemeshEvent {
-                iteration: state.iteration,
-                op,
-                position: out.position.to_array(),
-            });
-            refresh(state)?;
-            debug_check_invariants(state)?;
-            post_relax(state, out.vertex, seg, settings, kicks, rng);
-        }
+        Ok(out) => finish_edit(state, op, &out, seg, settings, kicks, rng)?,
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
             let t = state.membrane.cached_topology();

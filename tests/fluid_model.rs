@@ -141,6 +141,18 @@ fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::run::RunSummary {
     remembrane::run::run_scene(scene, path, &common::quiet_options(out), |_| Ok(())).unwrap()
 }
 
+/// Runs a variant of the fluid red blood cell (scene text `text`, named
+/// `name`) and checks that it converged at v = 0.6.
+fn converged_cell(text: &str, name: &str) -> remembrane::run::RunSummary {
+    let path = Path::new(name);
+    let scene = Scene::from_ron_str(text, path).unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let summary = run(&scene, path, &out.path().join("run"));
+    assert!(summary.minimiser.as_ref().unwrap().converged);
+    assert!((summary.last.reduced_volume - 0.6).abs() < 1e-4);
+    summary
+}
+
 /// `text` with `model: Fluid()` parsed and validated as a scene file.
 fn fluid_scene_error(extra: &str) -> String {
     let text = format!(
@@ -404,12 +416,7 @@ fn a_fluid_red_blood_cell_forgets_its_first_triangulation() {
             &format!("semi_axes: (6.864, 6.864, 6.178), tilt: {tilt}),"),
         );
         assert!(text.contains("tilt"));
-        let path = Path::new("tilted.ron");
-        let scene = Scene::from_ron_str(&text, path).unwrap();
-        let out = tempfile::tempdir().unwrap();
-        let summary = run(&scene, path, &out.path().join("run"));
-        assert!(summary.minimiser.as_ref().unwrap().converged);
-        assert!((summary.last.reduced_volume - 0.6).abs() < 1e-4);
+        let summary = converged_cell(&text, "tilted.ron");
         let json = serde_json::to_value(&summary).unwrap();
         (common::term_energy(&json, "bending"), summary.shape)
     };
@@ -608,13 +615,7 @@ fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
                 "force_tolerance: 1e-3",
                 &format!("force_tolerance: {tolerance}"),
             );
-        let path = Path::new("refined.ron");
-        let scene = Scene::from_ron_str(&text, path).unwrap();
-        let out = tempfile::tempdir().unwrap();
-        let summary = run(&scene, path, &out.path().join("run"));
-        assert!(summary.minimiser.as_ref().unwrap().converged);
-        assert!((summary.last.reduced_volume - 0.6).abs() < 1e-4);
-        let json = serde_json::to_value(&summary).unwrap();
+        let json = serde_json::to_value(converged_cell(&text, "refined.ron")).unwrap();
         common::term_energy(&json, "bending") / (8.0 * std::f64::consts::PI * 5.0) / 1.95568 - 1.0
     };
     // The force tolerance is scaled by h² (a vertex's force ∝ its area);
