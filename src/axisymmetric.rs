@@ -277,7 +277,7 @@ impl std::error::Error for SolveError {}
 /// the phase diagram of Seifert, Berndl & Lipowsky, Phys. Rev. A 44, 1182
 /// (1991). Existence ranges are those found by this solver within the
 /// accepted domain `v ∈ (0.5, 1]` (see the module documentation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Branch {
     /// Up-down symmetric shapes flattened along the axis: oblate
     /// ellipsoid-like near `v = 1`, biconcave discocytes (red-blood-cell

@@ -166,6 +166,30 @@ pub enum MembraneSource {
         )]
         mean_edge_length: f64,
     },
+    /// The continuum's equilibrium vesicle on `branch` at `reduced_volume`
+    /// (the project's axisymmetric solver, `crate::axisymmetric`, at 200
+    /// segments, κ-independent at `c0 = 0`), scaled to `area`, axis along z,
+    /// as a surface of revolution in rings of nearly equilateral triangles
+    /// of side `mean_edge_length`: a start on a branch that a deflated
+    /// sphere or spheroid does not reach (the stomatocyte's cup and neck).
+    Axisymmetric {
+        /// `Prolate`, `Oblate` or `Stomatocyte` (the last exists below
+        /// v ≈ 0.6608).
+        branch: crate::axisymmetric::Branch,
+        /// Reduced volume v = 3V/(4πR0³), R0 = √(area/4π), in (0.5, 1]
+        /// (dimensionless).
+        reduced_volume: f64,
+        /// Area of the continuum shape (l̄²); the mesh's, inscribed, is a
+        /// little smaller.
+        #[serde(deserialize_with = "crate::validate::positive")]
+        area: f64,
+        /// Side of the triangles (l̄; default 1).
+        #[serde(
+            default = "default_edge_length",
+            deserialize_with = "crate::validate::positive"
+        )]
+        mean_edge_length: f64,
+    },
     /// Two icospheres of `level` glued through one triangle (fusion; level 2
     /// gives 321 vertices).
     DockedPair {
@@ -485,6 +509,31 @@ impl Scene {
                     format!(
                         "a capsule of radius {radius} and length {length} with edges of \
                          {mean_edge_length} has more than {MAX_CAPSULE_VERTICES} vertices"
+                    ),
+                ));
+            }
+            MembraneSource::Axisymmetric { reduced_volume, .. }
+                if !(*reduced_volume > 0.5 && *reduced_volume <= 1.0) =>
+            {
+                return Err(invalid(
+                    "membrane.reduced_volume",
+                    format!(
+                        "must be in (0.5, 1], the axisymmetric solver's domain (got {reduced_volume})"
+                    ),
+                ));
+            }
+            MembraneSource::Axisymmetric {
+                area,
+                mean_edge_length,
+                ..
+            } if 2.0 * area / (3f64.sqrt() * mean_edge_length * mean_edge_length)
+                > MAX_CAPSULE_VERTICES as f64 =>
+            {
+                return Err(invalid(
+                    "membrane.mean_edge_length",
+                    format!(
+                        "an area of {area} with edges of {mean_edge_length} has more than \
+                         {MAX_CAPSULE_VERTICES} vertices"
                     ),
                 ));
             }
@@ -997,6 +1046,33 @@ impl Scene {
                 length,
                 mean_edge_length,
             } => crate::mesh::capsule(*radius, *length, *mean_edge_length),
+            MembraneSource::Axisymmetric {
+                branch,
+                reduced_volume,
+                area,
+                mean_edge_length,
+            } => {
+                let invalid = |field: &str, reason: String| SceneError::Invalid {
+                    path: scene_path.to_owned(),
+                    field: field.to_string(),
+                    reason,
+                };
+                let shape = crate::axisymmetric::solve_on_branch(*reduced_volume, 200, *branch)
+                    .map_err(|e| {
+                        invalid(
+                            "membrane.reduced_volume",
+                            format!("no {branch} shape at v = {reduced_volume}: {e}"),
+                        )
+                    })?;
+                let r0 = (area / (4.0 * std::f64::consts::PI)).sqrt();
+                let profile: Vec<(f64, f64)> = shape
+                    .profile
+                    .iter()
+                    .map(|&(r, z)| (r0 * r, r0 * z))
+                    .collect();
+                crate::mesh::revolution(&profile, *mean_edge_length)
+                    .map_err(|e| invalid("membrane", e.to_string()))?
+            }
             MembraneSource::DockedPair { level } => docked_pair(*level),
             MembraneSource::File { path, scale } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));

@@ -122,7 +122,9 @@ impl ReferenceBranch {
 pub struct DiagramMesh {
     /// Label (a directory name and the table's label).
     pub label: String,
-    /// Changes, e.g. `("membrane.Ellipsoid.level", 4)`.
+    /// Changes, e.g. `("membrane.Ellipsoid.level", 4)`. A change that
+    /// names a membrane kind (`membrane.Ellipsoid...`) applies only to the
+    /// branches whose scene starts from that kind, and must apply to one.
     #[serde(default)]
     pub set: Vec<(String, serde_json::Value)>,
     /// The mesh's edge length h (l̄), if it is a rung of a refinement: the
@@ -281,7 +283,14 @@ impl ShapeDiagram {
                 )));
             }
         }
-        for mesh in &diagram.meshes {
+        // Which of each mesh's changes some branch took (one naming a
+        // membrane kind applies only to scenes of that kind).
+        let mut applied: Vec<Vec<bool>> = diagram
+            .meshes
+            .iter()
+            .map(|m| vec![false; m.set.len()])
+            .collect();
+        for (m, mesh) in diagram.meshes.iter().enumerate() {
             for (i, branch) in diagram.branches.iter().enumerate() {
                 if branch
                     .meshes
@@ -297,7 +306,13 @@ impl ShapeDiagram {
                 check_volumes(&format!("branches[{i}].reduced_volumes"), volumes)?;
                 let scene_path = base.join(&branch.scene);
                 let scene = Scene::load(&scene_path)?;
-                let scene = crate::scene_override::set_parameters(&scene, &scene_path, &mesh.set)?;
+                let changes = changes_for(&mesh.set, &scene);
+                for (k, (path, _)) in mesh.set.iter().enumerate() {
+                    if changes.iter().any(|(p, _)| p == path) {
+                        applied[m][k] = true;
+                    }
+                }
+                let scene = crate::scene_override::set_parameters(&scene, &scene_path, &changes)?;
                 if !matches!(scene.dynamics.method, crate::params::Method::Minimise(_)) {
                     return Err(err(format!(
                         "field `branches[{i}].scene`: {} does not minimise (a shape diagram holds \
@@ -331,12 +346,46 @@ impl ShapeDiagram {
                 });
             }
         }
+        for (m, mesh) in diagram.meshes.iter().enumerate() {
+            if let Some(k) = applied[m].iter().position(|a| !a) {
+                return Err(err(format!(
+                    "field `meshes[{m}].set[{k}]`: `{}` names a membrane that no branch \
+                     walked on mesh `{}` starts from",
+                    mesh.set[k].0, mesh.label
+                )));
+            }
+        }
         Ok(LoadedDiagram {
             path: path.to_owned(),
             diagram,
             walks,
         })
     }
+}
+
+/// The changes of `set` that apply to `scene`: all but those naming a
+/// membrane kind other than the scene's (`membrane.Ellipsoid.level` is
+/// skipped for a scene that starts from `Axisymmetric`), so that one mesh
+/// can refine branches started from different kinds of membrane.
+fn changes_for(
+    set: &[(String, serde_json::Value)],
+    scene: &Scene,
+) -> Vec<(String, serde_json::Value)> {
+    let kind = serde_json::to_value(&scene.membrane)
+        .ok()
+        .and_then(|v| v.as_object().and_then(|o| o.keys().next().cloned()));
+    set.iter()
+        .filter(|(path, _)| {
+            let mut segments = path.split('.');
+            match (segments.next(), segments.next()) {
+                (Some("membrane"), Some(named)) if named.starts_with(char::is_uppercase) => {
+                    kind.as_deref() == Some(named)
+                }
+                _ => true,
+            }
+        })
+        .cloned()
+        .collect()
 }
 
 /// Options of a diagram run.

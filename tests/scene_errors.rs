@@ -196,6 +196,29 @@ fn inconsistent_scenes_name_the_field() {
             "membrane",
         ),
         (
+            GOOD.replace(
+                "Icosphere(level: 2)",
+                "Axisymmetric(branch: Oblate, reduced_volume: 0.4, area: 553.0)",
+            ),
+            "membrane.reduced_volume",
+        ),
+        // Above its fold at v ≈ 0.6608 there is no stomatocyte.
+        (
+            GOOD.replace(
+                "Icosphere(level: 2)",
+                "Axisymmetric(branch: Stomatocyte, reduced_volume: 0.7, area: 553.0)",
+            ),
+            "membrane.reduced_volume",
+        ),
+        (
+            GOOD.replace(
+                "Icosphere(level: 2)",
+                "Axisymmetric(branch: Prolate, reduced_volume: 0.9, area: 553.0, \
+                 mean_edge_length: 1e-4)",
+            ),
+            "membrane.mean_edge_length",
+        ),
+        (
             GOOD.replace("Bending(kappa: 1.0),", "Tension(sigma: -0.1),"),
             "energy[0].Tension.sigma",
         ),

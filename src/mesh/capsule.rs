@@ -3,21 +3,12 @@
 //! study, started close to its equilibrium shape).
 
 use super::SurfaceMesh;
-use glam::DVec3;
+use super::revolution::{Ring, from_rings};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Fewest vertices on a ring (a ring of 5 around each pole gives the poles
 /// valence 5).
 const MIN_RING: usize = 5;
-
-/// One ring of vertices: `count` points at height `z` on a circle of
-/// `radius` about the z axis, the first at angle `phase`.
-struct Ring {
-    z: f64,
-    radius: f64,
-    count: usize,
-    phase: f64,
-}
 
 /// Number of vertices of [`capsule`] with these arguments (without building
 /// it), for size limits.
@@ -100,81 +91,16 @@ fn rings(radius: f64, length: f64, edge: f64) -> Vec<Ring> {
 /// joined by advancing along whichever ring is behind in angle. Each pole
 /// is one vertex.
 pub fn capsule(radius: f64, length: f64, edge: f64) -> SurfaceMesh {
-    let rings = rings(radius, length, edge);
-    let mut positions = Vec::new();
-    let mut faces = Vec::new();
-    let bottom_pole = 0u32;
     // The poles sit on the caps, at z = ∓(length/2 + radius).
-    positions.push(DVec3::new(0.0, 0.0, -(0.5 * length + radius)));
-    let mut starts = Vec::with_capacity(rings.len());
-    for ring in &rings {
-        starts.push(positions.len() as u32);
-        for i in 0..ring.count {
-            let phi = ring.phase + 2.0 * PI * i as f64 / ring.count as f64;
-            positions.push(DVec3::new(
-                ring.radius * phi.cos(),
-                ring.radius * phi.sin(),
-                ring.z,
-            ));
-        }
-    }
-    let top_pole = positions.len() as u32;
-    positions.push(DVec3::new(0.0, 0.0, 0.5 * length + radius));
-
-    // Counter-clockwise seen from outside: in the (φ, z) chart with z up,
-    // (lower i, lower i+1, upper j) and (lower i, upper j+1, upper j).
-    let first = &rings[0];
-    for i in 0..first.count {
-        let a = starts[0] + i as u32;
-        let b = starts[0] + ((i + 1) % first.count) as u32;
-        faces.push([bottom_pole, b, a]);
-    }
-    for k in 0..rings.len() - 1 {
-        zip(
-            &rings[k],
-            starts[k],
-            &rings[k + 1],
-            starts[k + 1],
-            &mut faces,
-        );
-    }
-    let last = rings.len() - 1;
-    for i in 0..rings[last].count {
-        let a = starts[last] + i as u32;
-        let b = starts[last] + ((i + 1) % rings[last].count) as u32;
-        faces.push([a, b, top_pole]);
-    }
-    SurfaceMesh { positions, faces }
-}
-
-/// Triangulates the band between ring `lo` (vertices from `lo_start`) and
-/// the ring above it, `hi`.
-fn zip(lo: &Ring, lo_start: u32, hi: &Ring, hi_start: u32, faces: &mut Vec<[u32; 3]>) {
-    let step_lo = 2.0 * PI / lo.count as f64;
-    let step_hi = 2.0 * PI / hi.count as f64;
-    // The upper vertex nearest in angle to the lower ring's first vertex.
-    let offset = ((lo.phase - hi.phase) / step_hi).round() as i64;
-    let hi_index = |b: usize| (offset + b as i64).rem_euclid(hi.count as i64) as u32 + hi_start;
-    let hi_angle = |b: usize| hi.phase + step_hi * (offset + b as i64) as f64;
-    let lo_index = |a: usize| (a % lo.count) as u32 + lo_start;
-    let lo_angle = |a: usize| lo.phase + step_lo * a as f64;
-    let (mut a, mut b) = (0, 0);
-    while a < lo.count || b < hi.count {
-        let advance_lo = b == hi.count || (a < lo.count && lo_angle(a + 1) <= hi_angle(b + 1));
-        if advance_lo {
-            faces.push([lo_index(a), lo_index(a + 1), hi_index(b)]);
-            a += 1;
-        } else {
-            faces.push([lo_index(a), hi_index(b + 1), hi_index(b)]);
-            b += 1;
-        }
-    }
+    let pole = 0.5 * length + radius;
+    from_rings(-pole, &rings(radius, length, edge), pole)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::{ValenceRange, check_mesh};
+    use glam::DVec3;
 
     #[test]
     fn capsules_are_closed_outward_and_regular() {

@@ -8,6 +8,7 @@ mod docking;
 mod icosphere;
 pub mod invariants;
 pub mod io;
+mod revolution;
 
 pub use capsule::{capsule, capsule_vertex_count};
 pub use docking::docked_pair;
@@ -16,6 +17,7 @@ pub use icosphere::{
     vertex_count_for_level,
 };
 pub use invariants::{MeshError, MeshReport, ValenceRange, check_mesh};
+pub use revolution::{ProfileError, revolution, revolution_vertex_count};
 
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
