@@ -11,18 +11,24 @@
 //!         (name: "prolate", scene: "prolate.ron", reference: Prolate),
 //!         (name: "oblate", scene: "oblate.ron", reference: Oblate),
 //!         (name: "stomatocyte", scene: "stomatocyte.ron", reference: Stomatocyte,
-//!          reduced_volumes: Some([0.6, 0.55])),
+//!          reduced_volumes: Some([0.65, 0.6, 0.55])),
 //!     ],
 //!     meshes: [
 //!         (label: "642", h: 1.0),
-//!         (label: "2562", h: 0.5, set: [("membrane.Ellipsoid.level", 4), ("resolution", {"EdgeLength": 0.5})]),
+//!         (label: "2562", h: 0.5, set: [
+//!             ("membrane.Ellipsoid.level", 4),
+//!             ("membrane.Axisymmetric.mean_edge_length", 0.5),
+//!             ("resolution", {"EdgeLength": 0.5}),
+//!         ]),
 //!     ],
 //! )
 //! ```
 //!
 //! `remembrane diagram FILE --out DIR` walks every branch on every mesh.
 //! The first reduced volume starts from the branch scene's own membrane,
-//! whose shape selects the branch; every later one starts from the final
+//! whose shape selects the branch (the stomatocyte's is the continuum's
+//! own cup, `Axisymmetric(branch: Stomatocyte, ...)`, since no deflated
+//! spheroid reaches it); every later one starts from the final
 //! state of the one before (`DIR/<mesh>/<branch>/v<v>/`, each a normal run
 //! directory). The scene must hold the area with exact constraints and
 //! minimise: the walk sets `constraints.volume` to `Reduced(v)`. Then it
