@@ -875,9 +875,8 @@ fn load(path: &Path) -> Result<(Scene, crate::simulation::Simulation), String> {
 
 /// The scene a run directory's summary names, if it still loads.
 fn run_scene_file(dir: &Path) -> Option<Scene> {
-    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
-    let summary: serde_json::Value = serde_json::from_str(&text).ok()?;
-    Scene::load(Path::new(summary["scene_file"].as_str()?)).ok()
+    let summary = crate::run::RunSummary::read(dir).ok()?;
+    Scene::load(Path::new(&summary.scene_file)).ok()
 }
 
 fn spectrum_command(

@@ -83,6 +83,7 @@ pub mod resolution;
 pub mod resources;
 pub mod rng;
 pub mod run;
+pub mod run_dir;
 pub mod scene;
 pub mod scene_override;
 pub mod schedule;

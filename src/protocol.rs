@@ -550,20 +550,17 @@ fn completed_record(
     out: &Path,
     resumed: bool,
 ) -> Option<PhaseRecord> {
-    let text = std::fs::read_to_string(out.join("summary.json")).ok()?;
-    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-    (v["status"] == "completed" && out.join("state.json").exists()).then(|| PhaseRecord {
-        name: phase.name.clone(),
-        scene: scene.to_owned(),
-        from,
-        status: if resumed { "completed" } else { "skipped" }.into(),
-        iterations: v["iterations"].as_u64().unwrap_or(0),
-        simulated_time: v["simulated_time"].as_f64().unwrap_or(0.0),
-        wall_time_s: if resumed {
-            v["wall_time_s"].as_f64().unwrap_or(0.0)
-        } else {
-            0.0
-        },
+    let v = crate::run::RunSummary::read(out).ok()?;
+    (v.status == crate::run::RunStatus::Completed && out.join("state.json").exists()).then(|| {
+        PhaseRecord {
+            name: phase.name.clone(),
+            scene: scene.to_owned(),
+            from,
+            status: if resumed { "completed" } else { "skipped" }.into(),
+            iterations: v.iterations,
+            simulated_time: v.simulated_time,
+            wall_time_s: if resumed { v.wall_time_s } else { 0.0 },
+        }
     })
 }
 

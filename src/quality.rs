@@ -6,7 +6,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// Mesh-quality statistics of a membrane.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct MeshQuality {
     /// Shortest edge (l̄).
     pub edge_min: f64,
@@ -19,7 +19,25 @@ pub struct MeshQuality {
     /// Smallest interior angle of any face (degrees).
     pub min_angle_deg: f64,
     /// Number of vertices with each valence.
+    #[serde(deserialize_with = "valence_keys")]
     pub valence_histogram: BTreeMap<usize, usize>,
+}
+
+/// Reads the histogram's keys, which JSON writes as strings, also where
+/// the report is flattened into another object (serde's flattening hands
+/// them over as strings, not as the numbers a map key would parse into).
+fn valence_keys<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<BTreeMap<usize, usize>, D::Error> {
+    use serde::Deserialize;
+    BTreeMap::<String, usize>::deserialize(d)?
+        .into_iter()
+        .map(|(k, n)| {
+            k.parse()
+                .map(|k| (k, n))
+                .map_err(|_| serde::de::Error::custom(format!("valence `{k}` is not a number")))
+        })
+        .collect()
 }
 
 impl MeshQuality {

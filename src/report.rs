@@ -9,7 +9,7 @@ use serde::Serialize;
 use std::fmt::Write as _;
 
 /// Energy of one term.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct TermEnergy {
     /// Term name.
     pub term: String,
@@ -28,7 +28,7 @@ pub fn term_energies(buffers: &ForceBuffers) -> Vec<TermEnergy> {
 }
 
 /// State summary of a membrane.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct EnergyReport {
     /// Scene name.
     pub scene: String,

@@ -77,7 +77,7 @@ pub struct CheckpointSettings {
 }
 
 /// How a run ended.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RunStatus {
     /// All iterations done.
@@ -86,8 +86,8 @@ pub enum RunStatus {
     BlewUp,
 }
 
-/// `summary.json`.
-#[derive(Clone, Debug, serde::Serialize)]
+/// `summary.json` (read back by [`RunSummary::read`]).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct RunSummary {
     /// Scene file.
     pub scene_file: String,
@@ -118,22 +118,22 @@ pub struct RunSummary {
     pub remesh: RemeshSummary,
     /// Known biases of the scene's settings ([`crate::scene::Scene::cautions`]; omitted
     /// when none).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub cautions: Vec<String>,
     /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
     /// Delaunay maintenance flips of the fluid model (scenes with
     /// `model: Fluid(flips: ...)` only).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub maintenance_flips: Option<crate::systems::maintenance_flips::MaintenanceFlipStats>,
     /// How the minimisation ended (scenes with `method: Minimise` only).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub minimiser: Option<MinimiserSummary>,
     /// The exact constraints at the final state: targets, area, volume and
     /// the multipliers σ (`tension`, Ē/l̄²) and Δp (`pressure`, Ē/l̄³)
     /// (scenes with `constraints` only).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub constraints: Option<crate::constraint::ConstraintState>,
     /// The membrane model and what V_in's in-plane elasticity weighs at
     /// the final state ([`crate::fluid::ModelSummary`]).
@@ -145,11 +145,11 @@ pub struct RunSummary {
 }
 
 /// How a minimisation ended, in `summary.json`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MinimiserSummary {
     /// `force_residual` or `energy_change` (the criterion that held), or
     /// `iteration_cap` (neither held within `iterations`).
-    pub stopped_by: &'static str,
+    pub stopped_by: String,
     /// Whether a convergence criterion held.
     pub converged: bool,
     /// The largest force on a vertex at the final state, constraint
@@ -167,7 +167,7 @@ pub struct MinimiserSummary {
 }
 
 /// Remeshing counts in `summary.json`.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct RemeshSummary {
     /// Split outcomes.
     pub split: crate::remesh::OutcomeCounts,
@@ -751,7 +751,10 @@ pub fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
     let buffers = sim.resource::<crate::force::ForceBuffers>();
     let ev = &buffers.evaluation;
     Some(MinimiserSummary {
-        stopped_by: status.stopped_by.map_or("iteration_cap", |r| r.name()),
+        stopped_by: status
+            .stopped_by
+            .map_or("iteration_cap", |r| r.name())
+            .to_string(),
         converged: status.stopped_by.is_some(),
         force_residual: ev.largest_force(),
         energy_change: status.energy_change,

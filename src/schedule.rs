@@ -460,12 +460,12 @@ pub struct Schedule {
 }
 
 /// Time spent in one system over a run.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SystemTiming {
     /// System name.
     pub system: String,
     /// Stage name.
-    pub stage: &'static str,
+    pub stage: String,
     /// Total wall time (s).
     pub total_s: f64,
     /// Mean wall time per tick (µs).
@@ -476,7 +476,7 @@ pub struct SystemTiming {
     /// system. Parts may run concurrently, so their times can overlap and
     /// add up to more than their system's own row: the rows without
     /// `part_of` add up to the whole time.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub part_of: Option<String>,
 }
 
@@ -574,7 +574,7 @@ impl Schedule {
         let row =
             |system: String, stage: Stage, t: &Duration, part_of: Option<&str>| SystemTiming {
                 system,
-                stage: stage.name(),
+                stage: stage.name().to_string(),
                 total_s: t.as_secs_f64(),
                 per_tick_us: t.as_secs_f64() / ticks * 1e6,
                 share: if total > 0.0 {

@@ -65,7 +65,7 @@ pub fn principal_frame(positions: &[DVec3], faces: &[[u32; 3]]) -> PrincipalFram
 }
 
 /// Shape class of an axisymmetric cell.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ShapeClass {
     /// Both faces dimpled at the centre (biconcave).
@@ -86,7 +86,7 @@ pub enum ShapeClass {
 const PROLATE_ELONGATION: f64 = 1.1;
 
 /// Metrics of the shape in its principal frame (lengths in l̄).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct ShapeMetrics {
     /// Largest distance from the symmetry axis, doubled.
     pub diameter: f64,

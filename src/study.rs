@@ -416,10 +416,7 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
 /// Whether the run in `dir` stopped on a numerical blow-up and wrote its
 /// summary saying so.
 fn blew_up(dir: &Path) -> bool {
-    std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .is_some_and(|v| v["status"] == "blew_up")
+    crate::run::RunSummary::read(dir).is_ok_and(|s| s.status == crate::run::RunStatus::BlewUp)
 }
 
 /// Options of [`run_cases`].

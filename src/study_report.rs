@@ -140,62 +140,57 @@ pub struct StudyReport {
 
 /// A run directory's outputs needed here.
 struct RunData {
-    summary: serde_json::Value,
-    first_row: HashMap<String, f64>,
-    /// Every row of series.csv, the first included.
+    summary: crate::run::RunSummary,
+    /// Every row of series.csv by column name, the first included.
     rows: Vec<HashMap<String, f64>>,
+    /// The vertex count of the first row.
+    vertices: f64,
+    /// The bending energy of the first row (NaN without a bending term).
+    initial_bending: f64,
 }
 
 fn read_run(dir: &Path) -> Result<RunData, String> {
-    let text = std::fs::read_to_string(dir.join("summary.json"))
-        .map_err(|e| format!("no summary.json: {e}"))?;
-    let summary: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("summary.json: {e}"))?;
-    let series = std::fs::read_to_string(dir.join("series.csv"))
-        .map_err(|e| format!("no series.csv: {e}"))?;
-    let mut lines = series.lines();
-    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let rows: Vec<HashMap<String, f64>> = lines
-        .map(|line| {
-            header
+    let summary = crate::run::RunSummary::read(dir).map_err(|e| e.to_string())?;
+    let series = crate::run_dir::Series::read(dir).map_err(|e| e.to_string())?;
+    let vertices = series.first("vertices").map_err(|e| e.to_string())?;
+    let initial_bending = series.first("energy_bending").unwrap_or(f64::NAN);
+    let rows = series
+        .rows
+        .iter()
+        .map(|row| {
+            series
+                .columns
                 .iter()
-                .zip(line.split(','))
-                .map(|(h, v)| (h.to_string(), v.parse().unwrap_or(f64::NAN)))
+                .cloned()
+                .zip(row.iter().copied())
                 .collect()
         })
         .collect();
-    let first_row = rows.first().cloned().unwrap_or_default();
     Ok(RunData {
         summary,
-        first_row,
         rows,
+        vertices,
+        initial_bending,
     })
 }
 
-fn number(v: &serde_json::Value, key: &str) -> f64 {
-    v.get(key).and_then(|x| x.as_f64()).unwrap_or(f64::NAN)
-}
-
-/// The final bending energy in a summary.
-fn final_bending(summary: &serde_json::Value) -> f64 {
+/// The final bending energy in a summary (NaN without a bending term).
+fn final_bending(summary: &crate::run::RunSummary) -> f64 {
     summary
-        .get("energies")
-        .and_then(|e| e.as_array())
-        .and_then(|terms| {
-            terms
-                .iter()
-                .find(|t| t.get("term").and_then(|n| n.as_str()) == Some("bending"))
-        })
-        .map_or(f64::NAN, |t| number(t, "energy"))
+        .last
+        .energies
+        .iter()
+        .find(|t| t.term == "bending")
+        .map_or(f64::NAN, |t| t.energy)
 }
 
-fn quantity(summary: &serde_json::Value, q: Quantity) -> f64 {
+fn quantity(summary: &crate::run::RunSummary, q: Quantity) -> f64 {
     match q {
-        Quantity::ReducedVolume => number(summary, "reduced_volume"),
+        Quantity::ReducedVolume => summary.last.reduced_volume,
         Quantity::BendingEnergy => final_bending(summary),
-        Quantity::TotalEnergy => number(summary, "total_energy"),
-        Quantity::Area => number(summary, "area"),
-        Quantity::Volume => number(summary, "volume"),
+        Quantity::TotalEnergy => summary.last.total_energy,
+        Quantity::Area => summary.last.area,
+        Quantity::Volume => summary.last.volume,
     }
 }
 
@@ -425,17 +420,8 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
         let h_of = |case: &Case, run: &Result<RunData, String>| {
             problem.rungs[case.rung].h.unwrap_or_else(|| match run {
                 Ok(d) => match problem.resolution {
-                    Resolution::Vertices => {
-                        1.0 / d
-                            .first_row
-                            .get("vertices")
-                            .copied()
-                            .unwrap_or(f64::NAN)
-                            .sqrt()
-                    }
-                    Resolution::MeanStep => {
-                        number(&d.summary, "simulated_time") / number(&d.summary, "iterations")
-                    }
+                    Resolution::Vertices => 1.0 / d.vertices.sqrt(),
+                    Resolution::MeanStep => d.summary.simulated_time / d.summary.iterations as f64,
                 },
                 Err(_) => f64::NAN,
             })
@@ -461,11 +447,9 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
                 Ok(d) => (Some(d), status(d)),
                 Err(e) => (None, format!("failed: {e}")),
             };
-            let vertices = data
-                .map(|d| d.first_row.get("vertices").copied().unwrap_or(f64::NAN))
-                .unwrap_or(f64::NAN);
-            let iterations = data.map_or(0, |d| number(&d.summary, "iterations") as u64);
-            let wall = data.map_or(f64::NAN, |d| number(&d.summary, "wall_time_s"));
+            let vertices = data.map_or(f64::NAN, |d| d.vertices);
+            let iterations = data.map_or(0, |d| d.summary.iterations);
+            let wall = data.map_or(f64::NAN, |d| d.summary.wall_time_s);
             let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
             let mut measurements = Vec::new();
             let mut note = String::new();
@@ -473,15 +457,14 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
                 match problem.reference {
                     Reference::SphereBending | Reference::SpheroidBending => {
                         if let Some(exact) = static_reference(problem.reference, case) {
-                            let initial = d.first_row.get("energy_bending").copied();
-                            measurements.push(measure("E_b", initial.unwrap_or(f64::NAN), exact));
+                            measurements.push(measure("E_b", d.initial_bending, exact));
                         }
                     }
                     Reference::Axisymmetric => match axisymmetric_measurements(
                         &dir.join("final.ply"),
                         final_bending(&d.summary),
-                        number(&d.summary, "area"),
-                        number(&d.summary, "reduced_volume"),
+                        d.summary.last.area,
+                        d.summary.last.reduced_volume,
                         kappa,
                     ) {
                         Ok((m, n)) => {
@@ -514,11 +497,11 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
                     0
                 },
                 iterations,
-                simulated_time: data.map_or(f64::NAN, |d| number(&d.summary, "simulated_time")),
+                simulated_time: data.map_or(f64::NAN, |d| d.summary.simulated_time),
                 wall_s: wall,
                 cost_s: match data {
                     Some(d) if problem.reference.is_static() => {
-                        systems_time(&d.summary) / iterations.max(1) as f64
+                        systems_time(&d.summary.timings) / iterations.max(1) as f64
                     }
                     _ => wall,
                 },
@@ -609,25 +592,23 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
 /// Observe (frames, series rows), so scene building and output are left
 /// out. The force terms count through their system's own row (`part_of`
 /// rows are parts of a system and may overlap in time).
-fn systems_time(summary: &serde_json::Value) -> f64 {
-    summary
-        .get("timings")
-        .and_then(|t| t.as_array())
-        .map_or(f64::NAN, |t| {
-            t.iter()
-                .filter(|s| s.get("stage").and_then(|x| x.as_str()) != Some("Observe"))
-                .filter(|s| s.get("part_of").is_none())
-                .map(|s| number(s, "total_s"))
-                .sum()
-        })
+fn systems_time(timings: &[crate::schedule::SystemTiming]) -> f64 {
+    if timings.is_empty() {
+        return f64::NAN;
+    }
+    timings
+        .iter()
+        .filter(|s| s.stage != "Observe" && s.part_of.is_none())
+        .map(|s| s.total_s)
+        .sum()
 }
 
 fn status(d: &RunData) -> String {
-    d.summary
-        .get("status")
-        .and_then(|s| s.as_str())
-        .unwrap_or("unknown")
-        .to_string()
+    match d.summary.status {
+        crate::run::RunStatus::Completed => "completed",
+        crate::run::RunStatus::BlewUp => "blew_up",
+    }
+    .to_string()
 }
 
 /// Least-squares slope of ln(primary error) against ln(h).
@@ -1019,14 +1000,24 @@ mod tests {
 
     #[test]
     fn systems_time_counts_each_system_once_and_leaves_out_observers() {
-        let summary = serde_json::json!({"timings": [
-            {"system": "gather_state", "stage": "Gather", "total_s": 0.5},
-            {"system": "force_terms", "stage": "Forces", "total_s": 1.0},
-            {"system": "bending", "stage": "Forces", "total_s": 0.8, "part_of": "force_terms"},
-            {"system": "area", "stage": "Forces", "total_s": 0.7, "part_of": "force_terms"},
-            {"system": "frames", "stage": "Observe", "total_s": 5.0},
-        ]});
-        assert_eq!(systems_time(&summary), 1.5);
-        assert!(systems_time(&serde_json::json!({})).is_nan());
+        let row = |system: &str, stage: &str, total_s: f64, part_of: Option<&str>| {
+            crate::schedule::SystemTiming {
+                system: system.into(),
+                stage: stage.into(),
+                total_s,
+                per_tick_us: 0.0,
+                share: 0.0,
+                part_of: part_of.map(str::to_string),
+            }
+        };
+        let timings = [
+            row("gather_state", "Gather", 0.5, None),
+            row("force_terms", "Forces", 1.0, None),
+            row("bending", "Forces", 0.8, Some("force_terms")),
+            row("area", "Forces", 0.7, Some("force_terms")),
+            row("frames", "Observe", 5.0, None),
+        ];
+        assert_eq!(systems_time(&timings), 1.5);
+        assert!(systems_time(&[]).is_nan());
     }
 }
