@@ -2,7 +2,7 @@
 //!
 //! A [`ForceTerm`] reads dense positions (and lipid density, topology, and
 //! its own components in the world) from a [`ForceContext`] and *adds* −∇E
-//! into the force buffer it is given. [`ForceSet`] evaluates every term into
+//! into the force buffer it is given. Every term is evaluated into
 //! its own buffer (so forces can be reported and checked per term): the
 //! [`ForceTermsSystem`](crate::force_term_system::ForceTermsSystem) evaluates every registered term into its slot of
 //! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
@@ -118,7 +118,8 @@ pub trait ForceTerm: Send {
     }
 }
 
-/// Energies and forces of one evaluation of a [`ForceSet`].
+/// Energies and forces of one evaluation of the registered terms
+/// ([`ForceBuffers::evaluation`]).
 #[derive(Clone, Debug, Default)]
 pub struct ForceEvaluation {
     /// Energy of each term, in term order (Ē).

@@ -105,7 +105,7 @@ impl Corners {
 
     /// Reverse-mode derivative: given adjoints `g_lap[k]` of the corner
     /// Laplacian contributions and `g_area[k]` of the corner mixed areas,
-    /// returns ∂/∂p_k of Φ = Σ_k (g_lap[k]·L_k + g_area[k]·A_k).
+    /// returns ∂/∂p_k of Φ = Σ_k (`g_lap[k]`·L_k + `g_area[k]`·A_k).
     ///
     /// With G_k = g_lap[k+2] − g_lap[k+1] and, for a non-obtuse face,
     /// H_k = (g_area[k+1] + g_area[k+2]) / 8: Φ = Σ_k cot_k (G_k·e_k + H_k|e_k|²)

@@ -49,7 +49,7 @@ impl PluginEntry {
     }
 
     /// Adds the plugin with canonical parameters `params` (from
-    /// [`PluginEntry::validate`]) to `builder`; `stage` for systems.
+    /// `PluginEntry::validate`) to `builder`; `stage` for systems.
     pub fn build(
         &self,
         params: &str,

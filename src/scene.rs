@@ -463,7 +463,7 @@ impl Scene {
             out.push(
                 "thermal noise with split/merge remeshing: its events are not \
                  detailed-balanced moves, so averages at k_BT > 0 are biased (measured: the \
-                 flicker spectrum's κ 32 % low, README \"Thermal noise\"); for a fluid membrane \
+                 flicker spectrum's κ 32 % low, docs/thermal.md); for a fluid membrane \
                  in equilibrium use `edge_flips` with remeshing off"
                     .to_string(),
             );

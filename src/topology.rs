@@ -45,7 +45,7 @@ pub struct Topology {
     pub(crate) ring: Vec<u32>,
     /// Entry `k` of a block: the edge to the ring's vertex `k`.
     pub(crate) ring_edges: Vec<u32>,
-    /// Entry `k` of a block: the face (v, ring[k], ring[k+1]).
+    /// Entry `k` of a block: the face (v, `ring[k]`, `ring[k+1]`).
     pub(crate) ring_faces: Vec<u32>,
 }
 
@@ -119,7 +119,7 @@ impl Topology {
     }
 
     /// The faces around vertex `v` in ring order: entry `k` is the face
-    /// (v, ring[k], ring[k+1]).
+    /// (v, `ring[k]`, `ring[k+1]`).
     #[inline]
     pub fn ring_faces_of(&self, v: usize) -> &[u32] {
         &self.ring_faces[self.ring_range(v)]

@@ -5,7 +5,7 @@
 //!
 //! | plugin | resources it inserts | systems (stage) |
 //! |---|---|---|
-//! | [`core`] | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
+//! | [`core`](fn@core) | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
 //! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
 //! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
 //! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `fluid_projection` (Forces) |
@@ -295,7 +295,7 @@ pub fn control_points(points: Vec<ControlPoint>, schedule: Vec<ScheduledChange>)
     }
 }
 
-/// Free-energy remeshing (needs [`core`] and [`vin`]): keeps every vertex's
+/// Free-energy remeshing (needs [`core`](fn@core) and [`vin`]): keeps every vertex's
 /// valence inside `valence`.
 pub fn remesh(valence: ValenceRange) -> impl Plugin {
     move |b: &mut SimBuilder| {

@@ -256,3 +256,111 @@ fn compare_runs_both_scenes_and_writes_table_csv_and_chart() {
         assert!(out.join(name).join("events.vtp").exists());
     }
 }
+
+/// Commands the README shows that this test does not run, each with what
+/// runs it.
+const README_COMMANDS_RUN_ELSEWHERE: [(&str, &str); 4] = [
+    (
+        "cargo test --workspace",
+        ".ci/run: cargo test --workspace --locked",
+    ),
+    (
+        "cargo run --release -p bar_domain -- run examples/bar_domain/scenes/bud.ron",
+        "examples/bar_domain/tests/bud.rs: the same arguments through main_with, 2000 iterations",
+    ),
+    (
+        "pip install \"./python[test,interop,tutorial]\"",
+        ".ci/run: pip install \"./python[test,interop,tutorial]\" (into a fresh venv)",
+    ),
+    (
+        "python python/examples/tutorial.py",
+        ".ci/run: python python/examples/tutorial.py target/python-tutorial",
+    ),
+];
+
+/// The commands of the README's `sh` blocks, one per line (comments and
+/// continuation lines joined).
+fn readme_shell_commands(readme: &str) -> Vec<String> {
+    let mut commands = Vec::new();
+    let mut in_sh = false;
+    let mut pending = String::new();
+    for line in readme.lines() {
+        let trimmed = line.trim();
+        if let Some(tag) = trimmed.strip_prefix("```") {
+            in_sh = !in_sh && tag == "sh";
+            continue;
+        }
+        if !in_sh {
+            continue;
+        }
+        let command = trimmed.split(" #").next().unwrap().trim();
+        if command.is_empty() || command.starts_with('#') {
+            continue;
+        }
+        match command.strip_suffix('\\') {
+            Some(part) => pending.push_str(part),
+            None => {
+                pending.push_str(command);
+                commands.push(pending.split_whitespace().collect::<Vec<_>>().join(" "));
+                pending.clear();
+            }
+        }
+    }
+    commands
+}
+
+/// Every shell command the README shows is run: the `remembrane` ones and
+/// `cargo run --release -- ...` (the same binary) here, as shown but with
+/// tiny iteration counts, from a scratch directory that sees the
+/// repository's scenes, in order (a later command may read an earlier one's
+/// output); the others by what README_COMMANDS_RUN_ELSEWHERE names.
+#[test]
+fn readme_commands_run() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let commands = readme_shell_commands(&readme);
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(root.join("scenes"), dir.path().join("scenes")).unwrap();
+    let mut ran = 0;
+    for command in &commands {
+        if README_COMMANDS_RUN_ELSEWHERE
+            .iter()
+            .any(|(shown, _)| shown == command)
+        {
+            continue;
+        }
+        let rest = command
+            .strip_prefix("remembrane ")
+            .or_else(|| command.strip_prefix("cargo run --release -- "))
+            .or_else(|| (command == "cargo run --release --").then_some(""))
+            .unwrap_or_else(|| {
+                panic!(
+                    "the README shows `{command}`, which nothing runs: run it here or list \
+                     it in README_COMMANDS_RUN_ELSEWHERE with what runs it"
+                )
+            });
+        let mut args: Vec<&str> = rest.split_whitespace().collect();
+        assert!(
+            args.iter().all(|a| !a.contains(['"', '\'', '$', '*'])),
+            "`{command}`: no shell syntax in the README's remembrane commands"
+        );
+        match args.first().copied() {
+            Some("run") => args.extend(["--iterations", "20", "--frames", "1"]),
+            Some("compare") | Some("sweep") => args.extend(["--iterations", "20"]),
+            _ => {}
+        }
+        let out = Command::new(env!("CARGO_BIN_EXE_remembrane"))
+            .args(&args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "`{command}` (run as remembrane {}): {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        ran += 1;
+    }
+    assert!(ran >= 2, "the README's commands: {commands:?}");
+}

@@ -606,7 +606,7 @@ fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
     // h = 1/2 (2562): in the fluid model the bending energy's error against
     // the continuum (1.95568) falls at order ≥ 1.5 (measured: -1.87 % and
     // -0.48 %, order 1.95; the paper's model is an elastic shell whose
-    // weight grows as (R/h)², see README "Fluid membranes").
+    // weight grows as (R/h)², see docs/fluid.md).
     let base = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
     let error = |level: u32, h: f64, tolerance: f64| -> f64 {
         let text = base

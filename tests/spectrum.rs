@@ -294,7 +294,7 @@ fn a_vesicle_fluid_by_metropolis_flips_fluctuates_with_the_input_kappa() {
 /// length: on a 2562-vertex sphere (R = 13.2 l̄) 0.986, 0.956 and 0.856 of
 /// the continuum at l = 3, 7 and 14; on a 642-vertex one (R = 6.6 l̄) 0.835
 /// at l = 7. Thermal amplitudes are larger by the inverse, which is most of
-/// what the flicker fit reads as a lower κ (README "Thermal noise"). A
+/// what the flicker fit reads as a lower κ (docs/thermal.md). A
 /// disordered triangulation of the same sphere (tangential jitter 0.3)
 /// softens the same way, within 0.01.
 #[test]

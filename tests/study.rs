@@ -80,12 +80,12 @@ fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
         let e = errors(p);
         assert!(e.windows(2).all(|w| w[1].1 < w[0].1), "{name}: {e:?}");
     }
-    // Level 3's sphere error is the known -4.74e-3 (README, peers).
+    // Level 3's sphere error is the known -4.74e-3 (docs/study.md, peers).
     let sphere = errors(problem(&report, "sphere"));
     assert!((sphere[1].1 - 4.74e-3).abs() < 1e-5, "{sphere:?}");
 
     // The fluid red blood cell at h = 1 (642 vertices, v = 0.6 exactly):
-    // E_b/8πκ 1.87 % below the continuum (tests/fluid_model.rs, README).
+    // E_b/8πκ 1.87 % below the continuum (tests/fluid_model.rs, docs/fluid.md).
     let fluid = errors(problem(&report, "rbc_fluid"));
     assert!(
         fluid.len() == 1 && (fluid[0].1 - 1.871e-2).abs() < 1e-3,
@@ -117,8 +117,7 @@ fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
 
     // The tether at r0 = 1.6 l̄ (n = 10), started at r0: the radius holds to
     // 1 % of Derényi-Jülicher-Prost; the force is measured 8 % low, V_in's
-    // in-plane stiffness carrying part of the load (README, speed against
-    // error), so its bound is 10 %.
+    // in-plane stiffness carrying part of the load (docs/study.md), so its bound is 10 %.
     let tether = problem(&report, "tether");
     let m = &tether["cases"][0]["measurements"];
     assert_eq!(m[0]["quantity"], "r");

@@ -1,5 +1,5 @@
 //! PLY and OBJ import/export. Import validates the mesh with
-//! [`check_mesh`](super::check_mesh) (valence limits are the scene's business).
+//! [`check_mesh`] (valence limits are the scene's business).
 
 use super::{MeshError, SurfaceMesh, check_mesh};
 use glam::DVec3;
