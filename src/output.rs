@@ -238,7 +238,7 @@ impl RunOutput {
         self.write("events.csv", csv.as_bytes())?;
         let n = events.len() as u64;
         let vtk = Vtk {
-            version: Version { major: 1, minor: 0 },
+            version: Version::new_xml(1, 0),
             title: "remesh events".to_string(),
             byte_order: ByteOrder::LittleEndian,
             file_path: None,
@@ -271,8 +271,7 @@ impl RunOutput {
             },
         };
         let mut out = Vec::new();
-        vtk.write_xml(&mut out)
-            .map_err(|e| write_err(&self.staging.join("events.vtp"), e))?;
+        write_vtk_xml(vtk, &mut out).map_err(|e| write_err(&self.staging.join("events.vtp"), e))?;
         self.write("events.vtp", &out)
     }
 
@@ -366,7 +365,7 @@ pub fn write_frame_vtp(
         })
         .collect();
     let vtk = Vtk {
-        version: Version { major: 1, minor: 0 },
+        version: Version::new_xml(1, 0),
         title: title.to_string(),
         byte_order: ByteOrder::LittleEndian,
         file_path: None,
@@ -388,7 +387,61 @@ pub fn write_frame_vtp(
             }))],
         },
     };
-    vtk.write_xml(writer)
+    write_vtk_xml(vtk, writer)
+}
+
+/// Writes `vtk` as VTK XML to `writer` through [`WriteAll`], so that every
+/// byte vtkio hands over is written: vtkio 0.7's XML writer bridges its
+/// `fmt::Write` serializer to the sink with `write` (not `write_all`) and
+/// ignores the count it returns, so a sink that takes part of a buffer would
+/// lose the rest silently (and vtkio's serializer, quick-xml, passes the
+/// document in a few large pieces, which go past vtkio's `BufWriter`
+/// straight to the sink). vtkio also flushes its `BufWriter` into the sink
+/// when it drops it, where an error would be lost: `WriteAll` keeps the
+/// first error, which is returned.
+fn write_vtk_xml(vtk: Vtk, writer: impl std::io::Write) -> Result<(), vtkio::Error> {
+    use std::io::Write;
+    let mut sink = WriteAll {
+        inner: writer,
+        error: None,
+    };
+    let written = vtk.write_xml(&mut sink);
+    if let Some(e) = sink.error.take() {
+        return Err(vtkio::Error::IO(e));
+    }
+    written?;
+    sink.flush()?;
+    Ok(())
+}
+
+/// An `io::Write` whose `write` writes the whole buffer (`write_all`) or
+/// fails; after its first error (kept in `error`) every write fails.
+struct WriteAll<W> {
+    inner: W,
+    error: Option<std::io::Error>,
+}
+
+impl<W: std::io::Write> std::io::Write for WriteAll<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.error.is_some() {
+            return Err(std::io::Error::other("an earlier write failed"));
+        }
+        match self.inner.write_all(buf) {
+            Ok(()) => Ok(buf.len()),
+            Err(e) => {
+                let returned = std::io::Error::new(e.kind(), e.to_string());
+                self.error = Some(e);
+                Err(returned)
+            }
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if self.error.is_some() {
+            return Err(std::io::Error::other("an earlier write failed"));
+        }
+        self.inner.flush()
+    }
 }
 
 /// A ParaView `.pvd` collection of the frames (time = simulated time).
@@ -590,5 +643,111 @@ impl DynamicSystem for FrameWriter {
             &data,
         )
         .map_err(|e| SimError::Output(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    /// A sink that takes at most `max` bytes per `write` call (a legal
+    /// short write), like a pipe, a socket or a file on a full disk.
+    struct Trickle {
+        bytes: Vec<u8>,
+        max: usize,
+        calls: usize,
+    }
+
+    impl Write for Trickle {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.calls += 1;
+            let n = buf.len().min(self.max);
+            self.bytes.extend_from_slice(&buf[..n]);
+            Ok(n)
+        }
+
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A sink that fails after `budget` bytes.
+    struct Failing {
+        budget: usize,
+    }
+
+    impl Write for Failing {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            if self.budget == 0 {
+                return Err(std::io::Error::other("disk full"));
+            }
+            let n = buf.len().min(self.budget);
+            self.budget -= n;
+            Ok(n)
+        }
+
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A frame of a 2562-vertex sphere, about 200 kB: far more than vtkio's
+    /// 8 KiB buffer, so vtkio hands it to the sink in a few large `write`
+    /// calls (quick-xml builds each element's content in memory first).
+    fn frame(writer: impl Write) -> Result<(), vtkio::Error> {
+        let mesh = crate::mesh::icosphere_unit(4);
+        let n = mesh.positions.len();
+        let point_data = vec![
+            PointArray::Vectors {
+                name: "force".into(),
+                values: mesh.positions.iter().map(|p| -2.0 * *p).collect(),
+            },
+            PointArray::Scalars {
+                name: "mean_curvature".into(),
+                values: (0..n).map(|i| i as f64 / n as f64).collect(),
+            },
+        ];
+        write_frame_vtp(writer, "trickle", &mesh.positions, &mesh.faces, &point_data)
+    }
+
+    #[test]
+    fn a_frame_is_written_whole_through_a_sink_that_takes_a_few_bytes_per_write() {
+        let mut whole = Vec::new();
+        frame(&mut whole).unwrap();
+        let mut trickle = Trickle {
+            bytes: Vec::new(),
+            max: 3,
+            calls: 0,
+        };
+        frame(&mut trickle).unwrap();
+        assert!(whole.len() > 100_000, "{} bytes", whole.len());
+        assert!(whole.ends_with(b"</VTKFile>"));
+        assert!(
+            trickle.bytes == whole,
+            "the trickled file differs: {} bytes, {} expected",
+            trickle.bytes.len(),
+            whole.len()
+        );
+        assert!(trickle.calls >= whole.len() / 3, "{} calls", trickle.calls);
+        // And it is a complete VTK file: it parses back, every point there.
+        let vtk = vtkio::Vtk::parse_xml(trickle.bytes.as_slice()).unwrap();
+        let DataSet::PolyData { pieces, .. } = vtk.data else {
+            panic!("not PolyData")
+        };
+        let piece = pieces[0].load_piece_data(None).unwrap();
+        let points: Vec<f64> = piece.points.cast_into().unwrap();
+        let mesh = crate::mesh::icosphere_unit(4);
+        let expected: Vec<f64> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+        assert_eq!(points, expected);
+        assert_eq!(piece.data.point.len(), 2);
+    }
+
+    #[test]
+    fn a_failing_sink_is_an_error() {
+        for budget in [0, 10, 9_000, 60_000] {
+            let err = frame(Failing { budget }).unwrap_err();
+            assert!(err.to_string().contains("disk full"), "{budget}: {err}");
+        }
     }
 }

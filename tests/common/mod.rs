@@ -45,7 +45,6 @@ pub fn frame_is_finite(path: &Path) -> bool {
     let arrays_finite = piece.data.point.iter().all(|a| match a {
         Attribute::DataArray(d) => d
             .data
-            .clone()
             .cast_into::<f64>()
             .is_some_and(|v| v.iter().all(|x| x.is_finite())),
         Attribute::Field { .. } => true,
