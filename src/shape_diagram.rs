@@ -81,7 +81,7 @@ pub struct DiagramBranch {
     /// Scene file, relative to the diagram file's folder.
     pub scene: PathBuf,
     /// The axisymmetric solver's branch it is compared with.
-    pub reference: ReferenceBranch,
+    pub reference: Branch,
     /// Reduced volumes of this branch, walked in order (default: the
     /// diagram's), e.g. where the branch exists.
     #[serde(default)]
@@ -89,36 +89,6 @@ pub struct DiagramBranch {
     /// Labels of the meshes this branch is walked on (default: all).
     #[serde(default)]
     pub meshes: Option<Vec<String>>,
-}
-
-/// A branch of axisymmetric vesicle shapes (see [`Branch`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "PascalCase")]
-pub enum ReferenceBranch {
-    /// Elongated along the axis (dumbbells at low v).
-    Prolate,
-    /// Flattened along the axis (discocytes at low v).
-    Oblate,
-    /// Cup-shaped, invaginated on one side.
-    Stomatocyte,
-}
-
-impl ReferenceBranch {
-    fn solver(self) -> Branch {
-        match self {
-            ReferenceBranch::Prolate => Branch::Prolate,
-            ReferenceBranch::Oblate => Branch::Oblate,
-            ReferenceBranch::Stomatocyte => Branch::Stomatocyte,
-        }
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            ReferenceBranch::Prolate => "prolate",
-            ReferenceBranch::Oblate => "oblate",
-            ReferenceBranch::Stomatocyte => "stomatocyte",
-        }
-    }
 }
 
 /// One mesh every branch is walked on: changes to each branch scene by
@@ -203,7 +173,7 @@ pub struct Walk {
     /// The branch's name.
     pub branch: String,
     /// Its reference branch.
-    pub reference: ReferenceBranch,
+    pub reference: Branch,
     /// The branch scene's file.
     pub scene_path: PathBuf,
     /// Each point's reduced volume and scene, in walking order.
@@ -428,7 +398,7 @@ pub struct DiagramPoint {
     /// The branch's name.
     pub branch: String,
     /// Its reference branch.
-    pub reference_branch: ReferenceBranch,
+    pub reference_branch: Branch,
     /// The reduced volume asked for.
     pub target: f64,
     /// `completed`, `failed: <reason>` or `not reached` (an earlier point
@@ -546,7 +516,7 @@ pub struct DiagramSummary {
     /// two finest meshes that declare `h`, where both completed.
     pub extrapolated: Vec<ExtrapolatedPoint>,
     /// The continuum curves drawn (branch, [(v, E_b/8πκ)]).
-    pub curves: Vec<(ReferenceBranch, Vec<(f64, f64)>)>,
+    pub curves: Vec<(Branch, Vec<(f64, f64)>)>,
     /// Wall time of the whole diagram (s).
     pub wall_time_s: f64,
 }
@@ -593,7 +563,7 @@ pub fn run_diagram(
         .collect();
 
     // The continuum at every walked point, branch by branch.
-    let mut references: Vec<(ReferenceBranch, f64, Option<ReferenceValue>)> = Vec::new();
+    let mut references: Vec<(Branch, f64, Option<ReferenceValue>)> = Vec::new();
     for w in &walks {
         for &(v, _) in &w.points {
             if references
@@ -602,7 +572,7 @@ pub fn run_diagram(
             {
                 continue;
             }
-            let value = axisymmetric::converged_on_branch(v, w.reference.solver())
+            let value = axisymmetric::converged_on_branch(v, w.reference)
                 .ok()
                 .and_then(|c| {
                     let finest = c.levels.last()?;
@@ -617,7 +587,7 @@ pub fn run_diagram(
         }
     }
 
-    let reference_at = |b: ReferenceBranch, v: f64| {
+    let reference_at = |b: Branch, v: f64| {
         references
             .iter()
             .find(|(rb, rv, _)| *rb == b && *rv == v)
@@ -775,8 +745,8 @@ fn progress_line(p: &DiagramPoint) -> String {
 
 /// The continuum curve of every reference branch walked, over the range
 /// of its walks' reduced volumes (with a margin), where it exists.
-fn reference_curves(walks: &[&Walk]) -> Vec<(ReferenceBranch, Vec<(f64, f64)>)> {
-    let mut out: Vec<(ReferenceBranch, Vec<(f64, f64)>)> = Vec::new();
+fn reference_curves(walks: &[&Walk]) -> Vec<(Branch, Vec<(f64, f64)>)> {
+    let mut out: Vec<(Branch, Vec<(f64, f64)>)> = Vec::new();
     for w in walks {
         if out.iter().any(|(b, _)| *b == w.reference) {
             continue;
@@ -794,7 +764,7 @@ fn reference_curves(walks: &[&Walk]) -> Vec<(ReferenceBranch, Vec<(f64, f64)>)> 
         let grid: Vec<f64> = (0..=steps)
             .map(|k| hi - (hi - lo) * k as f64 / steps.max(1) as f64)
             .collect();
-        let curve = axisymmetric::branch_curve(w.reference.solver(), &grid, CURVE_SEGMENTS)
+        let curve = axisymmetric::branch_curve(w.reference, &grid, CURVE_SEGMENTS)
             .into_iter()
             .zip(&grid)
             .filter_map(|(r, v)| r.ok().map(|s| (*v, s.energy_over_8pi_kappa)))
@@ -807,10 +777,7 @@ fn reference_curves(walks: &[&Walk]) -> Vec<(ReferenceBranch, Vec<(f64, f64)>)> 
 /// Where each pair of walked branches on a mesh, and each pair of
 /// continuum curves, has equal energy (the first sign change of the
 /// difference, by linear interpolation).
-fn crossings(
-    points: &[DiagramPoint],
-    curves: &[(ReferenceBranch, Vec<(f64, f64)>)],
-) -> Vec<Crossing> {
+fn crossings(points: &[DiagramPoint], curves: &[(Branch, Vec<(f64, f64)>)]) -> Vec<Crossing> {
     let mut out = Vec::new();
     let mut meshes: Vec<&str> = points.iter().map(|p| p.mesh.as_str()).collect();
     meshes.dedup();
@@ -846,7 +813,7 @@ fn crossings(
             if let Some((v, e)) = crossing(ca, cb) {
                 out.push(Crossing {
                     mesh: "continuum".into(),
-                    branches: (a.name().into(), b.name().into()),
+                    branches: (a.to_string(), b.to_string()),
                     reduced_volume: v,
                     energy: e,
                 });
@@ -912,7 +879,7 @@ pub fn csv(s: &DiagramSummary) -> String {
         let row = [
             p.mesh.clone(),
             p.branch.clone(),
-            p.reference_branch.name().into(),
+            p.reference_branch.to_string(),
             num(p.target),
             p.status.replace([',', '\n'], ";"),
             p.vertices.to_string(),
@@ -1021,16 +988,16 @@ pub fn markdown(s: &DiagramSummary) -> String {
 /// markers in its branch's colour.
 fn chart(s: &DiagramSummary) -> Vec<u8> {
     use crate::plot::{Chart, Legend, Marker, Series};
-    let colour = |b: ReferenceBranch| match b {
-        ReferenceBranch::Prolate => 0,
-        ReferenceBranch::Oblate => 1,
-        ReferenceBranch::Stomatocyte => 2,
+    let colour = |b: Branch| match b {
+        Branch::Prolate => 0,
+        Branch::Oblate => 1,
+        Branch::Stomatocyte => 2,
     };
     let mut series: Vec<Series> = s
         .curves
         .iter()
         .map(|(b, c)| Series {
-            name: format!("{} (continuum)", b.name()),
+            name: format!("{b} (continuum)"),
             points: c.clone(),
             lines: true,
             color: colour(*b),
@@ -1040,7 +1007,7 @@ fn chart(s: &DiagramSummary) -> Vec<u8> {
     let mut meshes: Vec<&str> = s.points.iter().map(|p| p.mesh.as_str()).collect();
     meshes.dedup();
     for (m, mesh) in meshes.iter().enumerate() {
-        let mut branches: Vec<(&str, ReferenceBranch)> = s
+        let mut branches: Vec<(&str, Branch)> = s
             .points
             .iter()
             .filter(|p| p.mesh == *mesh)
@@ -1086,7 +1053,7 @@ mod tests {
         DiagramPoint {
             mesh: mesh.into(),
             branch: branch.into(),
-            reference_branch: ReferenceBranch::Oblate,
+            reference_branch: Branch::Oblate,
             target: v,
             status: "completed".into(),
             vertices: 642,
