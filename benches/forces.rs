@@ -59,6 +59,7 @@ fn terms(initial: &InitialState) -> Vec<Box<dyn ForceTerm>> {
         Box::new(BendingForces::new(BendingParams {
             kappa: 5.0,
             c0: 0.0,
+            ..Default::default()
         })),
         Box::new(VolumeForces::new(4.0, 0.6 * initial.volume)),
         Box::new(AreaForces::new(8.0, 1.005 * initial.area)),

@@ -630,6 +630,20 @@ impl Scene {
                 ),
             ));
         }
+        if self.edge_flips.is_some()
+            && let Some(i) = self.energy.iter().position(|t| {
+                matches!(t, EnergyTerm::Bending(p)
+                    if p.discretisation == crate::params::BendingDiscretisation::Dihedral)
+            })
+        {
+            return Err(invalid(
+                &format!("energy[{i}].Bending.discretisation"),
+                "the energy-based flips (`edge_flips`) know the Cotangent bending energy's \
+                 change only; use Cotangent with them, or the fluid model's Delaunay flips \
+                 (`model: Fluid(flips: ...)`)"
+                    .into(),
+            ));
+        }
         if has("Springs") && self.control_points.is_empty() {
             return Err(invalid(
                 "control_points",

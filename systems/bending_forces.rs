@@ -1,17 +1,21 @@
-//! Helfrich bending forces (analytic gradient of the cotangent energy).
+//! Helfrich bending forces (analytic gradient of the discrete energy, in
+//! the scene's discretisation).
 //!
-//! Stage: Forces. Reads: positions, topology (faces). Writes: force
-//! accumulator. Units: κ in Ē, C0 in 1/l̄. See [`crate::energy::bending`].
+//! Stage: Forces. Reads: positions, topology (faces; edges for the dihedral
+//! form). Writes: force accumulator. Units: κ in Ē, C0 in 1/l̄. See
+//! [`crate::energy::bending`] and [`crate::energy::bending_dihedral`].
 
 use crate::energy::bending::{BendingScratch, bending};
+use crate::energy::bending_dihedral::{DihedralScratch, bending_dihedral};
 use crate::force::{ForceContext, ForceTerm};
-use crate::params::BendingParams;
+use crate::params::{BendingDiscretisation, BendingParams};
 use glam::DVec3;
 
 /// The bending force system.
 pub struct BendingForces {
     params: BendingParams,
     scratch: BendingScratch,
+    dihedral: DihedralScratch,
 }
 
 impl BendingForces {
@@ -20,6 +24,7 @@ impl BendingForces {
         Self {
             params,
             scratch: BendingScratch::default(),
+            dihedral: DihedralScratch::default(),
         }
     }
 }
@@ -34,28 +39,37 @@ impl ForceTerm for BendingForces {
     }
 
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        let p = &self.params;
-        bending(
-            ctx.positions.len(),
-            &ctx.topology.faces,
-            ctx.face_geometry,
-            p.kappa,
-            p.c0,
-            &mut self.scratch,
-            None,
-        )
+        self.evaluate(ctx, None)
     }
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        self.evaluate(ctx, Some(force))
+    }
+}
+
+impl BendingForces {
+    /// The energy, and with `force` its negative gradient added to it.
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let p = &self.params;
-        bending(
-            ctx.positions.len(),
-            &ctx.topology.faces,
-            ctx.face_geometry,
-            p.kappa,
-            p.c0,
-            &mut self.scratch,
-            Some(force),
-        )
+        match p.discretisation {
+            BendingDiscretisation::Cotangent => bending(
+                ctx.positions.len(),
+                &ctx.topology.faces,
+                ctx.face_geometry,
+                p.kappa,
+                p.c0,
+                &mut self.scratch,
+                force,
+            ),
+            BendingDiscretisation::Dihedral => bending_dihedral(
+                ctx.positions,
+                ctx.topology,
+                ctx.face_geometry,
+                p.kappa,
+                p.c0,
+                &mut self.dihedral,
+                force,
+            ),
+        }
     }
 }

@@ -212,7 +212,8 @@ pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
             .insert_resource(VertexNormals::default());
         b.add_system(Stage::Gather, VertexNormalsSystem)
             .after("face_geometry");
-        b.add_system(Stage::Forces, FluidProjection)
+        let physical = params.physical_forces;
+        b.add_system(Stage::Forces, FluidProjection { physical })
             .after(FluidProjection::AFTER)
             .before(FluidProjection::BEFORE);
         Ok(())

@@ -631,3 +631,55 @@ fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
     assert!(fine.abs() < coarse.abs());
     assert!(order >= 1.5, "order {order}");
 }
+
+/// `physical_forces: Normal` keeps only the normal component of every
+/// physical term's force, less its net force; the default keeps them
+/// whole.
+#[test]
+fn normal_physical_forces_keep_only_the_normal_components() {
+    let text = |physical: &str| {
+        format!(
+            "Scene(name: \"n\", membrane: Ellipsoid(level: 2, semi_axes: (3.0, 3.5, 4.5)), \
+             model: Fluid({physical}), energy: [Vin(form: Exact), \
+             Bending(kappa: 5.0, discretisation: Dihedral), Tension(sigma: 0.3)])"
+        )
+    };
+    let forces = |physical: &str| {
+        let path = Path::new("normal.ron");
+        let scene = Scene::from_ron_str(&text(physical), path).unwrap();
+        let mut sim = scene.build(path).unwrap();
+        let buffers = sim.evaluate_forces().unwrap();
+        let names = buffers.names().to_vec();
+        let terms = buffers.evaluation.term_forces.clone();
+        drop(buffers);
+        let p = sim.positions();
+        let t = sim.membrane().cached_topology().clone();
+        let normals: Vec<DVec3> = (0..p.len()).map(|v| vertex_normal(&p, &t, v)).collect();
+        (names, terms, normals)
+    };
+    let (names, full, normals) = forces("");
+    let (_, normal, _) = forces("physical_forces: Normal");
+    let mut tangential_before = 0.0f64;
+    for name in ["bending", "tension"] {
+        let k = names.iter().position(|n| n == name).unwrap();
+        let net = normal[k].iter().copied().sum::<DVec3>();
+        assert!(net.length() < 1e-9, "{name}: net force {net:?}");
+        // What was taken away is one uniform vector.
+        let mean = full[k]
+            .iter()
+            .zip(&normals)
+            .map(|(f, n)| f.dot(*n) * *n)
+            .sum::<DVec3>()
+            / normals.len() as f64;
+        for (v, n) in normals.iter().enumerate() {
+            let (f, g) = (full[k][v], normal[k][v]);
+            assert!(
+                (g - (f.dot(*n) * *n - mean)).length() < 1e-12,
+                "{name} vertex {v}"
+            );
+            tangential_before = tangential_before.max((f - f.dot(*n) * *n).length());
+        }
+    }
+    // The default keeps a tangential part on this irregular mesh.
+    assert!(tangential_before > 1e-3, "{tangential_before}");
+}

@@ -10,7 +10,7 @@ use remembrane::fd::{FdOptions, Stencil, check_force_term};
 use remembrane::force::ForceTerm;
 use remembrane::membrane::Membrane;
 use remembrane::mesh::SurfaceMesh;
-use remembrane::params::{BendingParams, SpringCoupling};
+use remembrane::params::{BendingDiscretisation, BendingParams, SpringCoupling};
 use remembrane::systems::*;
 use std::sync::Arc;
 
@@ -90,8 +90,22 @@ fn bending_force_matches_finite_differences() {
         let mut term = BendingForces::new(BendingParams {
             kappa: 1.0,
             c0: 0.0,
+            ..Default::default()
         });
         check("bending", &mesh, &mut term, false, opts(1e-9));
+    }
+}
+
+#[test]
+fn dihedral_bending_force_matches_finite_differences() {
+    for (level, seed, c0) in [(2, 31, 0.0), (3, 32, 0.0), (2, 33, 0.4), (3, 34, -0.3)] {
+        let mesh = perturbed(level, seed);
+        let mut term = BendingForces::new(BendingParams {
+            kappa: 5.0,
+            c0,
+            discretisation: BendingDiscretisation::Dihedral,
+        });
+        check("bending dihedral", &mesh, &mut term, false, opts(1e-9));
     }
 }
 
@@ -102,6 +116,7 @@ fn bending_with_spontaneous_curvature_matches_finite_differences() {
         let mut term = BendingForces::new(BendingParams {
             kappa: 5.0,
             c0: 0.4,
+            ..Default::default()
         });
         // |K_i| is not differentiable at 0 and the rough test mesh has
         // vertices with |K| ≈ 3e-3: a step of 1e-4 spans the kink there (rel.

@@ -300,3 +300,34 @@ fn bad_mesh_files_are_named_with_the_reason() {
         );
     }
 }
+
+#[test]
+fn the_dihedral_bending_is_refused_with_the_energy_based_flips() {
+    let text = GOOD
+        .replace(
+            "Bending(kappa: 1.0),",
+            "Vin(), Bending(kappa: 1.0, discretisation: Dihedral),",
+        )
+        .replace(
+            "    ],\n)",
+            "    ],\n    edge_flips: (attempts_per_edge: 1.0),\n)",
+        );
+    let (_, msg) = error_of(&text);
+    assert!(msg.contains("energy[1].Bending.discretisation"), "{msg}");
+    assert!(msg.contains("Cotangent"), "{msg}");
+    // Without the flips, the same scene builds and its sphere reads 8πκ
+    // closer than the cotangent form's.
+    let dir = tempfile::tempdir().unwrap();
+    let energy = |bending: &str| {
+        let text = GOOD.replace("Bending(kappa: 1.0),", bending);
+        let path = write(dir.path(), "scene.ron", &text);
+        let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
+        sim.evaluate_forces().unwrap().evaluation.total_energy() / (8.0 * std::f64::consts::PI)
+    };
+    let dihedral = energy("Bending(kappa: 1.0, discretisation: Dihedral),");
+    let cotangent = energy("Bending(kappa: 1.0),");
+    assert!(
+        (dihedral - 1.0).abs() < (cotangent - 1.0).abs(),
+        "{dihedral} vs {cotangent}"
+    );
+}

@@ -2,6 +2,7 @@
 //! them; each kernel returns the energy and, given a force buffer, adds −∇E.
 
 pub mod bending;
+pub mod bending_dihedral;
 pub mod penalty;
 pub mod self_avoidance;
 pub mod springs;

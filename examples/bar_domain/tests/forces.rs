@@ -88,6 +88,7 @@ fn uniform_coverage_is_helfrich_bending_with_that_spontaneous_curvature() {
         &mut BendingForces::new(BendingParams {
             kappa: 5.0,
             c0: 0.6,
+            ..Default::default()
         }),
         &m,
         &p,
@@ -100,6 +101,7 @@ fn uniform_coverage_is_helfrich_bending_with_that_spontaneous_curvature() {
         &mut BendingForces::new(BendingParams {
             kappa: 5.0,
             c0: 0.0,
+            ..Default::default()
         }),
         &m,
         &p,
