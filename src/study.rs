@@ -116,6 +116,24 @@ pub struct Rung {
     /// Threads of the case's run (default 1).
     #[serde(default)]
     pub threads: Option<usize>,
+    /// Start from the final state of an earlier rung of the same problem,
+    /// refined (default: the scene's own membrane). A continuation: what a
+    /// fine mesh needs when it cannot reach the answer from the scene's
+    /// start (the 10242-vertex RBC). The case's cost is its own run only.
+    #[serde(default)]
+    pub start: Option<RungStart>,
+}
+
+/// A rung's start from an earlier rung's final state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RungStart {
+    /// The earlier rung's label.
+    pub rung: String,
+    /// Times every triangle is split into four (at most 3), as in
+    /// `membrane: State(path, refine: n)`.
+    #[serde(default)]
+    pub refine: u32,
 }
 
 /// The resolution of a case, when its rung declares no `h`.
@@ -230,6 +248,9 @@ pub struct Case {
     pub scene_path: PathBuf,
     /// Run directory, relative to the study's output directory.
     pub dir: PathBuf,
+    /// The run directory (relative to the study's) whose final state this
+    /// case starts from, and the refinement, if the rung declares a start.
+    pub start: Option<(PathBuf, u32)>,
 }
 
 impl Study {
@@ -320,6 +341,32 @@ impl Study {
                         field(&format!("rungs[{r}].h"))
                     )));
                 }
+                if let Some(start) = &rung.start {
+                    let field = field(&format!("rungs[{r}].start"));
+                    let Some(k) = problem.rungs[..r]
+                        .iter()
+                        .position(|o| o.label == start.rung)
+                    else {
+                        return Err(bad(format!(
+                            "{field}: `{}` is not an earlier rung of this problem",
+                            start.rung
+                        )));
+                    };
+                    if start.refine > 3 {
+                        return Err(bad(format!(
+                            "{field}.refine: must be at most 3 (got {})",
+                            start.refine
+                        )));
+                    }
+                    if let Some(quick) = &problem.quick
+                        && quick.contains(&r)
+                        && !quick.contains(&k)
+                    {
+                        return Err(bad(format!(
+                            "{field}: rung {r} is quick but starts from rung {k}, which is not"
+                        )));
+                    }
+                }
                 if rung.threads == Some(0) {
                     return Err(bad(format!(
                         "{}: must be at least 1",
@@ -337,12 +384,17 @@ impl Study {
                 check_reference(problem.reference, &scene).map_err(|reason| {
                     bad(format!("{}: {reason}", field(&format!("rungs[{r}]"))))
                 })?;
+                let start = rung
+                    .start
+                    .as_ref()
+                    .map(|start| (start_dir(&problem.name, start), start.refine));
                 cases.push(Case {
                     problem: p,
                     rung: r,
                     scene,
                     scene_path: scene_path.clone(),
                     dir: Path::new("cases").join(&problem.name).join(&rung.label),
+                    start,
                 });
             }
         }
@@ -447,13 +499,30 @@ pub struct StudyRunReport {
 pub const CASE_FINGERPRINT: &str = "case.json";
 
 /// What a case's result depends on: the scene as run and the threads.
-fn fingerprint(study: &Study, case: &Case) -> String {
-    serde_json::json!({
+/// A continued case's includes the fingerprint its start rung ran with,
+/// so that it runs again when that rung does.
+fn fingerprint(study: &Study, case: &Case, out: &Path) -> String {
+    let problem = &study.problems[case.problem];
+    let rung = &problem.rungs[case.rung];
+    let start = rung.start.as_ref().map(|s| {
+        let from = out.join(start_dir(&problem.name, s)).join(CASE_FINGERPRINT);
+        let theirs = std::fs::read_to_string(from).unwrap_or_default();
+        format!("from {} refined {}: {theirs}", s.rung, s.refine)
+    });
+    let mut f = serde_json::json!({
         "scene": case.scene.to_ron_string().unwrap_or_default(),
-        "threads": study.problems[case.problem].rungs[case.rung].threads.unwrap_or(1),
+        "threads": rung.threads.unwrap_or(1),
         "engine": env!("CARGO_PKG_VERSION"),
-    })
-    .to_string()
+    });
+    if let Some(start) = start {
+        f["start"] = start.into();
+    }
+    f.to_string()
+}
+
+/// The run directory (relative to the study's) of a start's rung.
+fn start_dir(problem: &str, start: &RungStart) -> PathBuf {
+    Path::new("cases").join(problem).join(&start.rung)
 }
 
 /// A case is done when its run directory exists (a run renames it into
@@ -463,7 +532,7 @@ pub fn is_done(study: &Study, case: &Case, out: &Path) -> bool {
     let dir = out.join(&case.dir);
     dir.join("summary.json").is_file()
         && std::fs::read_to_string(dir.join(CASE_FINGERPRINT))
-            .is_ok_and(|f| f == fingerprint(study, case))
+            .is_ok_and(|f| f == fingerprint(study, case, out))
 }
 
 /// The cases `--quick` keeps (all of them without it).
@@ -495,15 +564,47 @@ pub fn run_cases(
         cases: cases.len(),
         ..Default::default()
     };
-    let todo: Vec<&Case> = cases
-        .iter()
-        .filter(|c| {
-            let done = is_done(study, c, &options.out);
-            report.skipped += usize::from(done);
-            !done
-        })
-        .collect();
-    let results = crate::job_pool::run_jobs(
+    // A continued case runs after the case it starts from: in waves by
+    // the length of its chain of starts, each wave deciding what is done
+    // once the one before has run (a start that ran again runs its
+    // continuations again).
+    let depth = |c: &Case| {
+        let rungs = &study.problems[c.problem].rungs;
+        let (mut rung, mut d) = (&rungs[c.rung], 0);
+        while let Some(start) = &rung.start {
+            rung = rungs
+                .iter()
+                .find(|o| o.label == start.rung)
+                .expect("checked when loaded");
+            d += 1;
+        }
+        d
+    };
+    let deepest = cases.iter().map(depth).max().unwrap_or(0);
+    for wave in 0..=deepest {
+        let todo: Vec<&Case> = cases
+            .iter()
+            .filter(|c| depth(c) == wave)
+            .filter(|c| {
+                let done = is_done(study, c, &options.out);
+                report.skipped += usize::from(done);
+                !done
+            })
+            .collect();
+        let (completed, failed) = run_wave(study, &todo, options);
+        report.completed += completed;
+        report.failed.extend(failed);
+    }
+    Ok(report)
+}
+
+/// Runs `todo`, `options.jobs` at a time; returns (completed, failed).
+fn run_wave(
+    study: &Study,
+    todo: &[&Case],
+    options: &StudyOptions,
+) -> (usize, Vec<(PathBuf, String)>) {
+    crate::job_pool::run_jobs(
         todo.len(),
         options.jobs,
         options.quiet,
@@ -529,7 +630,14 @@ pub fn run_cases(
                 checkpoint: None,
             };
             let t = std::time::Instant::now();
-            let mut prepared = crate::run::prepare_run(&case.scene, &case.scene_path, &opts)
+            let mut scene = case.scene.clone();
+            if let Some((from, refine)) = &case.start {
+                scene.membrane = crate::scene::MembraneSource::State {
+                    path: options.out.join(from).join("state.json"),
+                    refine: *refine,
+                };
+            }
+            let mut prepared = crate::run::prepare_run(&scene, &case.scene_path, &opts)
                 .map_err(|e| e.to_string())?;
             let result =
                 crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false);
@@ -539,7 +647,7 @@ pub fn run_cases(
             if dir.join("summary.json").is_file() {
                 let _ = crate::atomic_write(
                     &dir.join(CASE_FINGERPRINT),
-                    fingerprint(study, case).as_bytes(),
+                    fingerprint(study, case, &options.out).as_bytes(),
                 );
             }
             match result {
@@ -549,7 +657,5 @@ pub fn run_cases(
                 Err(e) => Err(e.to_string()),
             }
         },
-    );
-    (report.completed, report.failed) = results;
-    Ok(report)
+    )
 }

@@ -240,6 +240,20 @@ fn bad_study_files_name_the_file_and_field() {
         ),
         (
             format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a", start: (rung: "b")), (label: "b")])])"#,
+                scene.display()
+            ),
+            "rungs[0].start",
+        ),
+        (
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a"), (label: "b", start: (rung: "a"))], quick: Some([1]))])"#,
+                scene.display()
+            ),
+            "rungs[1].start",
+        ),
+        (
+            format!(
                 r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a")])], peers: [(name: "m", command: ["x"]), (name: "m", command: ["y"])])"#,
                 scene.display()
             ),
@@ -387,4 +401,82 @@ fn a_changed_rung_runs_again() {
     // Same label, other level: the kept case no longer matches.
     write(2);
     assert_eq!(run(), (true, 162));
+}
+
+/// A rung that starts from an earlier rung's final state (refined) runs
+/// after it, from its state.json, and runs again when that rung does.
+#[test]
+fn a_continued_rung_starts_from_the_earlier_rungs_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let study = dir.path().join("s.ron");
+    let out = dir.path().join("out");
+    let write = |level: u32| {
+        std::fs::write(
+            &study,
+            format!(
+                r#"Study(name: "s", problems: [(name: "sphere", scene: "{}", reference: SphereBending,
+    rungs: [(label: "fine", start: (rung: "coarse", refine: 1)), (label: "coarse", set: [("membrane.Icosphere.level", {level})])])])"#,
+                repo("scenes/studies/sphere_bending.ron").display()
+            ),
+        )
+        .unwrap();
+    };
+    // A start must name an earlier rung.
+    write(1);
+    let r = Command::new(binary())
+        .arg("study")
+        .arg(&study)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("rungs[0].start"));
+    let write = |level: u32| {
+        std::fs::write(
+            &study,
+            format!(
+                r#"Study(name: "s", problems: [(name: "sphere", scene: "{}", reference: SphereBending,
+    rungs: [(label: "coarse", set: [("membrane.Icosphere.level", {level})]), (label: "fine", start: (rung: "coarse", refine: 1))])])"#,
+                repo("scenes/studies/sphere_bending.ron").display()
+            ),
+        )
+        .unwrap();
+    };
+    let run = || {
+        let r = Command::new(binary())
+            .arg("study")
+            .arg(&study)
+            .arg("--out")
+            .arg(&out)
+            .args(["--jobs", "2"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&r.stderr).to_string();
+        assert!(r.status.success(), "{stderr}");
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("study.json")).unwrap())
+                .unwrap();
+        let cases = problem(&report, "sphere")["cases"]
+            .as_array()
+            .unwrap()
+            .clone();
+        let vertices: Vec<u64> = cases
+            .iter()
+            .map(|c| c["vertices"].as_u64().unwrap())
+            .collect();
+        (stderr, vertices)
+    };
+    write(1);
+    // The coarse icosphere (42 vertices) refined once: 162.
+    let (stderr, vertices) = run();
+    assert!(stderr.contains(", 2 run now,"), "{stderr}");
+    assert_eq!(vertices, vec![42, 162]);
+    let (stderr, _) = run();
+    assert!(stderr.contains(", 0 run now,"), "{stderr}");
+    // The coarse rung changes: both run again, the fine one from it.
+    write(2);
+    let (stderr, vertices) = run();
+    assert!(stderr.contains(", 2 run now,"), "{stderr}");
+    assert_eq!(vertices, vec![162, 642]);
 }
