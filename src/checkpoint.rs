@@ -20,7 +20,7 @@
 //! - the output so far: frames written and the rows of `series.csv`.
 //!
 //! Random draws need no saved position: every stream is seeded by (seed,
-//! stream, iteration) (`crate::rng`). A resumed run therefore writes the
+//! stream, iteration) (`crate::util::rng`). A resumed run therefore writes the
 //! same bytes as an uninterrupted one, whatever the thread counts of its
 //! segments; `tests/checkpoint.rs` kills real runs with SIGKILL to check it.
 //! Only the per-system timings in `summary.json` cover the last segment

@@ -328,7 +328,7 @@ where
         } => diagram_command(
             &diagram,
             out,
-            crate::shape_diagram::DiagramOptions {
+            crate::workflow::shape_diagram::DiagramOptions {
                 overwrite,
                 meshes,
                 iterations,
@@ -391,7 +391,7 @@ struct RunArgs {
 }
 
 fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
-    use crate::run::{CheckpointSettings, Progress, RunOptions, run_scene};
+    use crate::workflow::run::{CheckpointSettings, Progress, RunOptions, run_scene};
     if args.checkpoint_every == Some(0) {
         eprintln!("error: --checkpoint-every: must be at least 1");
         return ExitCode::from(2);
@@ -400,12 +400,13 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         return resume_command(scene_path, dir, &args);
     }
     if let Some(p) = scene_path
-        && std::fs::read_to_string(p).is_ok_and(|t| crate::protocol::is_protocol(&t))
+        && std::fs::read_to_string(p).is_ok_and(|t| crate::workflow::protocol::is_protocol(&t))
     {
         return protocol_command(p, args);
     }
     if let Some(p) = scene_path
-        && std::fs::read_to_string(p).is_ok_and(|t| crate::shape_diagram::is_shape_diagram(&t))
+        && std::fs::read_to_string(p)
+            .is_ok_and(|t| crate::workflow::shape_diagram::is_shape_diagram(&t))
     {
         for (given, flag) in [
             (args.seed.is_some(), "--seed"),
@@ -419,7 +420,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
                 return ExitCode::from(2);
             }
         }
-        let options = crate::shape_diagram::DiagramOptions {
+        let options = crate::workflow::shape_diagram::DiagramOptions {
             overwrite: args.overwrite,
             meshes: None,
             iterations: args.iterations,
@@ -451,7 +452,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         every,
         scene_text: text,
     });
-    let name = crate::run::run_name(&scene, &path);
+    let name = crate::workflow::run::run_name(&scene, &path);
     let out = args
         .out
         .unwrap_or_else(|| free_directory(Path::new("out").join(&name)));
@@ -467,7 +468,7 @@ fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
         check_invariants: args.check_invariants,
         checkpoint,
     };
-    let result = crate::parallel::on_pool(|| run_scene(&scene, &path, &options, |_| Ok(())));
+    let result = crate::util::parallel::on_pool(|| run_scene(&scene, &path, &options, |_| Ok(())));
     report_run(&path, &options.out, args.quiet, result)
 }
 
@@ -504,7 +505,7 @@ fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunArgs) -> Exit
         );
         return ExitCode::from(2);
     }
-    match crate::protocol::ProtocolRun::read(dir) {
+    match crate::workflow::protocol::ProtocolRun::read(dir) {
         Some(Ok(record)) => return resume_protocol_command(dir, record, args),
         Some(Err(e)) => {
             eprintln!("error: {e}");
@@ -515,9 +516,10 @@ fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunArgs) -> Exit
     if let Err(code) = set_threads(args.threads) {
         return code;
     }
-    let progress = crate::run::Progress::for_stderr(args.quiet);
-    let result =
-        crate::parallel::on_pool(|| crate::run::resume_run(dir, progress, args.checkpoint_every));
+    let progress = crate::workflow::run::Progress::for_stderr(args.quiet);
+    let result = crate::util::parallel::on_pool(|| {
+        crate::workflow::run::resume_run(dir, progress, args.checkpoint_every)
+    });
     let out = crate::checkpoint::run_dir_of(dir);
     report_run(dir, &out, args.quiet, result)
 }
@@ -528,7 +530,7 @@ fn report_run(
     path: &Path,
     out: &Path,
     quiet: bool,
-    result: Result<crate::run::RunSummary, crate::run::RunError>,
+    result: Result<crate::workflow::run::RunSummary, crate::workflow::run::RunError>,
 ) -> ExitCode {
     match result {
         Ok(summary) => {
@@ -600,8 +602,8 @@ fn model_line(m: &crate::fluid::ModelSummary) -> Option<String> {
 
 /// `remembrane run PROTOCOL`: every phase in order into one directory.
 fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
-    use crate::protocol::{PhaseRunOptions, Protocol, run_protocol};
-    use crate::run::Progress;
+    use crate::workflow::protocol::{PhaseRunOptions, Protocol, run_protocol};
+    use crate::workflow::run::Progress;
     let fail = |message: String, code: u8| {
         eprintln!("error: {message}");
         ExitCode::from(code)
@@ -640,7 +642,8 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
         checkpoint_every: args.checkpoint_every,
         resume: false,
     };
-    let result = crate::parallel::on_pool(|| run_protocol(&loaded, &out, args.overwrite, &options));
+    let result =
+        crate::util::parallel::on_pool(|| run_protocol(&loaded, &out, args.overwrite, &options));
     report_protocol(path, &out, args.quiet, result)
 }
 
@@ -648,10 +651,10 @@ fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
 /// `--checkpoint-every`: continues it from its record.
 fn resume_protocol_command(
     dir: &Path,
-    record: crate::protocol::ProtocolRun,
+    record: crate::workflow::protocol::ProtocolRun,
     args: &RunArgs,
 ) -> ExitCode {
-    use crate::protocol::{PhaseRunOptions, Protocol, run_protocol};
+    use crate::workflow::protocol::{PhaseRunOptions, Protocol, run_protocol};
     let loaded = match Protocol::load(&record.protocol) {
         Ok(l) => l,
         Err(e) => {
@@ -663,7 +666,7 @@ fn resume_protocol_command(
         return code;
     }
     let options = PhaseRunOptions {
-        progress: crate::run::Progress::for_stderr(args.quiet),
+        progress: crate::workflow::run::Progress::for_stderr(args.quiet),
         iterations: record.iterations,
         frames: record.frames,
         check_invariants: record.check_invariants,
@@ -672,7 +675,7 @@ fn resume_protocol_command(
         resume: true,
     };
     let out = crate::checkpoint::run_dir_of(dir);
-    let result = crate::parallel::on_pool(|| run_protocol(&loaded, &out, false, &options));
+    let result = crate::util::parallel::on_pool(|| run_protocol(&loaded, &out, false, &options));
     report_protocol(&record.protocol, &out, args.quiet, result)
 }
 
@@ -682,7 +685,10 @@ fn report_protocol(
     path: &Path,
     out: &Path,
     quiet: bool,
-    result: Result<crate::protocol::ProtocolSummary, crate::protocol::ProtocolError>,
+    result: Result<
+        crate::workflow::protocol::ProtocolSummary,
+        crate::workflow::protocol::ProtocolError,
+    >,
 ) -> ExitCode {
     match result {
         Ok(summary) => {
@@ -713,8 +719,8 @@ fn compare_command(
     seed: Option<u64>,
     quiet: bool,
 ) -> ExitCode {
-    use crate::compare::{ComparisonRow, chart_png, csv, table};
-    use crate::run::{Progress, RunOptions, run_scene};
+    use crate::workflow::compare::{ComparisonRow, chart_png, csv, table};
+    use crate::workflow::run::{Progress, RunOptions, run_scene};
     let mut scenes = Vec::new();
     for path in [first, second] {
         match Scene::load(path) {
@@ -727,7 +733,7 @@ fn compare_command(
     }
     let names: Vec<String> = scenes
         .iter()
-        .map(|(s, p)| crate::run::run_name(s, p))
+        .map(|(s, p)| crate::workflow::run::run_name(s, p))
         .collect();
     if names[0] == names[1] {
         eprintln!(
@@ -844,7 +850,7 @@ fn run(command: Command) -> Result<(), String> {
 
 /// `remembrane check PROTOCOL`: every phase's scene and start.
 fn check_protocol(path: &Path) -> Result<(), String> {
-    let loaded = crate::protocol::Protocol::load(path).map_err(|e| e.to_string())?;
+    let loaded = crate::workflow::protocol::Protocol::load(path).map_err(|e| e.to_string())?;
     say!(
         "{}: ok (protocol `{}`)",
         path.display(),
@@ -875,7 +881,7 @@ fn load(path: &Path) -> Result<(Scene, crate::simulation::Simulation), String> {
 
 /// The scene a run directory's summary names, if it still loads.
 fn run_scene_file(dir: &Path) -> Option<Scene> {
-    let summary = crate::run::RunSummary::read(dir).ok()?;
+    let summary = crate::workflow::run::RunSummary::read(dir).ok()?;
     Scene::load(Path::new(&summary.scene_file)).ok()
 }
 
@@ -914,7 +920,7 @@ fn spectrum_command(
             _ => None,
         })
     });
-    let options = crate::spectrum::SpectrumOptions {
+    let options = crate::analysis::spectrum::SpectrumOptions {
         equilibration,
         l_min,
         l_max,
@@ -923,7 +929,7 @@ fn spectrum_command(
         kappa_input,
         discrete,
     };
-    let s = crate::spectrum::analyse_run(dir, &options)?;
+    let s = crate::analysis::spectrum::analyse_run(dir, &options)?;
     say!(
         "{} frames, R0 = {:.4} l̄, l = {}..={}: κ = {:.4} ± {:.4} Ē, σ = {:.4e} ± {:.1e} Ē/l̄², χ²/dof = {:.2}",
         s.frames,
@@ -943,7 +949,7 @@ fn spectrum_command(
 }
 
 fn check(path: &Path) -> Result<(), String> {
-    if std::fs::read_to_string(path).is_ok_and(|t| crate::protocol::is_protocol(&t)) {
+    if std::fs::read_to_string(path).is_ok_and(|t| crate::workflow::protocol::is_protocol(&t)) {
         return check_protocol(path);
     }
     let (scene, mut sim) = load(path)?;
@@ -958,7 +964,10 @@ fn check(path: &Path) -> Result<(), String> {
     for caution in scene.cautions() {
         say!("  warning: {caution}");
     }
-    say!("  name         {}", crate::run::run_name(&scene, path));
+    say!(
+        "  name         {}",
+        crate::workflow::run::run_name(&scene, path)
+    );
     say!("  seed         {}", scene.seed);
     say!("  membrane     {:?}", scene.membrane);
     say!(
@@ -1060,7 +1069,7 @@ fn check(path: &Path) -> Result<(), String> {
 fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {
     let (scene, mut sim) = load(path)?;
     sim.evaluate_forces().map_err(|e| e.to_string())?;
-    let report = EnergyReport::new(&crate::run::run_name(&scene, path), &sim);
+    let report = EnergyReport::new(&crate::workflow::run::run_name(&scene, path), &sim);
     if let Some(bad) = report.energies.iter().find(|e| !e.energy.is_finite()) {
         return Err(format!(
             "{}: energy term `{}` is not finite ({})",
@@ -1145,14 +1154,14 @@ fn study_command(
     let peers = if no_peers {
         Vec::new()
     } else {
-        crate::study_peer::run_peers(&study, path, &cases, &options.out, quiet)
+        crate::study::peer::run_peers(&study, path, &cases, &options.out, quiet)
     };
-    let report = crate::study_report::evaluate(&study, &cases, &peers, &options.out);
-    if let Err(e) = crate::study_report::write_report(&report, &options.out) {
+    let report = crate::study::report::evaluate(&study, &cases, &peers, &options.out);
+    if let Err(e) = crate::study::report::write_report(&report, &options.out) {
         eprintln!("error: {e}");
         return ExitCode::from(1);
     }
-    say_raw!("{}", crate::study_report::markdown(&report));
+    say_raw!("{}", crate::study::report::markdown(&report));
     if ran.failed.is_empty() {
         ExitCode::SUCCESS
     } else {
@@ -1166,10 +1175,10 @@ fn study_command(
 fn diagram_command(
     path: &Path,
     out: Option<PathBuf>,
-    options: crate::shape_diagram::DiagramOptions,
+    options: crate::workflow::shape_diagram::DiagramOptions,
     threads: Option<usize>,
 ) -> ExitCode {
-    use crate::shape_diagram::{ShapeDiagram, markdown, run_diagram};
+    use crate::workflow::shape_diagram::{ShapeDiagram, markdown, run_diagram};
     let loaded = match ShapeDiagram::load(path) {
         Ok(l) => l,
         Err(e) => {
@@ -1198,7 +1207,7 @@ fn diagram_command(
 }
 
 fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
-    use crate::sweep::{
+    use crate::workflow::sweep::{
         Sweep, SweepError, SweepOptions, parse_shard, run_sweep, slurm_campaign_script,
         slurm_script,
     };
@@ -1260,7 +1269,7 @@ fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
                 "sweep {}: {} shared phases ready in {}",
                 sweep.name,
                 report.phases.len(),
-                crate::sweep::phases_dir(&out).display()
+                crate::workflow::sweep::phases_dir(&out).display()
             );
             ExitCode::SUCCESS
         }
@@ -1293,7 +1302,7 @@ fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
 }
 
 fn collect_command(dir: &Path, x: String, y: String, frames: usize, partial: bool) -> ExitCode {
-    use crate::collect::{CollectOptions, collect};
+    use crate::workflow::collect::{CollectOptions, collect};
     let options = CollectOptions {
         x,
         y,

@@ -29,7 +29,7 @@ pub fn vertex_normal(positions: &[DVec3], topology: &Topology, v: usize) -> DVec
 /// The unit area-weighted normal of every vertex, by dense slot (each
 /// vertex computed on its own, so the same bits on any thread count).
 pub fn vertex_normals(positions: &[DVec3], topology: &Topology, out: &mut Vec<DVec3>) {
-    crate::parallel::fill_vec(out, positions.len(), |v| {
+    crate::util::parallel::fill_vec(out, positions.len(), |v| {
         vertex_normal(positions, topology, v)
     });
 }
@@ -42,7 +42,7 @@ pub fn vertex_normals_from_faces(
     topology: &Topology,
     out: &mut Vec<DVec3>,
 ) {
-    crate::parallel::fill_vec(out, topology.vertex_count(), |v| {
+    crate::util::parallel::fill_vec(out, topology.vertex_count(), |v| {
         let mut n = DVec3::ZERO;
         for &f in topology.ring_faces_of(v) {
             let c = &faces[f as usize];
@@ -55,7 +55,7 @@ pub fn vertex_normals_from_faces(
 /// Removes from every force its component along the vertex normal:
 /// f ← f − (f·n) n.
 pub fn keep_tangential(forces: &mut [DVec3], normals: &[DVec3]) {
-    crate::parallel::for_each_mut(forces, |v, f| {
+    crate::util::parallel::for_each_mut(forces, |v, f| {
         let n = normals[v];
         *f -= f.dot(n) * n;
     });
@@ -73,13 +73,13 @@ pub fn remove_net_force(forces: &mut [DVec3]) {
         return;
     }
     let mean = forces.iter().copied().sum::<DVec3>() / forces.len() as f64;
-    crate::parallel::for_each_mut(forces, |_, f| *f -= mean);
+    crate::util::parallel::for_each_mut(forces, |_, f| *f -= mean);
 }
 
 /// Keeps of every force only its component along the vertex normal:
 /// f ← (f·n) n.
 pub fn keep_normal(forces: &mut [DVec3], normals: &[DVec3]) {
-    crate::parallel::for_each_mut(forces, |v, f| {
+    crate::util::parallel::for_each_mut(forces, |v, f| {
         let n = normals[v];
         *f = f.dot(n) * n;
     });

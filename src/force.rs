@@ -250,7 +250,7 @@ impl ForceBuffers {
         out.energies.resize(self.terms.len(), 0.0);
         out.term_forces.resize_with(self.terms.len(), Vec::new);
         for buf in &mut out.term_forces {
-            crate::parallel::fill_vec(buf, n, |_| DVec3::ZERO);
+            crate::util::parallel::fill_vec(buf, n, |_| DVec3::ZERO);
         }
     }
 
@@ -258,11 +258,11 @@ impl ForceBuffers {
     /// the energy).
     pub fn first_non_finite(&self) -> Option<(&str, Option<usize>)> {
         let ev = &self.evaluation;
-        if crate::parallel::splits(self.vertices) {
+        if crate::util::parallel::splits(self.vertices) {
             // One parallel pass over all buffers; the serial search below
             // only runs to name the culprit.
             let forces = &ev.term_forces;
-            let bad = crate::parallel::position_first(self.vertices, |v| {
+            let bad = crate::util::parallel::position_first(self.vertices, |v| {
                 forces
                     .iter()
                     .any(|buf| buf.get(v).is_some_and(|f| !f.is_finite()))
@@ -288,12 +288,12 @@ impl ForceBuffers {
         // diffusion) the total is zero, not empty.
         let n = self.vertices;
         let has_penalty = self.terms.iter().any(|t| t.kind == ForceKind::Penalty);
-        if crate::parallel::splits(n) {
+        if crate::util::parallel::splits(n) {
             // Per vertex, the same additions in the same term order, from
             // zero; each sum is written once (no separate zeroing pass).
             let (terms, forces) = (&self.terms, &out.term_forces);
             let sum_into = |penalty: bool, sum: &mut Vec<DVec3>| {
-                crate::parallel::fill_vec(sum, n, |v| {
+                crate::util::parallel::fill_vec(sum, n, |v| {
                     let mut s = DVec3::ZERO;
                     for (term, buf) in terms.iter().zip(forces) {
                         if (term.kind == ForceKind::Penalty) == penalty {
@@ -331,7 +331,7 @@ impl ForceBuffers {
                 &mut self.scratch,
             );
             let smoothed = &out.smoothed_penalty;
-            crate::parallel::for_each_mut(&mut out.total, |v, t| *t += smoothed[v]);
+            crate::util::parallel::for_each_mut(&mut out.total, |v, t| *t += smoothed[v]);
         }
     }
 

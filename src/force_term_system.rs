@@ -82,7 +82,7 @@ impl System for ForceTermsSystem {
         };
         // Term work scales with the faces.
         let faces = membrane.cached_topology().faces.len();
-        let concurrent = self.terms.len() > 1 && crate::parallel::splits(faces);
+        let concurrent = self.terms.len() > 1 && crate::util::parallel::splits(faces);
         let ev = &mut buffers.evaluation;
         // One job per term: the term, its buffer, energy and time.
         let jobs: Vec<Job<'_>> = self

@@ -212,7 +212,7 @@ pub fn reduced_volume(volume: f64, area: f64) -> f64 {
 /// Computes the [`Corners`] of every face into `out` (resized), in
 /// parallel.
 pub fn face_geometry(positions: &[DVec3], faces: &[[u32; 3]], out: &mut Vec<Corners>) {
-    crate::parallel::fill_vec(out, faces.len(), |k| {
+    crate::util::parallel::fill_vec(out, faces.len(), |k| {
         let (p0, p1, p2) = corners(positions, &faces[k]);
         Corners::new(p0, p1, p2)
     });

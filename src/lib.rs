@@ -50,10 +50,14 @@
 //! - **Scenes** name plugins: `Custom(name: "...", params: (...))` in `energy`, and `systems:
 //!   [Custom(name, stage, params)]`, resolved through a [`registry::PluginRegistry`] while the scene
 //!   is parsed. [`cli::main_with`]`(registry)` gives a user's binary the whole CLI.
+//! - **Folders.** [`util`] (parallel loops, random streams, validators), [`analysis`] (measuring
+//!   a run), [`workflow`] (runs, protocols, sweeps, collection, comparison, the shape diagram),
+//!   [`study`] (speed against error on problems with independent answers, and the axisymmetric
+//!   reference solver); the rest of `src/` is still flat, to be moved by role.
 //! - **Layers.** The core ([`resources`], [`schedule`], [`simulation`], [`force`], [`membrane`],
 //!   [`topology`], [`energy`], [`remesh`], [`edit`], [`recorder`], [`vertex_field`]) never imports
 //!   `systems/`; `systems/` ([`systems`], mounted with `#[path]`, one system per file, plugins in
-//!   [`systems::plugins`]) uses only the public API; [`scene`], [`run`], [`output`] and [`cli`] sit
+//!   [`systems::plugins`]) uses only the public API; [`scene`], [`workflow`], [`output`] and [`cli`] sit
 //!   on top.
 //!
 //! One tick, in stage order ([`Stage`]; what each stage's built-in systems read → write):
@@ -124,11 +128,8 @@
 //! [`ValenceRange`]: mesh::invariants::ValenceRange
 //! [`Recorders`]: recorder::Recorders
 
-pub mod axisymmetric;
 pub mod cell_list;
 pub mod cli;
-pub mod collect;
-pub mod compare;
 pub mod components;
 pub mod constraint;
 pub mod core_resources;
@@ -138,12 +139,10 @@ pub mod energy;
 pub mod error;
 pub mod fluid;
 pub mod geometry;
-pub mod job_pool;
 pub mod membrane;
 pub mod mesh;
 pub mod minimise;
 pub mod output;
-pub mod parallel;
 pub mod topology;
 pub mod topology_update;
 pub mod world_snapshot;
@@ -191,8 +190,8 @@ pub mod force;
 pub mod force_term_system;
 pub mod params;
 pub mod persisted;
-pub mod protocol;
 
+pub mod analysis;
 pub mod plot;
 pub mod plugin_decl;
 pub mod quality;
@@ -204,29 +203,20 @@ pub mod render;
 pub mod report;
 pub mod resolution;
 pub mod resources;
-pub mod rng;
-pub mod run;
 pub mod run_dir;
 pub mod scene;
 pub mod scene_override;
 pub mod schedule;
 pub mod setting;
-pub mod shape;
-pub mod shape_diagram;
 pub mod simulation;
-pub mod spectrum;
 pub mod state;
 pub mod study;
-pub mod study_peer;
-pub mod study_reference;
-pub mod study_report;
-pub mod sweep;
 #[path = "../systems/mod.rs"]
 pub mod systems;
 pub mod timestep;
-pub mod tube_radius;
-pub mod validate;
+pub mod util;
 pub mod vertex_field;
+pub mod workflow;
 
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

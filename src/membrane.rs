@@ -260,9 +260,9 @@ impl Membrane {
         let query = self
             .world
             .query_mut::<(Entity, &mut Position, &mut Force)>();
-        if crate::parallel::splits(positions.len()) {
+        if crate::util::parallel::splits(positions.len()) {
             let batches: Vec<_> = query
-                .into_iter_batched(crate::parallel::grain() as u32)
+                .into_iter_batched(crate::util::parallel::grain() as u32)
                 .collect();
             batches.into_par_iter().for_each(|batch| {
                 for (e, p, f) in batch {

@@ -61,11 +61,11 @@ impl Target {
 #[serde(deny_unknown_fields, default)]
 pub struct BendingParams {
     /// κ, bending modulus (Ē; default 5 as run = 50 k_BT; paper table: 1).
-    #[serde(deserialize_with = "crate::validate::non_negative")]
+    #[serde(deserialize_with = "crate::util::validate::non_negative")]
     pub kappa: f64,
     /// C0, spontaneous curvature (1/l̄; default 0). Enters as (2H − C0)², so a
     /// sphere of radius 2/C0 is stress-free.
-    #[serde(deserialize_with = "crate::validate::finite")]
+    #[serde(deserialize_with = "crate::util::validate::finite")]
     pub c0: f64,
     /// How the mean curvature is discretised (default `Cotangent`, the
     /// paper's).
@@ -114,7 +114,7 @@ pub struct VolumeParams {
     /// k_V, penalty strength (Ē/l̄³; default 4).
     #[serde(
         default = "default_k_volume",
-        deserialize_with = "crate::validate::non_negative"
+        deserialize_with = "crate::util::validate::non_negative"
     )]
     pub k: f64,
     /// V_t, target volume (l̄³ or fraction of the initial volume).
@@ -128,7 +128,7 @@ pub struct AreaParams {
     /// k_A, penalty strength (Ē/l̄²; default 8).
     #[serde(
         default = "default_k_area",
-        deserialize_with = "crate::validate::non_negative"
+        deserialize_with = "crate::util::validate::non_negative"
     )]
     pub k: f64,
     /// A_t, target area (l̄² or fraction of the initial area).
@@ -142,7 +142,7 @@ pub struct AreaParams {
 pub struct TensionParams {
     /// σ, surface tension (Ē/l̄² = 10 k_BT/µm²; ≥ 0). A tube pulled from
     /// such a membrane has radius √(κ/2σ) and force 2π√(2σκ).
-    #[serde(deserialize_with = "crate::validate::non_negative")]
+    #[serde(deserialize_with = "crate::util::validate::non_negative")]
     pub sigma: f64,
 }
 
@@ -154,7 +154,7 @@ pub struct LocalTensionParams {
     /// k_a, strength (Ē/l̄²; default 12).
     #[serde(
         default = "default_k_local",
-        deserialize_with = "crate::validate::non_negative"
+        deserialize_with = "crate::util::validate::non_negative"
     )]
     pub k: f64,
     /// A_t, total target area from which a0 = A_t / N_initial (l̄² or
@@ -170,12 +170,12 @@ pub struct SelfAvoidanceParams {
     /// k, stiffness of the repulsion (Ē/l̄²; default 500: at an overlap of
     /// 0.1 l̄ the pair energy is 0.28 Ē and the force 8.3 Ē/l̄; two vertices
     /// on top of each other cost 60 Ē).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub k: f64,
     /// d0, range of the repulsion (l̄; default 0.6: below the shortest edge
     /// the remesher lets live, 0.7, so no healthy mesh feels it between
     /// non-neighbours of its own patch).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub distance: f64,
 }
 
@@ -194,7 +194,7 @@ impl Default for SelfAvoidanceParams {
 pub struct SpringParams {
     /// k_ex, spring constant of control points that give none (Ē/l̄²;
     /// default 4 as run; 5 in the tether scenes).
-    #[serde(deserialize_with = "crate::validate::non_negative")]
+    #[serde(deserialize_with = "crate::util::validate::non_negative")]
     pub stiffness: f64,
     /// How a control point's pull is shared over the attached patch.
     pub coupling: SpringCoupling,
@@ -237,7 +237,7 @@ pub enum SpringCoupling {
     /// at uniform tension holds no tangential point load.
     Gaussian {
         /// Patch radius a (l̄; 1-1.5 mean edge lengths resolve it).
-        #[serde(deserialize_with = "crate::validate::positive")]
+        #[serde(deserialize_with = "crate::util::validate::positive")]
         radius: f64,
     },
 }
@@ -257,17 +257,17 @@ fn default_k_local() -> f64 {
 #[serde(deny_unknown_fields, default)]
 pub struct DynamicsParams {
     /// μ, vertex mobility (l̄²/(Ē·s); default 1000 as run; paper table: 100).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub mobility: f64,
     /// k_BT of the thermal noise (Ē; default 0 as run; 0.1 = 300 K).
-    #[serde(deserialize_with = "crate::validate::non_negative")]
+    #[serde(deserialize_with = "crate::util::validate::non_negative")]
     pub temperature: f64,
     /// dt_max, cap of the adaptive time step (s; default 0.005).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_max: f64,
     /// s_max, largest displacement μ|F|Δt of any vertex per step (l̄;
     /// default 10, i.e. effectively off, as run; tether phases use 0.01).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub max_displacement: f64,
     /// Number of iterations (accepted ticks) of a run (default 1000).
     pub iterations: u64,
@@ -276,12 +276,12 @@ pub struct DynamicsParams {
     pub frames: u32,
     /// Stop once this much time has been simulated, even before
     /// `iterations` (s; default none).
-    #[serde(deserialize_with = "crate::validate::optional_positive")]
+    #[serde(deserialize_with = "crate::util::validate::optional_positive")]
     pub duration: Option<f64>,
     /// Write a frame whenever the simulated time passes a multiple of this
     /// interval, instead of `frames` evenly spaced iterations (s; default
     /// none).
-    #[serde(deserialize_with = "crate::validate::optional_positive")]
+    #[serde(deserialize_with = "crate::util::validate::optional_positive")]
     pub frame_time: Option<f64>,
     /// In a scene with bending and without V_in, keep the explicit step
     /// below the stability bound of the stiffest bending mode,
@@ -337,30 +337,30 @@ pub struct MinimiserParams {
     /// Converged when the largest force on any vertex (after the
     /// constraints' reactions are removed) is below this and every
     /// constraint holds (Ē/l̄; default 1e-3).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub force_tolerance: f64,
     /// ... or when the total energy changed by less than this fraction of
     /// itself over the last `energy_window` iterations and every constraint
     /// holds (dimensionless; default 1e-9; 0 turns the criterion off).
-    #[serde(deserialize_with = "crate::validate::non_negative")]
+    #[serde(deserialize_with = "crate::util::validate::non_negative")]
     pub energy_tolerance: f64,
     /// Iterations over which the energy change is measured; it restarts
     /// after every remesh event or flip (default 200).
     pub energy_window: u32,
     /// A constraint holds when |value − target| ≤ this × target
     /// (dimensionless; default 1e-7).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub constraint_tolerance: f64,
     /// Largest displacement of any vertex in one iteration (l̄; default
     /// 0.02): steps are scaled down to it.
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub max_step: f64,
     /// FIRE's first step, also after each restart (fictitious time with
     /// unit vertex mass; default 0.02).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_start: f64,
     /// FIRE's largest step (default 0.2).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_max: f64,
 }
 
@@ -398,7 +398,7 @@ pub struct ConstraintParams {
     /// away from its constraint) is approached over several ticks.
     #[serde(
         default = "default_max_correction",
-        deserialize_with = "crate::validate::positive"
+        deserialize_with = "crate::util::validate::positive"
     )]
     pub max_correction: f64,
     /// Passes of 1-ring averaging of the projection's directions ∇A and ∇V
@@ -505,7 +505,7 @@ pub struct EdgeFlipParams {
     /// is proposed once every 100 ticks on average). Any rate keeps the
     /// ensemble; it sets how fast the triangulation (the membrane's
     /// in-plane structure) relaxes, and costs about 1 µs per proposal.
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub attempts_per_edge: f64,
     /// Both the edge removed and the edge created must lie in this range
     /// (l̄; default (0.7, 1.3), the remesh triggers' normal range). V_in has
@@ -541,24 +541,24 @@ pub struct RemeshParams {
     /// Off (default), FreeEnergy or Geometric.
     pub mode: RemeshMode,
     /// l_−: an edge shorter than this crossed the near barrier (l̄; default 0.7).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub shorter_than: f64,
     /// l_+: an edge longer than this crossed the far barrier (l̄; default 1.3).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub longer_than: f64,
     /// l_++: a split's pre-relaxation succeeds once the edge is longer (l̄;
     /// default 1.8 as run; paper 1.7).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub split_done: f64,
     /// L_−: a merge's pre-relaxation succeeds once the edge is shorter (l̄;
     /// default 0.05 as run; paper 0.1).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub merge_done: f64,
     /// Range the other patch edges must lie in during relaxation (l̄;
     /// default (0.8, 1.2) as run).
     pub normal_range: (f64, f64),
     /// D, scale of the Lévy kicks (Ē/l̄; default 10).
-    #[serde(deserialize_with = "crate::validate::positive")]
+    #[serde(deserialize_with = "crate::util::validate::positive")]
     pub kick_scale: f64,
     /// Iteration cap of one local relaxation (default 5000; in the
     /// filopodium scene successful pre-relaxations took a median of 725
@@ -721,7 +721,7 @@ pub struct MaintenanceFlipParams {
     /// surface by the tetrahedron between the four corners.
     #[serde(
         default = "default_max_dihedral",
-        deserialize_with = "crate::validate::positive"
+        deserialize_with = "crate::util::validate::positive"
     )]
     pub max_dihedral: f64,
     /// Iterations between sweeps over the edges (default 1). Every flip is

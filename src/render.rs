@@ -1,7 +1,7 @@
 //! A small software renderer: flat-shaded, z-buffered orthographic views of
 //! a mesh in its principal frame, written as PNG (side view | top view).
 
-use crate::shape::principal_frame;
+use crate::analysis::shape::principal_frame;
 use glam::DVec3;
 use std::path::Path;
 

@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields)]
 pub enum Resolution {
     /// Target edge length h (l̄; default 1: the paper's mesh scale).
-    EdgeLength(#[serde(deserialize_with = "crate::validate::positive")] f64),
+    EdgeLength(#[serde(deserialize_with = "crate::util::validate::positive")] f64),
     /// h is the initial mesh's mean edge length (a generator's size and
     /// level, or an imported mesh, set it).
     FromMesh,

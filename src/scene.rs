@@ -61,7 +61,7 @@ pub struct Scene {
     /// Tubes (tethers, filopodia) whose radius is measured at every frame
     /// (`radius_<name>` and `radius_<name>_norm` in series.csv).
     #[serde(default)]
-    pub tube_radius: Vec<crate::tube_radius::TubeProbe>,
+    pub tube_radius: Vec<crate::analysis::tube_radius::TubeProbe>,
     /// Dynamics: mobility, temperature, time-step limits, run length, frames.
     #[serde(default)]
     pub dynamics: DynamicsParams,
@@ -121,12 +121,12 @@ pub enum MembraneSource {
         /// Mean edge length after rescaling (l̄; default 1).
         #[serde(
             default = "default_edge_length",
-            deserialize_with = "crate::validate::positive"
+            deserialize_with = "crate::util::validate::positive"
         )]
         mean_edge_length: f64,
         /// Amplitude of a seeded uniform jitter added to every coordinate
         /// (l̄; default 0; the reference code used ≈ 6.6e-4).
-        #[serde(default, deserialize_with = "crate::validate::non_negative")]
+        #[serde(default, deserialize_with = "crate::util::validate::non_negative")]
         jitter: f64,
     },
     /// An ellipsoid: the unit icosphere of `level` subdivisions with every
@@ -141,7 +141,7 @@ pub enum MembraneSource {
         /// before the mapping, as a fraction of the unit icosphere's mean
         /// edge length (default 0). Vertices stay exactly on the surface;
         /// only the mesh quality changes (paper Fig 1).
-        #[serde(default, deserialize_with = "crate::validate::non_negative")]
+        #[serde(default, deserialize_with = "crate::util::validate::non_negative")]
         jitter: f64,
         /// Rotation of the unit icosphere about the x axis before the
         /// jitter and the mapping (degrees, default 0): another
@@ -154,20 +154,20 @@ pub enum MembraneSource {
     /// equilateral triangles (the tether study's tube).
     Capsule {
         /// Radius of the cylinder and the caps (l̄).
-        #[serde(deserialize_with = "crate::validate::positive")]
+        #[serde(deserialize_with = "crate::util::validate::positive")]
         radius: f64,
         /// Length of the cylindrical part; the caps add 2·radius (l̄).
-        #[serde(deserialize_with = "crate::validate::non_negative")]
+        #[serde(deserialize_with = "crate::util::validate::non_negative")]
         length: f64,
         /// Side of the triangles (l̄; default 1).
         #[serde(
             default = "default_edge_length",
-            deserialize_with = "crate::validate::positive"
+            deserialize_with = "crate::util::validate::positive"
         )]
         mean_edge_length: f64,
     },
     /// The continuum's equilibrium vesicle on `branch` at `reduced_volume`
-    /// (the project's axisymmetric solver, `crate::axisymmetric`, at 200
+    /// (the project's axisymmetric solver, `crate::study::axisymmetric`, at 200
     /// segments, κ-independent at `c0 = 0`), scaled to `area`, axis along z,
     /// as a surface of revolution in rings of nearly equilateral triangles
     /// of side `mean_edge_length`: a start on a branch that a deflated
@@ -175,18 +175,18 @@ pub enum MembraneSource {
     Axisymmetric {
         /// `Prolate`, `Oblate` or `Stomatocyte` (the last exists below
         /// v ≈ 0.6608).
-        branch: crate::axisymmetric::Branch,
+        branch: crate::study::axisymmetric::Branch,
         /// Reduced volume v = 3V/(4πR0³), R0 = √(area/4π), in (0.5, 1]
         /// (dimensionless).
         reduced_volume: f64,
         /// Area of the continuum shape (l̄²); the mesh's, inscribed, is a
         /// little smaller.
-        #[serde(deserialize_with = "crate::validate::positive")]
+        #[serde(deserialize_with = "crate::util::validate::positive")]
         area: f64,
         /// Side of the triangles (l̄; default 1).
         #[serde(
             default = "default_edge_length",
-            deserialize_with = "crate::validate::positive"
+            deserialize_with = "crate::util::validate::positive"
         )]
         mean_edge_length: f64,
     },
@@ -204,7 +204,7 @@ pub enum MembraneSource {
         /// Factor applied to all coordinates (default 1).
         #[serde(
             default = "default_edge_length",
-            deserialize_with = "crate::validate::positive"
+            deserialize_with = "crate::util::validate::positive"
         )]
         scale: f64,
     },
@@ -237,7 +237,7 @@ pub enum MembraneSource {
 #[serde(deny_unknown_fields)]
 pub enum EnergyTerm {
     /// Double-barrier edge potential V_in.
-    #[serde(deserialize_with = "crate::validate::checked")]
+    #[serde(deserialize_with = "crate::util::validate::checked")]
     Vin(VinParams),
     /// Helfrich bending.
     Bending(BendingParams),
@@ -287,10 +287,10 @@ impl EnergyTerm {
 #[serde(deny_unknown_fields)]
 pub struct ControlPointSpec {
     /// Fixed position (l̄).
-    #[serde(deserialize_with = "crate::validate::finite_vec3")]
+    #[serde(deserialize_with = "crate::util::validate::finite_vec3")]
     pub position: (f64, f64, f64),
     /// Spring constant (Ē/l̄²); default: the `Springs` term's `stiffness`.
-    #[serde(default, deserialize_with = "crate::validate::optional_positive")]
+    #[serde(default, deserialize_with = "crate::util::validate::optional_positive")]
     pub stiffness: Option<f64>,
     /// With a name, every frame records the force this point's springs
     /// exert on the membrane: `series.csv` columns `force_<name>` (its
@@ -1071,13 +1071,14 @@ impl Scene {
                     field: field.to_string(),
                     reason,
                 };
-                let shape = crate::axisymmetric::solve_on_branch(*reduced_volume, 200, *branch)
-                    .map_err(|e| {
-                        invalid(
-                            "membrane.reduced_volume",
-                            format!("no {branch} shape at v = {reduced_volume}: {e}"),
-                        )
-                    })?;
+                let shape =
+                    crate::study::axisymmetric::solve_on_branch(*reduced_volume, 200, *branch)
+                        .map_err(|e| {
+                            invalid(
+                                "membrane.reduced_volume",
+                                format!("no {branch} shape at v = {reduced_volume}: {e}"),
+                            )
+                        })?;
                 let r0 = (area / (4.0 * std::f64::consts::PI)).sqrt();
                 let profile: Vec<(f64, f64)> = shape
                     .profile

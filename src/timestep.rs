@@ -120,8 +120,9 @@ pub fn choose_time_step(
             let rate = 2.0 * mobility * d.dot(forces[b] - forces[a]);
             edge_time_step_in(seg, s, l, rate)
         };
-        if crate::parallel::splits(edges.len()) {
-            if let Some((e, dt)) = crate::parallel::first_min(edges.len(), choice.dt, edge_dt) {
+        if crate::util::parallel::splits(edges.len()) {
+            if let Some((e, dt)) = crate::util::parallel::first_min(edges.len(), choice.dt, edge_dt)
+            {
                 choice = TimeStepChoice {
                     dt,
                     limiter: Limiter::Edge(e as u32),
@@ -139,8 +140,8 @@ pub fn choose_time_step(
             }
         }
     }
-    let (argmax, max_force) = if crate::parallel::splits(forces.len()) {
-        crate::parallel::first_max(forces.len(), 0.0, |i| forces[i].length_squared())
+    let (argmax, max_force) = if crate::util::parallel::splits(forces.len()) {
+        crate::util::parallel::first_max(forces.len(), 0.0, |i| forces[i].length_squared())
             .unwrap_or((0, 0.0))
     } else {
         let (mut argmax, mut max_force) = (0, 0.0f64);

@@ -38,8 +38,8 @@ impl System for BarrierCheck {
         let (short2, long2) = (short * short, long * long);
         let p = &positions.0;
         let edges = &membrane.cached_topology().edges;
-        if crate::parallel::splits(edges.len()) {
-            crate::parallel::filter_indices(edges.len(), &mut abnormal.0, |e| {
+        if crate::util::parallel::splits(edges.len()) {
+            crate::util::parallel::filter_indices(edges.len(), &mut abnormal.0, |e| {
                 let [a, b] = edges[e];
                 let l2 = p[a as usize].distance_squared(p[b as usize]);
                 !(short2..=long2).contains(&l2)

@@ -22,9 +22,9 @@ use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
 use crate::params::{DynamicsParams, EdgeFlipParams};
 use crate::resources::{Res, ResMut};
-use crate::rng::stream_seed;
 use crate::schedule::System;
 use crate::simulation::{CheckInvariants, Clock, DensePositions, Seed, SimError};
+use crate::util::rng::stream_seed;
 use rand::{RngExt, SeedableRng};
 
 /// Stream id of the flips' randomness (edges drawn, acceptance).

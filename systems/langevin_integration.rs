@@ -16,10 +16,10 @@ use crate::force::ForceBuffers;
 use crate::membrane::Membrane;
 use crate::params::DynamicsParams;
 use crate::resources::{Res, ResMut};
-use crate::rng::stream_seed;
 use crate::schedule::System;
 use crate::simulation::{Clock, DensePositions, Seed, SimError};
 use crate::timestep::TimeStepChoice;
+use crate::util::rng::stream_seed;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 
@@ -62,9 +62,9 @@ fn check_step_with(
         let n = (b - a).cross(c - a);
         (a.dot(n), (b0 - a0).cross(c0 - a0).dot(n) < 0.0)
     };
-    if crate::parallel::splits(faces.len()) {
-        crate::parallel::fill_vec(per_face, faces.len(), face_check);
-        let turned = crate::parallel::position_first(faces.len(), |k| per_face[k].1);
+    if crate::util::parallel::splits(faces.len()) {
+        crate::util::parallel::fill_vec(per_face, faces.len(), face_check);
+        let turned = crate::util::parallel::position_first(faces.len(), |k| per_face[k].1);
         let mut six_volume = 0.0;
         for (v, _) in per_face.iter() {
             six_volume += v;
@@ -115,7 +115,9 @@ impl System for LangevinIntegration {
         // copy) and the drifted positions are written over the old buffer.
         std::mem::swap(&mut self.previous, positions);
         let previous = &self.previous;
-        crate::parallel::fill_vec(positions, previous.len(), |v| previous[v] + step * total[v]);
+        crate::util::parallel::fill_vec(positions, previous.len(), |v| {
+            previous[v] + step * total[v]
+        });
         let kbt = dynamics.temperature;
         if kbt > 0.0 {
             let amplitude = (2.0 * mu * kbt * dt).sqrt();
@@ -134,8 +136,8 @@ impl System for LangevinIntegration {
                 *p += amplitude * e;
             }
         }
-        let non_finite = if crate::parallel::splits(positions.len()) {
-            crate::parallel::position_first(positions.len(), |v| !positions[v].is_finite())
+        let non_finite = if crate::util::parallel::splits(positions.len()) {
+            crate::util::parallel::position_first(positions.len(), |v| !positions[v].is_finite())
         } else {
             positions.iter().position(|p| !p.is_finite())
         };

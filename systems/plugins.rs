@@ -360,7 +360,7 @@ pub fn edge_flips(
 /// when the [`constraints`] plugin and the minimiser were added before),
 /// and one tube-radius recorder per probe.
 pub fn recorders(
-    probes: Vec<crate::tube_radius::TubeProbe>,
+    probes: Vec<crate::analysis::tube_radius::TubeProbe>,
     named_points: Vec<(String, u32)>,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {

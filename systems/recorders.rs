@@ -16,6 +16,7 @@
 //! - [`ControlPointForce`]: `force_<name>` and `force_<name>_x`, `_y`, `_z`,
 //!   the force one named control point's springs exert on the membrane.
 
+use crate::analysis::tube_radius::TubeProbe;
 use crate::force::ForceBuffers;
 use crate::membrane::Membrane;
 use crate::recorder::{FrameData, Recorder, read_error};
@@ -24,7 +25,6 @@ use crate::resources::{Access, CheckedResources, FetchError};
 use crate::simulation::{Clock, DenseLipid, DensePositions, SimError};
 use crate::systems::barrier_check::AbnormalEdges;
 use crate::timestep::TimeStepChoice;
-use crate::tube_radius::TubeProbe;
 
 /// The state columns of `series.csv`.
 pub struct StateColumns;

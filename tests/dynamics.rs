@@ -8,11 +8,11 @@ use remembrane::membrane::Membrane;
 use remembrane::mesh::icosphere;
 use remembrane::params::DynamicsParams;
 use remembrane::resources::{ResMut, ResourceId, Resources};
-use remembrane::run::{RunOptions, run_scene};
 use remembrane::scene::Scene;
 use remembrane::schedule::{ScheduleBuilder, ScheduleError, Stage, System};
 use remembrane::simulation::{Clock, DensePositions, Seed, SimError, Simulation};
 use remembrane::timestep::{Limiter, choose_time_step, edge_time_step};
+use remembrane::workflow::run::{RunOptions, run_scene};
 use std::path::{Path, PathBuf};
 
 mod common;
@@ -593,7 +593,7 @@ fn turned_faces_are_found() {
 /// Runs a stiff volume penalty without V_in, displacement cap or bending
 /// stability bound, at
 /// `mobility`, from `dir` into `out`; the run is expected to stop.
-fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::run::RunError {
+fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::workflow::run::RunError {
     let text = format!(
         r#"Scene(
         name: "unstable",

@@ -137,13 +137,14 @@ fn twisted_sphere_measures_the_shear_modulus_of_each_model() {
 }
 
 /// Runs `scene` (read from `path`) quietly into `out`.
-fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::run::RunSummary {
-    remembrane::run::run_scene(scene, path, &common::quiet_options(out), |_| Ok(())).unwrap()
+fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::workflow::run::RunSummary {
+    remembrane::workflow::run::run_scene(scene, path, &common::quiet_options(out), |_| Ok(()))
+        .unwrap()
 }
 
 /// Runs a variant of the fluid red blood cell (scene text `text`, named
 /// `name`) and checks that it converged at v = 0.6.
-fn converged_cell(text: &str, name: &str) -> remembrane::run::RunSummary {
+fn converged_cell(text: &str, name: &str) -> remembrane::workflow::run::RunSummary {
     let path = Path::new(name);
     let scene = Scene::from_ron_str(text, path).unwrap();
     let out = tempfile::tempdir().unwrap();
@@ -257,7 +258,7 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
     let mut options = common::quiet_options(&out.path().join("run"));
     options.iterations = Some(600);
     options.check_invariants = true;
-    let summary = remembrane::run::run_scene(&scene, path, &options, |_| Ok(())).unwrap();
+    let summary = remembrane::workflow::run::run_scene(&scene, path, &options, |_| Ok(())).unwrap();
     let r = &summary.remesh;
     // Measured: 46 splits, 3 merges and 6 maintenance flips (96 kept by
     // the valence guard).
@@ -398,7 +399,10 @@ fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     let paper = Path::new("scenes/minimise/red_blood_cell.ron");
     let mut quick = common::quiet_options(&out.path().join("paper"));
     quick.iterations = Some(5);
-    let paper = remembrane::run::run_scene(&Scene::load(paper).unwrap(), paper, &quick, |_| Ok(()))
+    let paper =
+        remembrane::workflow::run::run_scene(&Scene::load(paper).unwrap(), paper, &quick, |_| {
+            Ok(())
+        })
         .unwrap();
     let caution = paper.model.caution.expect("γ > 1 in the paper's model");
     assert!(caution.contains("elastic shell"), "{caution}");
@@ -450,14 +454,19 @@ fn fluid_tether_pulls_along_the_normals_and_reports_what_it_delivers() {
     let scene = Scene::load(path).unwrap();
     let dir = out.path().join("run");
     let mut springs_sum = DVec3::ZERO;
-    let summary =
-        remembrane::run::run_scene(&scene, path, &common::quiet_options(&dir), |_| Ok(())).unwrap();
+    let summary = remembrane::workflow::run::run_scene(
+        &scene,
+        path,
+        &common::quiet_options(&dir),
+        |_| Ok(()),
+    )
+    .unwrap();
     assert!(summary.minimiser.as_ref().unwrap().converged);
     // The final state's springs buffer: every vertex force along its
     // normal; the top point's share (z > 0) is what force_top reports.
     let mut opts = common::quiet_options(&out.path().join("again"));
     opts.from = Some(dir.join("state.json"));
-    let mut run = remembrane::run::prepare_run(&scene, path, &opts).unwrap();
+    let mut run = remembrane::workflow::run::prepare_run(&scene, path, &opts).unwrap();
     let sim = &mut run.sim;
     let buffers = sim.evaluate_forces().unwrap();
     let k = buffers.names().iter().position(|n| n == "springs").unwrap();
@@ -531,9 +540,13 @@ fn fluid_tethers_from_two_starts_meet_derenyi_julicher_prost() {
             let path = Path::new("scenes/fluid/tether_tube.ron");
             let scene = Scene::from_ron_str(&text, path).unwrap();
             let dir = out.path().join(format!("n{n}_{start}"));
-            let summary =
-                remembrane::run::run_scene(&scene, path, &common::quiet_options(&dir), |_| Ok(()))
-                    .unwrap();
+            let summary = remembrane::workflow::run::run_scene(
+                &scene,
+                path,
+                &common::quiet_options(&dir),
+                |_| Ok(()),
+            )
+            .unwrap();
             assert!(
                 summary.minimiser.as_ref().unwrap().converged,
                 "n = {n}, start {start}"

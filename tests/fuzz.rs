@@ -68,9 +68,9 @@ impl Kind {
     fn read(self, path: &Path) -> bool {
         match self {
             Kind::Scene => remembrane::scene::Scene::load(path).is_ok(),
-            Kind::Protocol => remembrane::protocol::Protocol::load(path).is_ok(),
-            Kind::Sweep => remembrane::sweep::Sweep::parse(path).is_ok(),
-            Kind::Diagram => remembrane::shape_diagram::ShapeDiagram::load(path).is_ok(),
+            Kind::Protocol => remembrane::workflow::protocol::Protocol::load(path).is_ok(),
+            Kind::Sweep => remembrane::workflow::sweep::Sweep::parse(path).is_ok(),
+            Kind::Diagram => remembrane::workflow::shape_diagram::ShapeDiagram::load(path).is_ok(),
             Kind::State => remembrane::state::SavedState::read(path).is_ok(),
             Kind::Checkpoint => read_checkpoint(path),
             Kind::Ply | Kind::Obj => read_mesh(path).is_ok(),
@@ -92,7 +92,7 @@ fn read_checkpoint(path: &Path) -> bool {
 /// A checkpoint of a short noisy remeshing run with lipid density and
 /// diffusion on a 42-vertex icosphere (stopped after 12 iterations).
 fn checkpoint_corpus(root: &Path) -> Vec<u8> {
-    use remembrane::run::{CheckpointSettings, RunError, drive_run, prepare_run};
+    use remembrane::workflow::run::{CheckpointSettings, RunError, drive_run, prepare_run};
     let text = r#"Scene(name: "fuzz", seed: 2, membrane: Icosphere(level: 1), lipid_density: true,
         energy: [Vin(), Bending(kappa: 1.0)],
         dynamics: (iterations: 100, temperature: 0.02, dt_max: 1e-5),
@@ -151,9 +151,9 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
             )
             .unwrap();
             let text = String::from_utf8_lossy(&bytes);
-            let kind = if remembrane::protocol::is_protocol(&text) {
+            let kind = if remembrane::workflow::protocol::is_protocol(&text) {
                 Kind::Protocol
-            } else if remembrane::shape_diagram::is_shape_diagram(&text) {
+            } else if remembrane::workflow::shape_diagram::is_shape_diagram(&text) {
                 Kind::Diagram
             } else if text.contains("Sweep(") {
                 Kind::Sweep

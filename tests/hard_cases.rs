@@ -3,8 +3,8 @@
 //! never writing a bad frame.
 
 use remembrane::error::{FoldCause, SimError};
-use remembrane::run::{RunError, RunSummary, run_scene};
 use remembrane::scene::Scene;
+use remembrane::workflow::run::{RunError, RunSummary, run_scene};
 use std::path::{Path, PathBuf};
 
 mod common;

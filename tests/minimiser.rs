@@ -12,8 +12,8 @@ use remembrane::constraint::{
 };
 use remembrane::minimise::Fire;
 use remembrane::params::MinimiserParams;
-use remembrane::run::{RunError, run_scene};
 use remembrane::scene::Scene;
+use remembrane::workflow::run::{RunError, run_scene};
 use std::path::Path;
 
 /// A level-2 icosphere with every vertex moved by up to 0.2 l̄.
@@ -315,7 +315,7 @@ fn a_badly_shaped_start_relaxes_without_folding() {
 /// during the approach, so the resumed run restarts FIRE after events too.
 #[test]
 fn a_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
-    use remembrane::run::{CheckpointSettings, drive_run, prepare_run, resume_run};
+    use remembrane::workflow::run::{CheckpointSettings, drive_run, prepare_run, resume_run};
     let text = "Scene(
         seed: 4,
         membrane: Ellipsoid(level: 3, semi_axes: (7.38, 7.38, 5.17)),
@@ -353,7 +353,7 @@ fn a_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
         &interrupted,
     );
     assert!(matches!(stopped, Err(RunError::Interrupted { .. })));
-    resume_run(&cut, remembrane::run::Progress::Quiet, None).unwrap();
+    resume_run(&cut, remembrane::workflow::run::Progress::Quiet, None).unwrap();
     let (a, b) = (common::run_contents(&whole), common::run_contents(&cut));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for (file, bytes) in &a {

@@ -472,7 +472,7 @@ impl remembrane::recorder::Recorder for Height {
 
 #[test]
 fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
-    use remembrane::run::{Progress, RunOptions, run_scene};
+    use remembrane::workflow::run::{Progress, RunOptions, run_scene};
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("field.ron");
     std::fs::write(&path, SCENE).unwrap();

@@ -166,7 +166,7 @@ fn bad_protocols_name_the_field_and_write_nothing() {
     for (k, (text, expected)) in cases.iter().enumerate() {
         let path = d.join(format!("bad{k}.ron"));
         std::fs::write(&path, text).unwrap();
-        let err = match remembrane::protocol::Protocol::load(&path) {
+        let err = match remembrane::workflow::protocol::Protocol::load(&path) {
             Ok(_) => panic!("case {k} loaded"),
             Err(e) => e.to_string(),
         };
@@ -191,7 +191,7 @@ fn bad_protocols_name_the_field_and_write_nothing() {
         "missing.ron",
         r#"Protocol(name: "p", phases: [(name: "a", scene: "nope.ron")])"#,
     );
-    let err = remembrane::protocol::Protocol::load(Path::new(&path))
+    let err = remembrane::workflow::protocol::Protocol::load(Path::new(&path))
         .unwrap_err()
         .to_string();
     assert!(
@@ -246,7 +246,7 @@ fn a_failed_phase_stops_the_protocol_and_stays_incomplete() {
 #[test]
 fn the_bundled_rbc_protocol_checks() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/protocols/red_blood_cell.ron");
-    let loaded = remembrane::protocol::Protocol::load(&path).unwrap();
+    let loaded = remembrane::workflow::protocol::Protocol::load(&path).unwrap();
     assert_eq!(loaded.protocol.phases.len(), 2);
     assert_eq!(loaded.scenes[1].0.name, "red_blood_cell_stiff");
     assert_eq!(loaded.scenes[1].0.dynamics.iterations, 25000);
@@ -263,7 +263,7 @@ fn the_bundled_rbc_protocol_checks() {
 fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let bundled = scenes.join("protocols/minimise_then_dynamics.ron");
-    let loaded = remembrane::protocol::Protocol::load(&bundled).unwrap();
+    let loaded = remembrane::workflow::protocol::Protocol::load(&bundled).unwrap();
     assert!(matches!(
         loaded.scenes[0].0.dynamics.method,
         remembrane::params::Method::Minimise(_)

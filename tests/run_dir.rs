@@ -2,8 +2,8 @@
 //! `summary.json` and `series.csv` read back whole, and a renamed or
 //! missing field is an error naming the file and the field, not a NaN.
 
-use remembrane::run::RunSummary;
 use remembrane::run_dir::Series;
+use remembrane::workflow::run::RunSummary;
 use std::process::Command;
 
 #[test]

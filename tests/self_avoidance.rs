@@ -61,7 +61,9 @@ fn deflate(self_avoidance: bool, dir: &Path) -> f64 {
     let scene = Scene::load(&path).unwrap();
     let out = dir.join(format!("run_{self_avoidance}"));
     let summary =
-        remembrane::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| Ok(()));
+        remembrane::workflow::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| {
+            Ok(())
+        });
     assert!(summary.is_ok(), "{:?}", summary.err());
     common::closest_non_neighbours(&out)
 }

@@ -2,8 +2,8 @@
 //! decodable PNG showing the mesh.
 
 use glam::DVec3;
+use remembrane::analysis::shape::{ShapeClass, shape_metrics};
 use remembrane::mesh::{SurfaceMesh, icosphere_unit};
-use remembrane::shape::{ShapeClass, shape_metrics};
 
 fn mapped(f: impl Fn(DVec3) -> DVec3) -> SurfaceMesh {
     let mut m = icosphere_unit(4);

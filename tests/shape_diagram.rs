@@ -262,7 +262,7 @@ fn membrane_kind_changes_apply_to_their_kind_only() {
         format!("ShapeDiagram(name: \"d\", reduced_volumes: [0.9], {branches}, {fine})"),
     )
     .unwrap();
-    let loaded = remembrane::shape_diagram::ShapeDiagram::load(&file).unwrap();
+    let loaded = remembrane::workflow::shape_diagram::ShapeDiagram::load(&file).unwrap();
     let vertices = |branch: &str| {
         let walk = loaded.walks.iter().find(|w| w.branch == branch).unwrap();
         walk.points[0]
@@ -286,7 +286,7 @@ fn membrane_kind_changes_apply_to_their_kind_only() {
         ),
     )
     .unwrap();
-    let e = remembrane::shape_diagram::ShapeDiagram::load(&file)
+    let e = remembrane::workflow::shape_diagram::ShapeDiagram::load(&file)
         .err()
         .unwrap()
         .to_string();

@@ -5,10 +5,10 @@
 mod common;
 
 use glam::DVec3;
-use remembrane::mesh::icosphere;
-use remembrane::spectrum::{
+use remembrane::analysis::spectrum::{
     discrete_mode_stiffness, fit, helfrich_power, lm_index, power_by_l, project, real_harmonics,
 };
+use remembrane::mesh::icosphere;
 
 /// Largest error of a recovered u_lm, relative to the largest prescribed
 /// amplitude (issue 15: 1e-3).
@@ -206,7 +206,7 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
 /// (l = 6: 11×).
 #[test]
 fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
-    use remembrane::spectrum::{SpectrumOptions, analyse_run};
+    use remembrane::analysis::spectrum::{SpectrumOptions, analyse_run};
     let scene =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/tethered.ron");
     let dir = tempfile::tempdir().unwrap();

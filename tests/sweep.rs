@@ -1,7 +1,7 @@
 //! Sweeps: expansion, seeds, shards, resumption, errors; and collect.
 
-use remembrane::collect::{CollectOptions, collect, polyfit, polyval};
-use remembrane::sweep::{Sweep, SweepOptions, parse_shard, run_sweep, slurm_script};
+use remembrane::workflow::collect::{CollectOptions, collect, polyfit, polyval};
+use remembrane::workflow::sweep::{Sweep, SweepOptions, parse_shard, run_sweep, slurm_script};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -203,7 +203,7 @@ fn write_phased_sweep(dir: &Path) -> std::path::PathBuf {
 
 #[test]
 fn shared_phases_run_once_and_conditions_start_from_them() {
-    use remembrane::sweep::{SweepError, phases_dir, slurm_campaign_script};
+    use remembrane::workflow::sweep::{SweepError, phases_dir, slurm_campaign_script};
     let dir = tempfile::tempdir().unwrap();
     let path = write_phased_sweep(dir.path());
     let out = dir.path().join("out");
@@ -242,7 +242,7 @@ fn shared_phases_run_once_and_conditions_start_from_them() {
     assert_eq!(from, Some(relax.join("state.json")));
     let fresh = runs.iter().find(|r| r.condition == "fresh").unwrap();
     assert_eq!(sweep.scene_for(&path, &out, &base, fresh).unwrap().1, None);
-    let area = |run: &remembrane::sweep::RunSpec| -> f64 {
+    let area = |run: &remembrane::workflow::sweep::RunSpec| -> f64 {
         let csv = std::fs::read_to_string(out.join(&run.dir).join("series.csv")).unwrap();
         let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
         let k = header.iter().position(|h| *h == "area").unwrap();

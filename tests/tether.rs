@@ -2,9 +2,9 @@
 //! time-based control-point schedules, radius columns in series.csv.
 
 use remembrane::components::{ControlPoint, ControlPointIndex};
-use remembrane::run::{Progress, RunOptions, run_scene};
 use remembrane::scene::Scene;
 use remembrane::state::SavedState;
+use remembrane::workflow::run::{Progress, RunOptions, run_scene};
 use std::path::{Path, PathBuf};
 
 mod common;

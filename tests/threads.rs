@@ -31,7 +31,7 @@ fn noisy_scene() -> (Scene, PathBuf) {
 
 #[test]
 fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
-    remembrane::parallel::set_grain(128);
+    remembrane::util::parallel::set_grain(128);
     let (scene, path) = noisy_scene();
     let runs = run_on_1_2_and_3_threads(&scene, &path, 120);
     let summary: serde_json::Value =
@@ -48,7 +48,7 @@ fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
 /// parallel kernels (grain lowered as above, so every loop splits).
 #[test]
 fn a_vesicle_fluid_by_edge_flips_is_byte_identical_on_1_2_and_3_threads() {
-    remembrane::parallel::set_grain(128);
+    remembrane::util::parallel::set_grain(128);
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating_vesicle.ron");
     let scene = Scene::load(&path).unwrap();
     let runs = run_on_1_2_and_3_threads(&scene, &path, 300);
@@ -74,7 +74,7 @@ fn run_on_1_2_and_3_threads(scene: &Scene, path: &Path, iterations: u64) -> Vec<
             .build()
             .unwrap();
         let summary = pool
-            .install(|| remembrane::run::run_scene(scene, path, &opts, |_| Ok(())))
+            .install(|| remembrane::workflow::run::run_scene(scene, path, &opts, |_| Ok(())))
             .unwrap();
         assert_eq!(summary.iterations, iterations);
         runs.push((threads, common::run_contents(&out)));

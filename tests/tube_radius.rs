@@ -1,7 +1,7 @@
 //! Tube radius by circle fits on planes along the axis (reference §7f).
 
 use glam::DVec3;
-use remembrane::tube_radius::{TubeProbe, fit_circle};
+use remembrane::analysis::tube_radius::{TubeProbe, fit_circle};
 
 #[test]
 fn circle_fit_is_exact_on_a_circle_and_rejects_collinear_points() {

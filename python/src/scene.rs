@@ -154,7 +154,7 @@ impl PyScene {
     /// The scene's name (the file stem when it declares none).
     #[getter]
     pub fn name(&self) -> String {
-        remembrane::run::run_name(&self.scene, &self.path)
+        remembrane::workflow::run::run_name(&self.scene, &self.path)
     }
 
     /// The file the scene came from.

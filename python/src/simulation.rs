@@ -15,8 +15,10 @@ use remembrane::force::ForceBuffers;
 use remembrane::quality::MeshQuality;
 use remembrane::remesh::RemeshStats;
 use remembrane::report::EnergyReport;
-use remembrane::run::{PreparedRun, Progress, RunError, RunOptions, drive_run, prepare_run};
 use remembrane::simulation::SimError;
+use remembrane::workflow::run::{
+    PreparedRun, Progress, RunError, RunOptions, drive_run, prepare_run,
+};
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
@@ -408,7 +410,7 @@ impl PySimulation {
         }
         result.map_err(|e| inner.step_error(e))?;
         let sim = &inner.run.sim;
-        let summary = remembrane::run::minimiser_summary(sim)
+        let summary = remembrane::workflow::run::minimiser_summary(sim)
             .ok_or_else(|| simulation_error("the minimiser is not part of this simulation"))?;
         let mut value = serde_json::to_value(&summary).map_err(simulation_error)?;
         let buffers = sim.resource::<ForceBuffers>();

@@ -255,7 +255,7 @@ pub fn sweep<'py>(
             "shard (I, N) needs I < N (got ({i}, {n}))"
         )));
     }
-    let options = remembrane::sweep::SweepOptions {
+    let options = remembrane::workflow::sweep::SweepOptions {
         out,
         jobs,
         shard,
@@ -270,14 +270,14 @@ pub fn sweep<'py>(
         .build()
         .map_err(|e| simulation_error(e.to_string()))?;
     let (result, raised) = run_detached(py, Some(&waiter), |stop| {
-        remembrane::sweep::run_sweep_with(&path, &options, stop)
+        remembrane::workflow::sweep::run_sweep_with(&path, &options, stop)
     });
     if let Some(e) = raised {
         return Err(e);
     }
     let report = result.map_err(|e| match e {
-        remembrane::sweep::SweepError::Scene(s) => crate::errors::scene_error(py, &s),
-        e @ remembrane::sweep::SweepError::Phase { .. } => simulation_error(e),
+        remembrane::workflow::sweep::SweepError::Scene(s) => crate::errors::scene_error(py, &s),
+        e @ remembrane::workflow::sweep::SweepError::Phase { .. } => simulation_error(e),
         e => PyValueError::new_err(e.to_string()),
     })?;
     let failed: Vec<(String, String)> = report
@@ -311,7 +311,7 @@ pub fn collect<'py>(
     frames: Option<usize>,
     degree: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let mut options = remembrane::collect::CollectOptions::default();
+    let mut options = remembrane::workflow::collect::CollectOptions::default();
     if let Some(x) = x {
         options.x = x;
     }
@@ -324,7 +324,7 @@ pub fn collect<'py>(
     if let Some(d) = degree {
         options.degree = d;
     }
-    let report = remembrane::collect::collect(&dir, &options)
+    let report = remembrane::workflow::collect::collect(&dir, &options)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let missing: Vec<String> = report
         .missing

@@ -159,7 +159,7 @@ fn pull_back(
     s: &mut BendingScratch,
     force: &mut [DVec3],
 ) {
-    if crate::parallel::splits(faces.len()) {
+    if crate::util::parallel::splits(faces.len()) {
         let (g_lap, g_area) = (&s.g_lap, &s.g_area);
         let gradient = |k: usize| {
             let [i0, i1, i2] = faces[k].map(|v| v as usize);
@@ -169,7 +169,7 @@ fn pull_back(
             );
             (0.0, g)
         };
-        crate::parallel::accumulate(faces, force, &mut s.face_gradients, gradient, |f, g| {
+        crate::util::parallel::accumulate(faces, force, &mut s.face_gradients, gradient, |f, g| {
             *f -= g
         });
         return;

@@ -95,7 +95,7 @@ pub fn bending_dihedral(
     let s = scratch;
     s.orient(topology);
     let (quads, quad_faces) = (&s.quads, &s.quad_faces);
-    crate::parallel::fill_vec(&mut s.edges, quads.len(), |e| {
+    crate::util::parallel::fill_vec(&mut s.edges, quads.len(), |e| {
         let [x0, x1, ..] = quads[e].map(|v| positions[v as usize]);
         let [fa, fb] = quad_faces[e].map(|f| geometry[f as usize].n_hat);
         let d = x1 - x0;
@@ -103,7 +103,7 @@ pub fn bending_dihedral(
         (l, dihedral(fa, fb, d / l))
     });
     let edges = &s.edges;
-    crate::parallel::fill_vec(&mut s.m, n, |i| {
+    crate::util::parallel::fill_vec(&mut s.m, n, |i| {
         0.25 * topology
             .ring_edges_of(i)
             .iter()
@@ -113,7 +113,7 @@ pub fn bending_dihedral(
             })
             .sum::<f64>()
     });
-    crate::parallel::fill_vec(&mut s.a, n, |i| {
+    crate::util::parallel::fill_vec(&mut s.a, n, |i| {
         topology
             .ring_faces_of(i)
             .iter()
@@ -160,7 +160,7 @@ pub fn bending_dihedral(
             [ct * t0 - cl * e_hat, ct * t1 + cl * e_hat, ct * t2, ct * t3],
         )
     };
-    crate::parallel::accumulate(
+    crate::util::parallel::accumulate(
         quads,
         force,
         &mut s.edge_gradients,
@@ -175,7 +175,7 @@ pub fn bending_dihedral(
         let w = (g_a[i0] + g_a[i1] + g_a[i2]) / 6.0;
         (0.0, c.e.map(|e| w * c.n_hat.cross(e)))
     };
-    crate::parallel::accumulate(
+    crate::util::parallel::accumulate(
         faces,
         force,
         &mut s.face_gradients,

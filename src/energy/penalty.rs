@@ -161,7 +161,7 @@ pub fn smooth_over_rings(
         other,
         inverse_counts,
     } = scratch;
-    crate::parallel::fill_vec(inverse_counts, n, |i| {
+    crate::util::parallel::fill_vec(inverse_counts, n, |i| {
         1.0 / (1 + topology.valence(i)) as f64
     });
     if other.len() != n {
@@ -178,8 +178,8 @@ pub fn smooth_over_rings(
             }
             sum * inverse_counts[i]
         };
-        if crate::parallel::splits(n) {
-            crate::parallel::fill(to, average);
+        if crate::util::parallel::splits(n) {
+            crate::util::parallel::fill(to, average);
         } else {
             for (i, t) in to.iter_mut().enumerate() {
                 *t = average(i);

@@ -446,7 +446,7 @@ impl VinEdgeSamples {
         positions: &[DVec3],
     ) {
         self.0.resize(edges.len(), EdgeSample::default());
-        crate::parallel::fill(&mut self.0, |e| {
+        crate::util::parallel::fill(&mut self.0, |e| {
             let [a, b] = edges[e];
             let d = positions[b as usize] - positions[a as usize];
             let length = d.length();
@@ -484,7 +484,7 @@ fn needs_split(y: &[f64], a: usize, b: usize, p: &VinParams, l_at: impl Fn(usize
     r2 < p.segment_r2_min || std > p.segment_std_max
 }
 
-impl crate::validate::Validate for VinParams {
+impl crate::util::validate::Validate for VinParams {
     fn validate(&self) -> Result<(), String> {
         self.check()
             .map_err(|(field, reason)| format!("`{field}` {reason}"))

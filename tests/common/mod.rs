@@ -1,6 +1,6 @@
 //! Helpers shared by the integration tests.
 
-use remembrane::run::{Progress, RunOptions};
+use remembrane::workflow::run::{Progress, RunOptions};
 use std::path::Path;
 
 /// Run options writing into `out`: the scene's iterations and frames, no

@@ -85,11 +85,11 @@ fn unit_interval<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error
 #[serde(deny_unknown_fields)]
 pub struct BarDomainParams {
     /// Bending modulus κ (Ē = 10 k_BT).
-    #[serde(deserialize_with = "remembrane::validate::non_negative")]
+    #[serde(deserialize_with = "remembrane::util::validate::non_negative")]
     pub kappa: f64,
     /// C_p: the spontaneous curvature at full coverage (1/l̄; h = 2/R, so a
     /// fully covered region prefers spheres of radius 2/C_p).
-    #[serde(deserialize_with = "remembrane::validate::finite")]
+    #[serde(deserialize_with = "remembrane::util::validate::finite")]
     pub curvature: f64,
     /// The initial protein distribution.
     pub patch: Patch,
@@ -215,7 +215,7 @@ impl ForceTerm for BarDomainForces {
 #[serde(deny_unknown_fields)]
 pub struct ProteinDiffusionParams {
     /// Diffusion coefficient D of the proteins on the membrane (l̄²/s).
-    #[serde(deserialize_with = "remembrane::validate::non_negative")]
+    #[serde(deserialize_with = "remembrane::util::validate::non_negative")]
     pub rate: f64,
 }
 

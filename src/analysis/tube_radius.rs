@@ -25,11 +25,11 @@ pub struct TubeProbe {
     /// Column name in `series.csv` (`radius_<name>`, `radius_<name>_norm`).
     pub name: String,
     /// Point of the first plane (l̄).
-    #[serde(deserialize_with = "crate::validate::finite_vec3")]
+    #[serde(deserialize_with = "crate::util::validate::finite_vec3")]
     pub first: (f64, f64, f64),
     /// Offset from one plane to the next; its direction is the plane normal
     /// (the tube axis) (l̄).
-    #[serde(deserialize_with = "crate::validate::finite_vec3")]
+    #[serde(deserialize_with = "crate::util::validate::finite_vec3")]
     pub step: (f64, f64, f64),
     /// Number of planes (≥ 1).
     pub planes: usize,

@@ -3,9 +3,9 @@
 //! and the outputs `study.csv`, `study.md`, `study.json` and the charts.
 
 use crate::plot::{Chart, Legend, Marker, Scale, Series};
+use crate::study::peer::{PeerOutput, PeerRun};
+use crate::study::reference::{Value, sphere_bending, spheroid_bending};
 use crate::study::{Case, Quantity, Reference, Resolution, Study, StudyError, bending_kappa};
-use crate::study_peer::{PeerOutput, PeerRun};
-use crate::study_reference::{Value, sphere_bending, spheroid_bending};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -140,7 +140,7 @@ pub struct StudyReport {
 
 /// A run directory's outputs needed here.
 struct RunData {
-    summary: crate::run::RunSummary,
+    summary: crate::workflow::run::RunSummary,
     /// Every row of series.csv by column name, the first included.
     rows: Vec<HashMap<String, f64>>,
     /// The vertex count of the first row.
@@ -150,7 +150,7 @@ struct RunData {
 }
 
 fn read_run(dir: &Path) -> Result<RunData, String> {
-    let summary = crate::run::RunSummary::read(dir).map_err(|e| e.to_string())?;
+    let summary = crate::workflow::run::RunSummary::read(dir).map_err(|e| e.to_string())?;
     let series = crate::run_dir::Series::read(dir).map_err(|e| e.to_string())?;
     let vertices = series.first("vertices").map_err(|e| e.to_string())?;
     let initial_bending = series.first("energy_bending").unwrap_or(f64::NAN);
@@ -175,7 +175,7 @@ fn read_run(dir: &Path) -> Result<RunData, String> {
 }
 
 /// The final bending energy in a summary (NaN without a bending term).
-fn final_bending(summary: &crate::run::RunSummary) -> f64 {
+fn final_bending(summary: &crate::workflow::run::RunSummary) -> f64 {
     summary
         .last
         .energies
@@ -184,7 +184,7 @@ fn final_bending(summary: &crate::run::RunSummary) -> f64 {
         .map_or(f64::NAN, |t| t.energy)
 }
 
-fn quantity(summary: &crate::run::RunSummary, q: Quantity) -> f64 {
+fn quantity(summary: &crate::workflow::run::RunSummary, q: Quantity) -> f64 {
     match q {
         Quantity::ReducedVolume => summary.last.reduced_volume,
         Quantity::BendingEnergy => final_bending(summary),
@@ -214,12 +214,12 @@ fn axisymmetric_measurements(
     kappa: f64,
 ) -> Result<(Vec<Measurement>, String), String> {
     let r0 = (area / (4.0 * PI)).sqrt();
-    let exact =
-        crate::axisymmetric::converged(v).map_err(|e| format!("reference at v = {v}: {e}"))?;
+    let exact = crate::study::axisymmetric::converged(v)
+        .map_err(|e| format!("reference at v = {v}: {e}"))?;
     let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
-    let t = crate::shape::axial_thickness(&mesh.positions, &mesh.faces);
-    let class = crate::shape::shape_metrics(&mesh.positions, &mesh.faces).class;
-    let value = |x: crate::axisymmetric::Extrapolated| Value {
+    let t = crate::analysis::shape::axial_thickness(&mesh.positions, &mesh.faces);
+    let class = crate::analysis::shape::shape_metrics(&mesh.positions, &mesh.faces).class;
+    let value = |x: crate::study::axisymmetric::Extrapolated| Value {
         value: x.value,
         error: x.error,
     };
@@ -605,8 +605,8 @@ fn systems_time(timings: &[crate::schedule::SystemTiming]) -> f64 {
 
 fn status(d: &RunData) -> String {
     match d.summary.status {
-        crate::run::RunStatus::Completed => "completed",
-        crate::run::RunStatus::BlewUp => "blew_up",
+        crate::workflow::run::RunStatus::Completed => "completed",
+        crate::workflow::run::RunStatus::BlewUp => "blew_up",
     }
     .to_string()
 }

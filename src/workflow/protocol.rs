@@ -16,11 +16,11 @@
 //! whole protocol is staged in `DIR.incomplete` and renamed when the last
 //! phase has completed, so a failed or killed protocol never leaves a
 //! directory that looks like a result. A sweep can declare the same phases
-//! as its shared start ([`crate::sweep::Sweep::phases`]).
+//! as its shared start ([`crate::workflow::sweep::Sweep::phases`]).
 
-use crate::run::{Progress, RunError, RunOptions, run_scene};
 use crate::scene::{Scene, SceneError};
 use crate::setting::Setting;
+use crate::workflow::run::{Progress, RunError, RunOptions, run_scene};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -468,14 +468,15 @@ pub fn run_phases(
                 .join(crate::checkpoint::CHECKPOINT_FILE)
                 .exists();
         ran_one = true;
-        let checkpoint = options
-            .checkpoint_every
-            .map(|every| crate::run::CheckpointSettings {
-                every,
-                // The phase's scene with its changes: RON writes floats
-                // in their shortest round-trip form.
-                scene_text: scene.to_ron_string().unwrap_or_default(),
-            });
+        let checkpoint =
+            options
+                .checkpoint_every
+                .map(|every| crate::workflow::run::CheckpointSettings {
+                    every,
+                    // The phase's scene with its changes: RON writes floats
+                    // in their shortest round-trip form.
+                    scene_text: scene.to_ron_string().unwrap_or_default(),
+                });
         let run_options = RunOptions {
             out: out.clone(),
             overwrite: true,
@@ -497,7 +498,7 @@ pub fn run_phases(
             );
         }
         let outcome = if resume_phase {
-            crate::run::resume_run(&out, options.progress, options.checkpoint_every)
+            crate::workflow::run::resume_run(&out, options.progress, options.checkpoint_every)
         } else {
             run_scene(scene, scene_path, &run_options, |_| Ok(()))
         };
@@ -550,9 +551,9 @@ fn completed_record(
     out: &Path,
     resumed: bool,
 ) -> Option<PhaseRecord> {
-    let v = crate::run::RunSummary::read(out).ok()?;
-    (v.status == crate::run::RunStatus::Completed && out.join("state.json").exists()).then(|| {
-        PhaseRecord {
+    let v = crate::workflow::run::RunSummary::read(out).ok()?;
+    (v.status == crate::workflow::run::RunStatus::Completed && out.join("state.json").exists())
+        .then(|| PhaseRecord {
             name: phase.name.clone(),
             scene: scene.to_owned(),
             from,
@@ -560,8 +561,7 @@ fn completed_record(
             iterations: v.iterations,
             simulated_time: v.simulated_time,
             wall_time_s: if resumed { v.wall_time_s } else { 0.0 },
-        }
-    })
+        })
 }
 
 /// `protocol.json`.

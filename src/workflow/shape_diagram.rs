@@ -37,10 +37,10 @@
 //! Everything is staged in `DIR.incomplete` and renamed only when every
 //! point completed, so a failed diagram never looks like a result.
 
-use crate::axisymmetric::{self, Branch};
-use crate::run::{Progress, RunOptions, RunSummary, run_scene};
 use crate::scene::{Scene, SceneError};
 use crate::setting::Setting;
+use crate::study::axisymmetric::{self, Branch};
+use crate::workflow::run::{Progress, RunOptions, RunSummary, run_scene};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -162,7 +162,7 @@ impl DiagramError {
 
 /// Whether RON text declares a shape diagram.
 pub fn is_shape_diagram(text: &str) -> bool {
-    crate::protocol::top_level_name(text) == Some("ShapeDiagram")
+    crate::workflow::protocol::top_level_name(text) == Some("ShapeDiagram")
 }
 
 /// One walk: a branch on a mesh, with the scene of every point.

@@ -12,9 +12,14 @@
 //! study resumes and a changed rung runs anew.
 //! `--quick` keeps only the rungs each problem lists in `quick`.
 //!
-//! After the runs, [`crate::study_report`] measures each case against its
+//! After the runs, [`crate::study::report`] measures each case against its
 //! reference, fits the observed convergence order and writes `study.csv`,
 //! `study.md`, `study.json` and the charts.
+
+pub mod axisymmetric;
+pub mod peer;
+pub mod reference;
+pub mod report;
 
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -160,7 +165,7 @@ pub enum Reference {
     SpheroidBending,
     /// The continuum minimiser of the bending energy at fixed area and
     /// volume, solved at the reduced volume the case ends at
-    /// ([`crate::axisymmetric`]): E_b/8πκ, D/R0, centre and maximal
+    /// ([`crate::study::axisymmetric`]): E_b/8πκ, D/R0, centre and maximal
     /// thickness over R0, compared with the final mesh. The cost is the
     /// case's whole wall time.
     Axisymmetric,
@@ -468,7 +473,8 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
 /// Whether the run in `dir` stopped on a numerical blow-up and wrote its
 /// summary saying so.
 fn blew_up(dir: &Path) -> bool {
-    crate::run::RunSummary::read(dir).is_ok_and(|s| s.status == crate::run::RunStatus::BlewUp)
+    crate::workflow::run::RunSummary::read(dir)
+        .is_ok_and(|s| s.status == crate::workflow::run::RunStatus::BlewUp)
 }
 
 /// Options of [`run_cases`].
@@ -604,7 +610,7 @@ fn run_wave(
     todo: &[&Case],
     options: &StudyOptions,
 ) -> (usize, Vec<(PathBuf, String)>) {
-    crate::job_pool::run_jobs(
+    crate::workflow::job_pool::run_jobs(
         todo.len(),
         options.jobs,
         options.quiet,
@@ -618,14 +624,14 @@ fn run_wave(
         &|k| {
             let case = todo[k];
             let dir = options.out.join(&case.dir);
-            let opts = crate::run::RunOptions {
+            let opts = crate::workflow::run::RunOptions {
                 out: dir.clone(),
                 overwrite: true,
                 seed: None,
                 iterations: None,
                 frames: None,
                 from: None,
-                progress: crate::run::Progress::Quiet,
+                progress: crate::workflow::run::Progress::Quiet,
                 check_invariants: false,
                 checkpoint: None,
             };
@@ -637,10 +643,12 @@ fn run_wave(
                     refine: *refine,
                 };
             }
-            let mut prepared = crate::run::prepare_run(&scene, &case.scene_path, &opts)
+            let mut prepared = crate::workflow::run::prepare_run(&scene, &case.scene_path, &opts)
                 .map_err(|e| e.to_string())?;
             let result =
-                crate::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| false);
+                crate::workflow::run::drive_run(&mut prepared, &case.scene_path, &opts, t, &|| {
+                    false
+                });
             // A run that blew up still wrote its directory (status
             // `blew_up`): a result like any other, not to be run again.
             // Not fatal: without the fingerprint the case just runs again.

@@ -12,7 +12,7 @@
 //! curves per condition, one PNG per grid point).
 
 use crate::plot::{Series, line_chart};
-use crate::sweep::{RunSpec, SweepIndex};
+use crate::workflow::sweep::{RunSpec, SweepIndex};
 use std::path::{Path, PathBuf};
 
 /// Options of [`collect`].
@@ -293,7 +293,7 @@ fn write_outputs(
         .iter()
         .enumerate()
         .map(|(k, c)| {
-            let rows: Vec<&crate::collect::GroupRow> =
+            let rows: Vec<&crate::workflow::collect::GroupRow> =
                 report.groups.iter().filter(|g| &g.condition == c).collect();
             Series {
                 name: c.clone(),

@@ -3,7 +3,7 @@
 //! a PNG bar chart.
 
 use crate::plot::{BarPanel, bar_chart};
-use crate::run::RunSummary;
+use crate::workflow::run::RunSummary;
 
 /// One row of the comparison.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -111,7 +111,7 @@ pub struct RunSummary {
     pub last: EnergyReport,
     /// Final shape in its principal frame (diameter, centre vs maximal
     /// height, axisymmetry, discocyte/stomatocyte/convex).
-    pub shape: crate::shape::ShapeMetrics,
+    pub shape: crate::analysis::shape::ShapeMetrics,
     /// Edges outside [l_−, l_+] at the end.
     pub abnormal_edges: usize,
     /// Remeshing outcome counts (split/merge × success/cancel/impossible/failure).
@@ -636,7 +636,7 @@ fn summarize(
         simulated_time: clock.time,
         wall_time_s,
         last: EnergyReport::new(name, sim),
-        shape: crate::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
+        shape: crate::analysis::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
         cautions: scene.cautions(),
         edge_flips: sim

@@ -12,16 +12,16 @@
 //! runs whose index is I mod N, so a batch system (e.g. a Slurm job array)
 //! can drive it; `--emit-slurm` prints such a job-array script.
 //!
-//! A sweep may declare shared `phases` (a [`crate::protocol`]): they run
+//! A sweep may declare shared `phases` (a [`crate::workflow::protocol`]): they run
 //! once, into `OUT/phases/<phase>/`, before the runs, and a condition can
 //! start its runs from one of them (`from_phase`). With phases,
 //! `--emit-slurm` prints a campaign script that submits the phases as one
 //! job and the run array after it (`--dependency=afterok`).
 
-use crate::rng::stream_seed;
 use crate::scene::{Scene, SceneError};
 pub use crate::setting::Setting;
 use crate::setting::{ron_options, valid_name};
+use crate::util::rng::stream_seed;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -55,7 +55,7 @@ pub struct Sweep {
     /// Shared phases run once before the runs (default: none); see
     /// [`Condition::from_phase`].
     #[serde(default)]
-    pub phases: Vec<crate::protocol::Phase>,
+    pub phases: Vec<crate::workflow::protocol::Phase>,
 }
 
 /// One condition of a sweep.
@@ -130,8 +130,8 @@ pub enum SweepError {
 }
 
 /// A protocol-checking error as a sweep error.
-fn phase_error(e: crate::protocol::ProtocolError) -> SweepError {
-    use crate::protocol::ProtocolError;
+fn phase_error(e: crate::workflow::protocol::ProtocolError) -> SweepError {
+    use crate::workflow::protocol::ProtocolError;
     match e {
         ProtocolError::Scene(s) => SweepError::Scene(s),
         ProtocolError::File { path, reason } | ProtocolError::Io { path, reason } => {
@@ -238,7 +238,8 @@ impl Sweep {
                     .map_err(|r| err(format!("field `grid[{a}].values[{k}]`: {r}")))?;
             }
         }
-        crate::protocol::check_phases(&sweep.phases, path, "phases").map_err(phase_error)?;
+        crate::workflow::protocol::check_phases(&sweep.phases, path, "phases")
+            .map_err(phase_error)?;
         Ok((sweep, scene))
     }
 
@@ -461,7 +462,7 @@ pub struct SweepReport {
     /// Runs that failed now: (run directory, error).
     pub failed: Vec<(PathBuf, String)>,
     /// The shared phases (run now or kept from before).
-    pub phases: Vec<crate::protocol::PhaseRecord>,
+    pub phases: Vec<crate::workflow::protocol::PhaseRecord>,
 }
 
 /// The expansion written to `OUT/sweep.json` (what `collect` reads).
@@ -528,13 +529,14 @@ pub fn run_sweep_with(
     if !sweep.phases.is_empty() {
         let dir = phases_dir(out);
         if options.phases_only || options.shard.is_none() {
-            let scenes = crate::protocol::check_phases(&sweep.phases, sweep_path, "phases")
-                .map_err(phase_error)?;
-            let phase_options = crate::protocol::PhaseRunOptions {
+            let scenes =
+                crate::workflow::protocol::check_phases(&sweep.phases, sweep_path, "phases")
+                    .map_err(phase_error)?;
+            let phase_options = crate::workflow::protocol::PhaseRunOptions {
                 progress: if options.quiet {
-                    crate::run::Progress::Quiet
+                    crate::workflow::run::Progress::Quiet
                 } else {
-                    crate::run::Progress::Lines
+                    crate::workflow::run::Progress::Lines
                 },
                 iterations: options.iterations,
                 frames: None,
@@ -544,12 +546,17 @@ pub fn run_sweep_with(
                 resume: false,
             };
             let base_dir = sweep_path.parent().unwrap_or(Path::new("."));
-            phase_records =
-                crate::protocol::run_phases(&sweep.phases, &scenes, base_dir, &dir, &phase_options)
-                    .map_err(|f| SweepError::Phase {
-                        phase: sweep.phases[f.index].name.clone(),
-                        reason: f.error.to_string(),
-                    })?;
+            phase_records = crate::workflow::protocol::run_phases(
+                &sweep.phases,
+                &scenes,
+                base_dir,
+                &dir,
+                &phase_options,
+            )
+            .map_err(|f| SweepError::Phase {
+                phase: sweep.phases[f.index].name.clone(),
+                reason: f.error.to_string(),
+            })?;
         } else {
             // A shard of a campaign: the phases job has run them.
             for c in sweep.conditions() {
@@ -598,7 +605,7 @@ pub fn run_sweep_with(
     let scene_path = sweep.scene_path(sweep_path);
     // One thread per run: runs are independent, results do not depend on
     // the thread count.
-    let results = crate::job_pool::run_jobs(
+    let results = crate::workflow::job_pool::run_jobs(
         todo.len(),
         options.jobs,
         options.quiet,
@@ -608,21 +615,21 @@ pub fn run_sweep_with(
         &|k| {
             let run = todo[k];
             let (scene, from) = sweep.scene_for(sweep_path, out, &base, run)?;
-            let opts = crate::run::RunOptions {
+            let opts = crate::workflow::run::RunOptions {
                 out: out.join(&run.dir),
                 overwrite: true,
                 seed: None,
                 iterations: options.iterations,
                 frames: None,
                 from,
-                progress: crate::run::Progress::Quiet,
+                progress: crate::workflow::run::Progress::Quiet,
                 check_invariants: false,
                 checkpoint: None,
             };
             let started = std::time::Instant::now();
-            let mut prepared =
-                crate::run::prepare_run(&scene, &scene_path, &opts).map_err(|e| e.to_string())?;
-            crate::run::drive_run(&mut prepared, &scene_path, &opts, started, cancel)
+            let mut prepared = crate::workflow::run::prepare_run(&scene, &scene_path, &opts)
+                .map_err(|e| e.to_string())?;
+            crate::workflow::run::drive_run(&mut prepared, &scene_path, &opts, started, cancel)
                 .map(|s| s.wall_time_s)
                 .map_err(|e| e.to_string())
         },

@@ -1,0 +1,11 @@
+//! Many runs: one run from a scene ([`run`]), protocols of phases,
+//! parameter sweeps (local or Slurm), their collection, two-scene
+//! comparisons, the shape diagram, and the job pool they share.
+
+pub mod collect;
+pub mod compare;
+pub mod job_pool;
+pub mod protocol;
+pub mod run;
+pub mod shape_diagram;
+pub mod sweep;
