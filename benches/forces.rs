@@ -17,13 +17,13 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
-use remembrane::components::ControlPoint;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
-use remembrane::force::{ForceContext, ForceTerm};
-use remembrane::membrane::Membrane;
+use remembrane::engine::force::{ForceContext, ForceTerm};
+use remembrane::engine::simulation::{InitialState, SimBuilder};
+use remembrane::mesh::components::ControlPoint;
 use remembrane::mesh::icosphere;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::params::BendingParams;
-use remembrane::simulation::{InitialState, SimBuilder};
 use remembrane::systems::plugins;
 use remembrane::systems::*;
 use std::hint::black_box;
@@ -78,8 +78,12 @@ fn initial_state(m: &mut Membrane) -> InitialState {
     InitialState {
         vertices: mesh.vertex_count(),
         lipid_total: mesh.vertex_count() as f64,
-        area: remembrane::geometry::total_area(&mesh.positions, &mesh.faces),
-        volume: remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO),
+        area: remembrane::mesh::geometry::total_area(&mesh.positions, &mesh.faces),
+        volume: remembrane::mesh::geometry::enclosed_volume(
+            &mesh.positions,
+            &mesh.faces,
+            DVec3::ZERO,
+        ),
     }
 }
 
@@ -110,7 +114,7 @@ fn each_system(c: &mut Criterion) {
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
             b.iter(|| {
-                remembrane::geometry::face_geometry(
+                remembrane::mesh::geometry::face_geometry(
                     &pos,
                     &m.cached_topology().faces,
                     &mut geometry,

@@ -12,9 +12,9 @@
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use rand::SeedableRng;
 use remembrane::energy::vin::{Segmentation, VinParams};
-use remembrane::membrane::Membrane;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::{ValenceRange, icosphere};
-use remembrane::relax::{Goal, KickTable, Patch, RelaxSettings, relax, rings};
+use remembrane::remesh::relax::{Goal, KickTable, Patch, RelaxSettings, relax, rings};
 use remembrane::remesh::{merge_edge, split_edge};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -66,8 +66,8 @@ fn topology_ops(c: &mut Criterion) {
 
 /// An edge whose flip is valid on a level-`level` icosphere (its ends have
 /// valence 6, so they may lose one), and the flip.
-fn flippable_edge(m: &Membrane) -> remembrane::edge_flip::Flip {
-    use remembrane::edge_flip::Flip;
+fn flippable_edge(m: &Membrane) -> remembrane::remesh::flip::Flip {
+    use remembrane::remesh::flip::Flip;
     let t = m.cached_topology();
     (100..t.edges.len() as u32)
         .filter_map(|e| Flip::of(t, e))
@@ -76,7 +76,7 @@ fn flippable_edge(m: &Membrane) -> remembrane::edge_flip::Flip {
 }
 
 fn edge_flips(c: &mut Criterion) {
-    use remembrane::edge_flip::{FlipEnergy, FlipTotals};
+    use remembrane::remesh::flip::{FlipEnergy, FlipTotals};
     use std::sync::Arc;
     let mesh = icosphere(3, 1.0);
     let m = membrane(3);

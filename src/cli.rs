@@ -3,7 +3,7 @@
 //! collect) with its own plugins.
 //!
 //! ```no_run
-//! use remembrane::registry::PluginRegistry;
+//! use remembrane::scene::registry::PluginRegistry;
 //!
 //! fn main() -> std::process::ExitCode {
 //!     let mut plugins = PluginRegistry::new();
@@ -12,7 +12,7 @@
 //! }
 //! ```
 
-use crate::report::{EnergyReport, forces_csv};
+use crate::io::report::{EnergyReport, forces_csv};
 use crate::scene::Scene;
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -250,12 +250,12 @@ const BUNDLED_SCENE_NAME: &str = "bundled:red_blood_cell.ron";
 
 /// Runs the CLI on the process arguments with `registry`'s plugins
 /// available to every scene (installed as the process default registry).
-pub fn main_with(registry: crate::registry::PluginRegistry) -> ExitCode {
+pub fn main_with(registry: crate::scene::registry::PluginRegistry) -> ExitCode {
     main_with_args(registry, std::env::args_os())
 }
 
 /// [`main_with`] on explicit arguments (the first is the program name).
-pub fn main_with_args<I, T>(registry: crate::registry::PluginRegistry, args: I) -> ExitCode
+pub fn main_with_args<I, T>(registry: crate::scene::registry::PluginRegistry, args: I) -> ExitCode
 where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
@@ -520,7 +520,7 @@ fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunArgs) -> Exit
     let result = crate::util::parallel::on_pool(|| {
         crate::workflow::run::resume_run(dir, progress, args.checkpoint_every)
     });
-    let out = crate::checkpoint::run_dir_of(dir);
+    let out = crate::io::checkpoint::run_dir_of(dir);
     report_run(dir, &out, args.quiet, result)
 }
 
@@ -568,7 +568,7 @@ fn report_run(
                     eprintln!("note: {caution}");
                 }
                 eprintln!("outputs in {}", out.display());
-                let table = crate::schedule::format_timings(&summary.timings);
+                let table = crate::engine::schedule::format_timings(&summary.timings);
                 eprint!("{table}");
             }
             ExitCode::SUCCESS
@@ -674,7 +674,7 @@ fn resume_protocol_command(
         checkpoint_every: Some(args.checkpoint_every.unwrap_or(record.checkpoint_every)),
         resume: true,
     };
-    let out = crate::checkpoint::run_dir_of(dir);
+    let out = crate::io::checkpoint::run_dir_of(dir);
     let result = crate::util::parallel::on_pool(|| run_protocol(&loaded, &out, false, &options));
     report_protocol(&record.protocol, &out, args.quiet, result)
 }
@@ -873,7 +873,7 @@ fn check_protocol(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-fn load(path: &Path) -> Result<(Scene, crate::simulation::Simulation), String> {
+fn load(path: &Path) -> Result<(Scene, crate::engine::simulation::Simulation), String> {
     let scene = Scene::load(path).map_err(|e| e.to_string())?;
     let sim = scene.build(path).map_err(|e| e.to_string())?;
     Ok((scene, sim))
@@ -953,7 +953,7 @@ fn check(path: &Path) -> Result<(), String> {
         return check_protocol(path);
     }
     let (scene, mut sim) = load(path)?;
-    let initial = *sim.resource::<crate::simulation::InitialState>();
+    let initial = *sim.resource::<crate::engine::simulation::InitialState>();
     let mesh_mean_edge = sim
         .membrane_mut()
         .to_mesh()
@@ -1039,7 +1039,7 @@ fn check(path: &Path) -> Result<(), String> {
         let reduced = match (area, volume) {
             (Some(a), Some(v)) => format!(
                 " (reduced volume {:.4})",
-                crate::geometry::reduced_volume(v, a)
+                crate::mesh::geometry::reduced_volume(v, a)
             ),
             _ => String::new(),
         };

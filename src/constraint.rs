@@ -59,7 +59,7 @@ impl Gradients {
             twice_area += double;
             if double > 0.0 {
                 let n_hat = normal / double;
-                let g = crate::geometry::face_area_gradient(&[a, b, c], n_hat);
+                let g = crate::mesh::geometry::face_area_gradient(&[a, b, c], n_hat);
                 self.area_gradient[i0] += g[0];
                 self.area_gradient[i1] += g[1];
                 self.area_gradient[i2] += g[2];
@@ -231,7 +231,7 @@ fn nonzero(x: f64) -> f64 {
 /// one scaled step per call. Between steps only A and V are measured.
 pub fn project(
     positions: &mut [DVec3],
-    topology: &crate::topology::Topology,
+    topology: &crate::mesh::topology::Topology,
     t: ConstraintTargets,
     max_correction: f64,
     smoothing: u32,

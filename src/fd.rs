@@ -6,8 +6,8 @@
 //! the analytic force. A vertex passes when
 //! |F_analytic − F_fd| ≤ `rel_tol`·|F_fd| + `abs_floor`.
 
-use crate::force::{ForceContext, ForceTerm};
-use crate::topology::Topology;
+use crate::engine::force::{ForceContext, ForceTerm};
+use crate::mesh::topology::Topology;
 use glam::DVec3;
 use hecs::World;
 

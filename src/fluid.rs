@@ -11,7 +11,7 @@
 //! is parallel to ∇_i V (the enclosed volume's gradient): a tangential move
 //! changes the volume only at second order.
 
-use crate::topology::Topology;
+use crate::mesh::topology::Topology;
 use glam::DVec3;
 
 /// Unit area-weighted normal of vertex `v`: Σ over its faces of
@@ -38,7 +38,7 @@ pub fn vertex_normals(positions: &[DVec3], topology: &Topology, out: &mut Vec<DV
 /// times twice the areas), without a cross product per corner: the same
 /// directions to round-off.
 pub fn vertex_normals_from_faces(
-    faces: &[crate::geometry::Corners],
+    faces: &[crate::mesh::geometry::Corners],
     topology: &Topology,
     out: &mut Vec<DVec3>,
 ) {
@@ -121,12 +121,12 @@ pub fn residuals(total: &[DVec3], maintenance: &[DVec3], normals: &[DVec3]) -> F
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::enclosed_volume;
+    use crate::mesh::geometry::enclosed_volume;
 
     #[test]
     fn normal_is_the_volume_gradient_direction() {
         let mesh = crate::mesh::icosphere(2, 1.0);
-        let mut m = crate::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+        let mut m = crate::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
         let t = m.topology().unwrap().clone();
         let mut p = mesh.positions.clone();
         // Perturb so that the ring is not symmetric.

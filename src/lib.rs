@@ -13,12 +13,12 @@
 //!   carry [`Position`], [`Force`] and one component per registered per-vertex field ([`LipidDensity`]
 //!   only when the scene declares it); edge entities reference their two vertices and two faces;
 //!   face entities their three vertices and edges; control points are their own entities.
-//! - **Typed resources** ([`resources`]) hold everything else, one value per type, each
+//! - **Typed resources** ([`resources`](engine::resources)) hold everything else, one value per type, each
 //!   inserted by the plugin that owns it. Derived caches ([`Topology`]: entity → dense slot, dense
 //!   edge/face arrays, ordered 1-rings in fixed-size blocks per vertex) are updated edit by edit
-//!   for the edited patch only ([`topology_update`]; debug builds and every test compare the
+//!   for the edited patch only ([`topology_update`](mesh::topology_update); debug builds and every test compare the
 //!   result with a full rebuild after each edit).
-//! - **Systems** ([`schedule`]) name their data in their type: `type Data<'a> = (Res<'a,
+//! - **Systems** ([`schedule`](engine::schedule)) name their data in their type: `type Data<'a> = (Res<'a,
 //!   Clock>, ResMut<'a, DensePositions>, Option<Res<'a, VinSegmentation>>)` ([`System`], [`Res`],
 //!   [`ResMut`]). The schedule derives
 //!   the access from that type, so declarations cannot drift and a system cannot reach anything it
@@ -26,38 +26,43 @@
 //!   twice with a write, a Forces-stage system writing anything but [`ForceBuffers`], duplicate
 //!   names, unknown ordering targets, cycles. [`DynamicSystem`]s (access known only at run time) get a
 //!   view that fails any undeclared borrow.
-//! - **Force terms** implement [`force::ForceTerm`] (name, energy, *add* −∇E into a buffer).
+//! - **Force terms** implement [`engine::force::ForceTerm`] (name, energy, *add* −∇E into a buffer).
 //!   [`SimBuilder::add_force_term`] (or [`Simulation::add_force_term`] before the first tick) registers
-//!   the term's buffer in [`ForceBuffers`]; the core `force_terms` system ([`force_term_system`])
+//!   the term's buffer in [`ForceBuffers`]; the core `force_terms` system ([`force_term_system`](engine::force_term_system))
 //!   evaluates every registered
 //!   term, so every term is finite-checked, timed (under its own name), summed, used by the time
 //!   step and reported alike. Terms are independent, so on a large mesh with more than one thread
 //!   they run concurrently.
-//! - **Recorders** ([`recorder`]) produce each frame's series columns and VTK point data; the
+//! - **Recorders** ([`recorder`](engine::recorder)) produce each frame's series columns and VTK point data; the
 //!   run's `frames` system calls them in the Observe stage, which sees the last completed
 //!   iteration's state with the forces its next step applies (no second force evaluation).
-//! - **Checkpoints** ([`checkpoint`]) save what carries from one tick to the next and nothing
-//!   else: the world entity by entity with hecs' free list ([`world_snapshot`]), the resources
-//!   their plugins declared persistent ([`SimBuilder::persist_resource`], [`persisted`]), and
+//! - **Checkpoints** ([`checkpoint`](io::checkpoint)) save what carries from one tick to the next and nothing
+//!   else: the world entity by entity with hecs' free list ([`world_snapshot`](io::world_snapshot)), the resources
+//!   their plugins declared persistent ([`SimBuilder::persist_resource`], [`persisted`](engine::persisted)), and
 //!   the own state of systems, force terms and recorders (`save_state` / `restore_state`, default:
 //!   none). Everything else is rebuilt from the scene or recomputed by the next tick.
 //! - **Remeshing** dispatches on [`remesh::EdgeOp`] ([`Split`](remesh::EdgeOp::Split),
 //!   [`Merge`](remesh::EdgeOp::Merge)), each with a feasibility check
-//!   and an edit on the check-then-act edit layer ([`edit`]). Every per-vertex field has a
-//!   transfer policy ([`vertex_field::TransferPolicy`]: [`Conserve`](vertex_field::TransferPolicy::Conserve)
-//!   for lipid density, [`Interpolate`](vertex_field::TransferPolicy::Interpolate)
+//!   and an edit on the check-then-act edit layer ([`edit`](mesh::edit)). Every per-vertex field has a
+//!   transfer policy ([`mesh::vertex_field::TransferPolicy`]: [`Conserve`](mesh::vertex_field::TransferPolicy::Conserve)
+//!   for lipid density, [`Interpolate`](mesh::vertex_field::TransferPolicy::Interpolate)
 //!   for intensive fields such as protein coverage).
 //! - **Scenes** name plugins: `Custom(name: "...", params: (...))` in `energy`, and `systems:
-//!   [Custom(name, stage, params)]`, resolved through a [`registry::PluginRegistry`] while the scene
+//!   [Custom(name, stage, params)]`, resolved through a [`scene::registry::PluginRegistry`] while the scene
 //!   is parsed. [`cli::main_with`]`(registry)` gives a user's binary the whole CLI.
-//! - **Folders.** [`util`] (parallel loops, random streams, validators), [`analysis`] (measuring
-//!   a run), [`workflow`] (runs, protocols, sweeps, collection, comparison, the shape diagram),
-//!   [`study`] (speed against error on problems with independent answers, and the axisymmetric
-//!   reference solver); the rest of `src/` is still flat, to be moved by role.
-//! - **Layers.** The core ([`resources`], [`schedule`], [`simulation`], [`force`], [`membrane`],
-//!   [`topology`], [`energy`], [`remesh`], [`edit`], [`recorder`], [`vertex_field`]) never imports
+//! - **Folders.** [`util`] (parallel loops, random streams, validators) → [`mesh`] (meshes,
+//!   the world's components, topology, edits, geometry) → [`engine`] (resources, schedule,
+//!   simulation, the force-term interface, recorders) → [`energy`] (the terms' kernels) →
+//!   [`remesh`] (split/merge events, relaxation, flips) → [`io`] (run directories, frames,
+//!   state, checkpoints, reports) → [`analysis`] (measuring a run) → [`scene`] (the file format,
+//!   overrides, the plugin registry) → [`workflow`] (runs, protocols, sweeps, collection,
+//!   comparison, the shape diagram) → [`study`] (speed against error, the axisymmetric
+//!   reference solver) → [`cli`]. Still flat: `constraint`, `fd`, `fluid`, `minimise`,
+//!   `params`, `timestep`.
+//! - **Layers.** The core ([`resources`](engine::resources), [`schedule`](engine::schedule), [`simulation`](engine::simulation), [`force`](engine::force), [`membrane`](mesh::membrane),
+//!   [`topology`](mesh::topology), [`energy`], [`remesh`], [`edit`](mesh::edit), [`recorder`](engine::recorder), [`vertex_field`](mesh::vertex_field)) never imports
 //!   `systems/`; `systems/` ([`systems`], mounted with `#[path]`, one system per file, plugins in
-//!   [`systems::plugins`]) uses only the public API; [`scene`], [`workflow`], [`output`] and [`cli`] sit
+//!   [`systems::plugins`]) uses only the public API; [`scene`], [`workflow`], [`output`](io::output) and [`cli`] sit
 //!   on top.
 //!
 //! One tick, in stage order ([`Stage`]; what each stage's built-in systems read → write):
@@ -92,30 +97,30 @@
 //! The plugin guide (`docs/plugins.md`: a force term, a resource, a system and a registry entry,
 //! declared by a scene) is compiled and run as a doctest.
 //!
-//! [`Membrane`]: membrane::Membrane
-//! [`Position`]: components::Position
-//! [`Force`]: components::Force
-//! [`LipidDensity`]: components::LipidDensity
-//! [`Topology`]: topology::Topology
-//! [`System`]: schedule::System
-//! [`DynamicSystem`]: schedule::DynamicSystem
-//! [`Stage`]: schedule::Stage
-//! [`Res`]: resources::Res
-//! [`ResMut`]: resources::ResMut
-//! [`ForceBuffers`]: force::ForceBuffers
-//! [`FaceGeometry`]: force::FaceGeometry
-//! [`SimBuilder::add_force_term`]: simulation::SimBuilder::add_force_term
-//! [`Simulation::add_force_term`]: simulation::Simulation::add_force_term
-//! [`SimBuilder::persist_resource`]: simulation::SimBuilder::persist_resource
-//! [`Clock`]: core_resources::Clock
-//! [`DensePositions`]: core_resources::DensePositions
-//! [`DenseLipid`]: core_resources::DenseLipid
-//! [`StopRequest`]: core_resources::StopRequest
-//! [`Seed`]: core_resources::Seed
-//! [`CheckInvariants`]: core_resources::CheckInvariants
+//! [`Membrane`]: mesh::membrane::Membrane
+//! [`Position`]: mesh::components::Position
+//! [`Force`]: mesh::components::Force
+//! [`LipidDensity`]: mesh::components::LipidDensity
+//! [`Topology`]: mesh::topology::Topology
+//! [`System`]: engine::schedule::System
+//! [`DynamicSystem`]: engine::schedule::DynamicSystem
+//! [`Stage`]: engine::schedule::Stage
+//! [`Res`]: engine::resources::Res
+//! [`ResMut`]: engine::resources::ResMut
+//! [`ForceBuffers`]: engine::force::ForceBuffers
+//! [`FaceGeometry`]: engine::force::FaceGeometry
+//! [`SimBuilder::add_force_term`]: engine::simulation::SimBuilder::add_force_term
+//! [`Simulation::add_force_term`]: engine::simulation::Simulation::add_force_term
+//! [`SimBuilder::persist_resource`]: engine::simulation::SimBuilder::persist_resource
+//! [`Clock`]: engine::core_resources::Clock
+//! [`DensePositions`]: engine::core_resources::DensePositions
+//! [`DenseLipid`]: engine::core_resources::DenseLipid
+//! [`StopRequest`]: engine::core_resources::StopRequest
+//! [`Seed`]: engine::core_resources::Seed
+//! [`CheckInvariants`]: engine::core_resources::CheckInvariants
 //! [`VinEdgeSamples`]: energy::vin::VinEdgeSamples
 //! [`VinSegmentation`]: systems::vin_forces::VinSegmentation
-//! [`RunOutput`]: output::RunOutput
+//! [`RunOutput`]: io::output::RunOutput
 //! [`TimeStepChoice`]: timestep::TimeStepChoice
 //! [`MinimiserStatus`]: minimise::MinimiserStatus
 //! [`AbnormalEdges`]: systems::barrier_check::AbnormalEdges
@@ -126,26 +131,14 @@
 //! [`RemeshParams`]: params::RemeshParams
 //! [`Constraints`]: constraint::Constraints
 //! [`ValenceRange`]: mesh::invariants::ValenceRange
-//! [`Recorders`]: recorder::Recorders
+//! [`Recorders`]: engine::recorder::Recorders
 
-pub mod cell_list;
 pub mod cli;
-pub mod components;
 pub mod constraint;
-pub mod core_resources;
-pub mod edge_flip;
-pub mod edit;
 pub mod energy;
-pub mod error;
 pub mod fluid;
-pub mod geometry;
-pub mod membrane;
 pub mod mesh;
 pub mod minimise;
-pub mod output;
-pub mod topology;
-pub mod topology_update;
-pub mod world_snapshot;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
 /// then a rename, so readers never see a partial file.
@@ -184,38 +177,19 @@ pub fn atomic_write_with<E: From<std::io::Error>>(
     written
 }
 
-pub mod checkpoint;
 pub mod fd;
-pub mod force;
-pub mod force_term_system;
 pub mod params;
-pub mod persisted;
 
 pub mod analysis;
-pub mod plot;
-pub mod plugin_decl;
-pub mod quality;
-pub mod recorder;
-pub mod registry;
-pub mod relax;
+pub mod engine;
+pub mod io;
 pub mod remesh;
-pub mod render;
-pub mod report;
-pub mod resolution;
-pub mod resources;
-pub mod run_dir;
 pub mod scene;
-pub mod scene_override;
-pub mod schedule;
-pub mod setting;
-pub mod simulation;
-pub mod state;
 pub mod study;
 #[path = "../systems/mod.rs"]
 pub mod systems;
 pub mod timestep;
 pub mod util;
-pub mod vertex_field;
 pub mod workflow;
 
 #[doc = include_str!("../README.md")]

@@ -2,5 +2,5 @@
 //! physics only (a user's binary passes its own plugins to `main_with`).
 
 fn main() -> std::process::ExitCode {
-    remembrane::cli::main_with(remembrane::registry::PluginRegistry::new())
+    remembrane::cli::main_with(remembrane::scene::registry::PluginRegistry::new())
 }

@@ -493,7 +493,7 @@ impl Default for DynamicsParams {
     }
 }
 
-/// Edge flips as Metropolis moves ([`crate::edge_flip`]): after every tick,
+/// Edge flips as Metropolis moves ([`crate::remesh::flip`]): after every tick,
 /// edges drawn at random are flipped with probability min(1, exp(−ΔE/k_BT)),
 /// so the triangulation is fluid and the membrane samples the Boltzmann
 /// ensemble of its energy (at k_BT = 0 only flips that lower the energy are
@@ -639,7 +639,7 @@ pub enum MembraneModel {
     #[default]
     Paper,
     /// A two-dimensional fluid: the forces of mesh-maintenance terms
-    /// ([`crate::force::ForceKind::Maintenance`], V_in) are projected onto
+    /// ([`crate::engine::force::ForceKind::Maintenance`], V_in) are projected onto
     /// the vertices' tangent planes, and so are the local relaxations and
     /// kicks of remesh events. V_in then keeps the triangles regular without
     /// acting on the shape, which only the physical terms move (bending,

@@ -10,12 +10,12 @@
 //! [`TimeStepChoice`]. Units: s.
 
 use crate::energy::vin::VinEdgeSamples;
-use crate::force::ForceBuffers;
-use crate::membrane::Membrane;
+use crate::engine::force::ForceBuffers;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{Clock, DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 use crate::params::DynamicsParams;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{Clock, DensePositions, SimError};
 use crate::systems::vin_forces::VinSegmentation;
 use crate::timestep::{Limiter, TimeStepChoice, bending_step_limit, choose_time_step};
 

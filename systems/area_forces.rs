@@ -5,7 +5,7 @@
 //! Ē/l̄², A_t in l̄².
 
 use crate::energy::penalty::area_penalty;
-use crate::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 
 /// The area-penalty force system with a resolved target area.

@@ -4,11 +4,11 @@
 //! the triggers in [`RemeshParams`]. Writes: [`AbnormalEdges`], consumed by
 //! remeshing.
 
-use crate::membrane::Membrane;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 use crate::params::RemeshParams;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{DensePositions, SimError};
 
 /// Edges (slots) outside [l_−, l_+] after the last integration (or, after
 /// remeshing, those it left abnormal).

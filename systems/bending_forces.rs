@@ -7,7 +7,7 @@
 
 use crate::energy::bending::{BendingScratch, bending};
 use crate::energy::bending_dihedral::{DihedralScratch, bending_dihedral};
-use crate::force::{ForceContext, ForceTerm};
+use crate::engine::force::{ForceContext, ForceTerm};
 use crate::params::{BendingDiscretisation, BendingParams};
 use glam::DVec3;
 

@@ -10,11 +10,11 @@
 //! naming the vertex.
 
 use crate::constraint::{Constraints, ProjectionScratch, project};
-use crate::force::ForceBuffers;
-use crate::membrane::Membrane;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
+use crate::engine::force::ForceBuffers;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
+use crate::mesh::membrane::Membrane;
 
 /// The constraint-projection system.
 #[derive(Default)]

@@ -8,11 +8,11 @@
 //! `evaluation.constraint` in [`ForceBuffers`].
 
 use crate::constraint::{ConstraintState, Constraints, Gradients, remove_reactions};
-use crate::force::ForceBuffers;
-use crate::membrane::Membrane;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{DensePositions, SimError};
+use crate::engine::force::ForceBuffers;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 
 /// The constraint-reaction system.
 #[derive(Default)]

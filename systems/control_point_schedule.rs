@@ -8,11 +8,11 @@
 //! i.e. before iteration N + 1 is computed; `Every(interval: I, start: S)`
 //! applies at S, S + I, S + 2I, …
 
-use crate::components::{ControlPoint, ControlPointIndex};
-use crate::membrane::Membrane;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{Clock, SimError};
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{Clock, SimError};
+use crate::mesh::components::{ControlPoint, ControlPointIndex};
+use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 

@@ -1,4 +1,4 @@
-//! Edge flips as Metropolis moves ([`crate::edge_flip`]).
+//! Edge flips as Metropolis moves ([`crate::remesh::flip`]).
 //!
 //! Stage: Remesh (after split/merge, if the scene remeshes). Reads:
 //! [`DensePositions`], [`DynamicsParams`] (k_BT), [`ValenceRange`],
@@ -17,13 +17,13 @@
 //! min(1, exp(−ΔE/k_BT)). Reads the control points too (scenes with
 //! springs).
 
-use crate::edge_flip::{Flip, FlipEnergy, FlipTotals, keeps_surface_unfolded};
-use crate::membrane::Membrane;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{CheckInvariants, Clock, DensePositions, Seed, SimError};
 use crate::mesh::ValenceRange;
+use crate::mesh::membrane::Membrane;
 use crate::params::{DynamicsParams, EdgeFlipParams};
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{CheckInvariants, Clock, DensePositions, Seed, SimError};
+use crate::remesh::flip::{Flip, FlipEnergy, FlipTotals, keeps_surface_unfolded};
 use crate::util::rng::stream_seed;
 use rand::{RngExt, SeedableRng};
 
@@ -100,7 +100,7 @@ impl System for EdgeFlips {
             membrane
                 .control_points()
                 .iter()
-                .map(|c| crate::cell_list::nearest_by_scan(positions, c.position) as u32)
+                .map(|c| crate::mesh::cell_list::nearest_by_scan(positions, c.position) as u32)
                 .collect()
         } else {
             Vec::new()

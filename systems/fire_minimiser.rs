@@ -16,14 +16,14 @@
 //! step is halved and FIRE restarts from rest. Below a millionth of the
 //! first step the run stops with [`SimError::MinimiserStuck`].
 
-use crate::force::ForceBuffers;
-use crate::membrane::Membrane;
+use crate::engine::force::ForceBuffers;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
+use crate::mesh::membrane::Membrane;
 use crate::minimise::{Fire, MinimiserStatus, StopReason};
 use crate::params::MinimiserParams;
 use crate::remesh::RemeshStats;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
 use crate::systems::edge_flips::FlipStats;
 use crate::systems::langevin_integration::check_step;
 use crate::systems::maintenance_flips::MaintenanceFlipStats;

@@ -12,13 +12,13 @@
 //! on the stomatocyte: 0.54 Ē/l̄ left, a drift that kept the minimiser from
 //! converging). The per-term forces reported are then the ones that act.
 
+use crate::engine::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
+use crate::engine::force_term_system::FORCE_TERMS;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::SimError;
 use crate::fluid::{keep_normal, keep_tangential, remove_net_force};
-use crate::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
-use crate::force_term_system::FORCE_TERMS;
 use crate::params::PhysicalForces;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::SimError;
 use crate::systems::vertex_normals::VertexNormals;
 
 /// Its name in the schedule.

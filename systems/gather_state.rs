@@ -4,10 +4,10 @@
 //! entities). Writes: the topology cache in [`Membrane`] (rebuilt only when
 //! the structure epoch changed), [`DensePositions`], [`DenseLipid`].
 
-use crate::membrane::Membrane;
-use crate::resources::ResMut;
-use crate::schedule::System;
-use crate::simulation::{DenseLipid, DensePositions, SimError};
+use crate::engine::resources::ResMut;
+use crate::engine::schedule::System;
+use crate::engine::simulation::{DenseLipid, DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 
 /// The gather system.
 pub struct GatherState;

@@ -12,12 +12,12 @@
 //! ≤ 0) stops the run with `SimError::MeshFolded` / `InsideOut` and the
 //! last good positions kept.
 
-use crate::force::ForceBuffers;
-use crate::membrane::Membrane;
+use crate::engine::force::ForceBuffers;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{Clock, DensePositions, Seed, SimError};
+use crate::mesh::membrane::Membrane;
 use crate::params::DynamicsParams;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{Clock, DensePositions, Seed, SimError};
 use crate::timestep::TimeStepChoice;
 use crate::util::rng::stream_seed;
 use rand::SeedableRng;
@@ -175,7 +175,7 @@ impl System for LangevinIntegration {
                 shortest_edge,
                 drift,
                 noise,
-                cause: crate::error::FoldCause::of(drift, noise),
+                cause: crate::engine::error::FoldCause::of(drift, noise),
             });
         }
         // A point reflection (a penalty overshooting through zero size) keeps

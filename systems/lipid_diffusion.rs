@@ -8,11 +8,11 @@
 //! allowed edge (a, b) (v = valence), so Σρ is conserved; an edge touching a
 //! blocked vertex does not diffuse. `Instant` sets ρ = Σρ / N everywhere.
 
-use crate::membrane::Membrane;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{DenseLipid, DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 use crate::params::{BlockedRegion, DiffusionParams, DiffusionRate};
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{DenseLipid, DensePositions, SimError};
 use crate::systems::remesh::RemeshTriggered;
 use glam::DVec3;
 

@@ -5,7 +5,7 @@
 //! Units: k in Ē/l̄², a0 in l̄² (a0 = A_t / N_initial, fixed at scene build).
 
 use crate::energy::penalty::{LocalTensionScratch, local_tension};
-use crate::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 
 /// The local-tension force system.

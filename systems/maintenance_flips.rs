@@ -29,13 +29,13 @@
 //! the point, not on the connectivity. Deterministic: the sweep order is
 //! the edge slots', and there is no randomness.
 
-use crate::edge_flip::{Flip, keeps_surface_unfolded};
-use crate::membrane::Membrane;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{CheckInvariants, Clock, DensePositions, SimError};
 use crate::mesh::ValenceRange;
+use crate::mesh::membrane::Membrane;
 use crate::params::MaintenanceFlipParams;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{CheckInvariants, Clock, DensePositions, SimError};
+use crate::remesh::flip::{Flip, keeps_surface_unfolded};
 use glam::DVec3;
 
 /// Counts of the maintenance flips over a run (`summary.json`

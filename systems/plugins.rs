@@ -15,21 +15,21 @@
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
 //! | [`recorders`] | `Recorders` | — (the run's `frames` system, Observe, calls them) |
 
-use crate::components::ControlPoint;
 use crate::energy::vin::{Segmentation, VinParams};
-use crate::force::{FaceGeometry, ForceBuffers};
-use crate::membrane::Membrane;
+use crate::engine::force::{FaceGeometry, ForceBuffers};
+use crate::engine::schedule::Stage;
+use crate::engine::simulation::{
+    BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Plugin, Seed,
+    SimBuilder,
+};
 use crate::mesh::ValenceRange;
+use crate::mesh::components::ControlPoint;
+use crate::mesh::membrane::Membrane;
 use crate::params::{
     AreaParams, BendingParams, DiffusionParams, DynamicsParams, LocalTensionParams, RemeshParams,
     SpringCoupling, VolumeParams,
 };
 use crate::remesh::RemeshStats;
-use crate::schedule::Stage;
-use crate::simulation::{
-    BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Plugin, Seed,
-    SimBuilder,
-};
 use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
 use crate::systems::control_point_schedule::{ControlPointSchedule, ScheduledChange};
 use crate::systems::remesh::{Remesh, RemeshTriggered};
@@ -69,7 +69,7 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             .insert_resource(AbnormalEdges::default())
             .insert_resource(Seed(settings.seed))
             .insert_resource(CheckInvariants::default())
-            .insert_resource(crate::simulation::StopRequest::default())
+            .insert_resource(crate::engine::simulation::StopRequest::default())
             .persist_resource::<Clock>()
             .persist_resource::<TimeStepChoice>()
             .persist_resource::<AbnormalEdges>();
@@ -79,9 +79,9 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             .after("gather_state");
         b.add_system(
             Stage::Forces,
-            crate::force_term_system::ForceTermsSystem::default(),
+            crate::engine::force_term_system::ForceTermsSystem::default(),
         )
-        .before(crate::force::FORCE_TOTAL);
+        .before(crate::engine::force::FORCE_TOTAL);
         b.add_system(Stage::Forces, force_total::ForceTotal);
         match settings.dynamics.method {
             crate::params::Method::Overdamped => {
@@ -186,7 +186,7 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
             smoothing: params.smoothing,
         });
         b.add_system(Stage::Forces, ConstraintReactions::default())
-            .after(crate::force::FORCE_TOTAL);
+            .after(crate::engine::force::FORCE_TOTAL);
         let integrator = match b.resources().contains::<crate::minimise::MinimiserStatus>() {
             true => crate::systems::fire_minimiser::FIRE_MINIMISER,
             false => "langevin_integration",
@@ -310,17 +310,17 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
     }
 }
 
-/// Edge flips as Metropolis moves ([`crate::edge_flip`]) under `terms`
+/// Edge flips as Metropolis moves ([`crate::remesh::flip`]) under `terms`
 /// (V_in's segmentation from the Vin plugin, added before; penalty
 /// targets resolved against the initial mesh), in the Remesh stage after
 /// any split/merge.
 pub fn edge_flips(
     params: crate::params::EdgeFlipParams,
-    terms: crate::edge_flip::FlipTerms,
+    terms: crate::remesh::flip::FlipTerms,
     valence: ValenceRange,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::edge_flip::FlipEnergy;
+        use crate::remesh::flip::FlipEnergy;
         let vin = match terms.vin {
             Some(form) => {
                 let seg =

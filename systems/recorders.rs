@@ -1,4 +1,4 @@
-//! The built-in recorders: what every frame holds (see [`crate::recorder`]).
+//! The built-in recorders: what every frame holds (see [`crate::engine::recorder`]).
 //!
 //! - [`StateColumns`]: `iteration,time,dt,vertices`, `energy_<term>` per
 //!   term, `energy_total,area,volume,reduced_volume,edge_min,edge_max,
@@ -17,12 +17,12 @@
 //!   the force one named control point's springs exert on the membrane.
 
 use crate::analysis::tube_radius::TubeProbe;
-use crate::force::ForceBuffers;
-use crate::membrane::Membrane;
-use crate::recorder::{FrameData, Recorder, read_error};
+use crate::engine::force::ForceBuffers;
+use crate::engine::recorder::{FrameData, Recorder, read_error};
+use crate::engine::resources::{Access, CheckedResources, FetchError};
+use crate::engine::simulation::{Clock, DenseLipid, DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 use crate::remesh::RemeshStats;
-use crate::resources::{Access, CheckedResources, FetchError};
-use crate::simulation::{Clock, DenseLipid, DensePositions, SimError};
 use crate::systems::barrier_check::AbnormalEdges;
 use crate::timestep::TimeStepChoice;
 
@@ -51,8 +51,8 @@ impl Recorder for StateColumns {
         let t = membrane.cached_topology();
         let positions = s.get::<DensePositions>().map_err(&err)?;
         let p = &positions.0;
-        let area = crate::geometry::total_area(p, &t.faces);
-        let volume = crate::geometry::enclosed_volume(p, &t.faces, p[0]);
+        let area = crate::mesh::geometry::total_area(p, &t.faces);
+        let volume = crate::mesh::geometry::enclosed_volume(p, &t.faces, p[0]);
         let (mut lmin, mut lmax) = (f64::INFINITY, 0.0f64);
         for &[a, b] in &t.edges {
             let l = p[a as usize].distance(p[b as usize]);
@@ -73,7 +73,7 @@ impl Recorder for StateColumns {
         frame.column("volume", volume);
         frame.column(
             "reduced_volume",
-            crate::geometry::reduced_volume(volume, area),
+            crate::mesh::geometry::reduced_volume(volume, area),
         );
         frame.column("edge_min", lmin);
         frame.column("edge_max", lmax);
@@ -130,7 +130,10 @@ impl Recorder for MeanCurvatureField {
         let err = read_error("mean_curvature");
         let membrane = s.get::<Membrane>().map_err(&err)?;
         let positions = s.get::<DensePositions>().map_err(&err)?;
-        let k = crate::geometry::curvature_vectors(&positions.0, &membrane.cached_topology().faces);
+        let k = crate::mesh::geometry::curvature_vectors(
+            &positions.0,
+            &membrane.cached_topology().faces,
+        );
         frame.scalars("mean_curvature", k.iter().map(|k| k.length()).collect());
         Ok(())
     }
@@ -248,7 +251,7 @@ impl Recorder for ControlPointForce {
     }
 
     fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        use crate::components::{ControlPoint, ControlPointIndex};
+        use crate::mesh::components::{ControlPoint, ControlPointIndex};
         let err = read_error(&self.name);
         let membrane = s.get::<Membrane>().map_err(&err)?;
         let p = &s.get::<DensePositions>().map_err(&err)?.0;

@@ -19,15 +19,17 @@
 //! fluid model every move is tangential, and with direct edits
 //! ([`crate::params::FluidEdits::Direct`]) the pre-relaxation is skipped.
 
-use crate::components::Position;
-use crate::membrane::Membrane;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{
+    CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
+};
 use crate::mesh::ValenceRange;
+use crate::mesh::components::Position;
+use crate::mesh::membrane::Membrane;
 use crate::params::{DynamicsParams, RemeshParams};
-use crate::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
+use crate::remesh::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
 use crate::remesh::{EdgeOp, RemeshStats};
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError};
 use crate::systems::barrier_check::AbnormalEdges;
 use crate::systems::vin_forces::VinSegmentation;
 use crate::util::rng::stream_seed;

@@ -4,7 +4,7 @@
 //! Writes: force accumulator. Units: k in Ē/l̄², d0 in l̄.
 
 use crate::energy::self_avoidance::{CellList, self_avoidance};
-use crate::force::{ForceContext, ForceTerm};
+use crate::engine::force::{ForceContext, ForceTerm};
 use crate::params::SelfAvoidanceParams;
 use glam::DVec3;
 

@@ -6,10 +6,10 @@
 //! vertex's 1-ring: each toward the point itself (as run) or, with the
 //! centroid coupling, the patch's centroid toward the point.
 
-use crate::cell_list::CellList;
-use crate::components::ControlPoint;
 use crate::energy::springs::control_point_springs;
-use crate::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
+use crate::mesh::cell_list::CellList;
+use crate::mesh::components::ControlPoint;
 use crate::params::SpringCoupling;
 use glam::DVec3;
 

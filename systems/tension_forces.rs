@@ -5,7 +5,7 @@
 //! Ē/l̄².
 
 use crate::energy::tension::surface_tension;
-use crate::force::{ForceContext, ForceTerm};
+use crate::engine::force::{ForceContext, ForceTerm};
 use glam::DVec3;
 
 /// The constant-tension force system.

@@ -4,12 +4,12 @@
 //! each vertex), [`DensePositions`], [`FaceGeometry`] (its normals and areas
 //! when a force term had them computed). Writes: [`VertexNormals`].
 
+use crate::engine::force::FaceGeometry;
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{DensePositions, SimError};
 use crate::fluid::{vertex_normals, vertex_normals_from_faces};
-use crate::force::FaceGeometry;
-use crate::membrane::Membrane;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 
 /// Unit area-weighted vertex normals, n_i ∝ Σ_{f∋i} A_f n̂_f ∝ ∇_i V, by

@@ -7,10 +7,10 @@
 //! [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
 
 use crate::energy::vin::VinEdgeSamples;
-use crate::membrane::Membrane;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
-use crate::simulation::{DensePositions, SimError};
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::engine::simulation::{DensePositions, SimError};
+use crate::mesh::membrane::Membrane;
 use crate::systems::vin_forces::VinSegmentation;
 
 /// The edge-sampling system.

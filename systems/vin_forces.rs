@@ -6,7 +6,7 @@
 //! the chord slope of l's segment (piecewise-linear form) or the exact slope.
 
 use crate::energy::vin::{Segmentation, VinForm};
-use crate::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 use std::sync::Arc;
 

@@ -5,7 +5,7 @@
 //! Ē/l̄³, V_t in l̄³.
 
 use crate::energy::penalty::volume_penalty;
-use crate::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 
 /// The volume-penalty force system with a resolved target volume.

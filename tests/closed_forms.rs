@@ -5,13 +5,13 @@
 use glam::DVec3;
 use remembrane::energy::bending::{BendingScratch, bending};
 use remembrane::energy::vin::{Segmentation, VinParams};
-use remembrane::geometry::{enclosed_volume, reduced_volume, total_area};
+use remembrane::mesh::geometry::{enclosed_volume, reduced_volume, total_area};
 use remembrane::mesh::{icosphere, icosphere_unit};
 use std::f64::consts::PI;
 
 fn bending_of(mesh: &remembrane::mesh::SurfaceMesh, kappa: f64, c0: f64) -> f64 {
     let mut geometry = Vec::new();
-    remembrane::geometry::face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
+    remembrane::mesh::geometry::face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
     let n = mesh.vertex_count();
     bending(
         n,

@@ -1,7 +1,7 @@
 //! Scheduled control-point changes are pure scene data and act on the run.
 
 use glam::DVec3;
-use remembrane::components::{ControlPoint, ControlPointIndex};
+use remembrane::mesh::components::{ControlPoint, ControlPointIndex};
 use remembrane::scene::Scene;
 use std::path::Path;
 
@@ -22,7 +22,7 @@ const SCENE: &str = r#"Scene(
     dynamics: (iterations: 100),
 )"#;
 
-fn points(sim: &remembrane::simulation::Simulation) -> Vec<ControlPoint> {
+fn points(sim: &remembrane::engine::simulation::Simulation) -> Vec<ControlPoint> {
     let mut v: Vec<(u32, ControlPoint)> = sim
         .membrane()
         .world
@@ -68,7 +68,7 @@ fn the_membrane_follows_a_moved_control_point() {
         .unwrap()
         .build(path)
         .unwrap();
-    let x_max = |sim: &remembrane::simulation::Simulation| {
+    let x_max = |sim: &remembrane::engine::simulation::Simulation| {
         sim.positions()
             .iter()
             .map(|p: &DVec3| p.x)
@@ -113,7 +113,7 @@ fn centroid_coupling_keeps_the_net_pull_and_drops_the_squeeze() {
     use remembrane::params::SpringCoupling;
     let mut mesh = remembrane::mesh::icosphere(3, 1.0);
     mesh.jitter(0.1, 5);
-    let mut membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let t = membrane.topology().unwrap().clone();
     let point = ControlPoint {
         position: DVec3::new(8.0, 2.0, -1.0),

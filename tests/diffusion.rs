@@ -3,9 +3,9 @@
 //! finite diffusion give uniform ρ.
 
 use glam::DVec3;
-use remembrane::components::LipidDensity;
-use remembrane::membrane::Membrane;
+use remembrane::mesh::components::LipidDensity;
 use remembrane::mesh::icosphere;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::params::BlockedRegion;
 use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
@@ -13,7 +13,7 @@ use remembrane::systems::lipid_diffusion::{blocked, diffuse};
 use remembrane::systems::remesh::RemeshTriggered;
 use std::path::Path;
 
-fn sphere() -> (Vec<DVec3>, remembrane::topology::Topology) {
+fn sphere() -> (Vec<DVec3>, remembrane::mesh::topology::Topology) {
     let mesh = icosphere(3, 1.0);
     let mut m = Membrane::from_mesh(&mesh, true).unwrap();
     let t = m.topology().unwrap().clone();
@@ -141,7 +141,7 @@ fn instant_diffusion_and_remeshing_conserve_density() {
         );
         let scene = Scene::from_ron_str(&text, &path).unwrap();
         let mut sim = scene.build(&path).unwrap();
-        let density = |sim: &remembrane::simulation::Simulation| -> Vec<f64> {
+        let density = |sim: &remembrane::engine::simulation::Simulation| -> Vec<f64> {
             sim.membrane()
                 .world
                 .query::<&LipidDensity>()

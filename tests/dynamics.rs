@@ -3,14 +3,14 @@
 
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinParams};
-use remembrane::force::ForceBuffers;
-use remembrane::membrane::Membrane;
+use remembrane::engine::force::ForceBuffers;
+use remembrane::engine::resources::{ResMut, ResourceId, Resources};
+use remembrane::engine::schedule::{ScheduleBuilder, ScheduleError, Stage, System};
+use remembrane::engine::simulation::{Clock, DensePositions, Seed, SimError, Simulation};
 use remembrane::mesh::icosphere;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::params::DynamicsParams;
-use remembrane::resources::{ResMut, ResourceId, Resources};
 use remembrane::scene::Scene;
-use remembrane::schedule::{ScheduleBuilder, ScheduleError, Stage, System};
-use remembrane::simulation::{Clock, DensePositions, Seed, SimError, Simulation};
 use remembrane::timestep::{Limiter, choose_time_step, edge_time_step};
 use remembrane::workflow::run::{RunOptions, run_scene};
 use std::path::{Path, PathBuf};
@@ -339,7 +339,7 @@ fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
     let volume = |s: &Simulation| {
         let membrane = s.resource::<Membrane>();
         let p = s.positions();
-        remembrane::geometry::enclosed_volume(&p, &membrane.cached_topology().faces, p[0])
+        remembrane::mesh::geometry::enclosed_volume(&p, &membrane.cached_topology().faces, p[0])
     };
     // The deflating sphere first shrinks fast, then sits near a saddle
     // (v ≈ 1 at reduced area) until the jitter grows into a shape change:
@@ -616,7 +616,7 @@ fn run_unstable(dir: &Path, out: &Path, mobility: f64) -> remembrane::workflow::
 #[test]
 fn measured_edge_samples_change_no_bit_of_the_vin_force_or_the_time_step() {
     use remembrane::energy::vin::VinEdgeSamples;
-    use remembrane::force::{ForceContext, ForceTerm};
+    use remembrane::engine::force::{ForceContext, ForceTerm};
     use std::sync::Arc;
     let seg = Arc::new(Segmentation::new(VinParams::default()));
     let mut mesh = icosphere(3, 1.0);

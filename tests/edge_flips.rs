@@ -5,12 +5,12 @@
 mod common;
 
 use glam::DVec3;
-use remembrane::edge_flip::{Flip, FlipEnergy, FlipTotals};
 use remembrane::energy::bending::{BendingScratch, bending};
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
-use remembrane::geometry::{enclosed_volume, face_geometry, total_area};
-use remembrane::membrane::Membrane;
+use remembrane::mesh::geometry::{enclosed_volume, face_geometry, total_area};
 use remembrane::mesh::icosphere;
+use remembrane::mesh::membrane::Membrane;
+use remembrane::remesh::flip::{Flip, FlipEnergy, FlipTotals};
 use std::sync::Arc;
 
 /// The whole energy of the terms in `model` for `faces` at `p`.
@@ -191,7 +191,7 @@ fn noise_with_split_merge_remeshing_carries_a_caution_and_flips_do_not() {
 /// and some of the nine do.
 #[test]
 fn flips_leave_the_rings_under_control_points_alone() {
-    use remembrane::simulation::DensePositions;
+    use remembrane::engine::simulation::DensePositions;
     let mesh = icosphere(3, 1.0);
     let m = Membrane::from_mesh(&mesh, false).unwrap();
     let t = m.cached_topology();
@@ -229,7 +229,7 @@ fn flips_leave_the_rings_under_control_points_alone() {
         .unwrap()
         .build(&path)
         .unwrap();
-    let rings = |sim: &remembrane::simulation::Simulation| {
+    let rings = |sim: &remembrane::engine::simulation::Simulation| {
         let p = &sim.resource::<DensePositions>().0;
         let membrane = sim.membrane();
         let t = membrane.cached_topology();

@@ -8,10 +8,10 @@ mod common;
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::energy::vin_elasticity::network_moduli;
+use remembrane::engine::force::ForceKind;
+use remembrane::engine::simulation::Simulation;
 use remembrane::fluid::vertex_normal;
-use remembrane::force::ForceKind;
 use remembrane::scene::Scene;
-use remembrane::simulation::Simulation;
 use std::path::Path;
 
 /// A level-4 icosphere (mean edge 1 l̄) with V_in (exact form) and bending,
@@ -280,7 +280,7 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
 /// Edges of the current mesh that are not locally Delaunay although a
 /// maintenance flip may take them (valence and dihedral guards).
 fn flippable_non_delaunay(sim: &Simulation, max_dihedral: f64) -> usize {
-    use remembrane::edge_flip::Flip;
+    use remembrane::remesh::flip::Flip;
     use remembrane::systems::maintenance_flips::{dihedral, is_non_delaunay};
     let membrane = sim.membrane();
     let mut p = Vec::new();
@@ -317,7 +317,7 @@ fn maintenance_flips_make_a_jittered_fluid_mesh_delaunay_and_count_it() {
         .unwrap()
         .build(path)
         .unwrap();
-    sim.insert_resource(remembrane::simulation::CheckInvariants(true))
+    sim.insert_resource(remembrane::engine::simulation::CheckInvariants(true))
         .unwrap();
     let before = flippable_non_delaunay(&sim, 20.0);
     assert!(before > 20, "the jitter leaves {before} non-Delaunay edges");

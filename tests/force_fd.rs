@@ -4,12 +4,12 @@
 //! stated per test: the round-off level of the difference quotient).
 
 use glam::DVec3;
-use remembrane::components::ControlPoint;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
+use remembrane::engine::force::ForceTerm;
 use remembrane::fd::{FdOptions, Stencil, check_force_term};
-use remembrane::force::ForceTerm;
-use remembrane::membrane::Membrane;
 use remembrane::mesh::SurfaceMesh;
+use remembrane::mesh::components::ControlPoint;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::params::{BendingDiscretisation, BendingParams, SpringCoupling};
 use remembrane::systems::*;
 use std::sync::Arc;
@@ -162,7 +162,8 @@ fn piecewise_linear_vin_force_matches_finite_differences() {
 fn volume_force_matches_finite_differences() {
     for (level, seed) in [(2, 51), (3, 52)] {
         let mesh = perturbed(level, seed);
-        let v0 = remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
+        let v0 =
+            remembrane::mesh::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
         let mut term = VolumeForces::new(4.0, 0.6 * v0);
         check("volume", &mesh, &mut term, false, opts(1e-8));
     }
@@ -172,7 +173,7 @@ fn volume_force_matches_finite_differences() {
 fn area_force_matches_finite_differences() {
     for (level, seed) in [(2, 61), (3, 62)] {
         let mesh = perturbed(level, seed);
-        let a0 = remembrane::geometry::total_area(&mesh.positions, &mesh.faces);
+        let a0 = remembrane::mesh::geometry::total_area(&mesh.positions, &mesh.faces);
         let mut term = AreaForces::new(8.0, 1.05 * a0);
         check("area", &mesh, &mut term, false, opts(1e-8));
     }
@@ -191,7 +192,7 @@ fn tension_force_matches_finite_differences() {
 fn local_tension_force_matches_finite_differences() {
     for (level, seed) in [(2, 71), (3, 72)] {
         let mesh = perturbed(level, seed);
-        let a0 = remembrane::geometry::total_area(&mesh.positions, &mesh.faces)
+        let a0 = remembrane::mesh::geometry::total_area(&mesh.positions, &mesh.faces)
             / mesh.vertex_count() as f64;
         let mut term = LocalTensionForces::new(12.0, 1.1 * a0);
         check("local tension", &mesh, &mut term, true, opts(1e-9));

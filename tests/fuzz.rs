@@ -58,7 +58,7 @@ impl Kind {
             Kind::State => root.join("fuzz_state.json"),
             Kind::Checkpoint => root
                 .join(format!("{CHECKPOINT_RUN}.incomplete"))
-                .join(remembrane::checkpoint::CHECKPOINT_FILE),
+                .join(remembrane::io::checkpoint::CHECKPOINT_FILE),
             Kind::Ply => root.join("fuzz_mesh.ply"),
             Kind::Obj => root.join("fuzz_mesh.obj"),
         }
@@ -71,7 +71,7 @@ impl Kind {
             Kind::Protocol => remembrane::workflow::protocol::Protocol::load(path).is_ok(),
             Kind::Sweep => remembrane::workflow::sweep::Sweep::parse(path).is_ok(),
             Kind::Diagram => remembrane::workflow::shape_diagram::ShapeDiagram::load(path).is_ok(),
-            Kind::State => remembrane::state::SavedState::read(path).is_ok(),
+            Kind::State => remembrane::io::state::SavedState::read(path).is_ok(),
             Kind::Checkpoint => read_checkpoint(path),
             Kind::Ply | Kind::Obj => read_mesh(path).is_ok(),
         }
@@ -82,10 +82,11 @@ impl Kind {
 /// with lipid density (building its scene is the scene reader's part).
 fn read_checkpoint(path: &Path) -> bool {
     let run = path.parent().unwrap().with_extension("");
-    let Ok(checkpoint) = remembrane::checkpoint::Checkpoint::read(&run) else {
+    let Ok(checkpoint) = remembrane::io::checkpoint::Checkpoint::read(&run) else {
         return false;
     };
-    let mut membrane = remembrane::membrane::Membrane::from_mesh(&icosphere(1, 1.0), true).unwrap();
+    let mut membrane =
+        remembrane::mesh::membrane::Membrane::from_mesh(&icosphere(1, 1.0), true).unwrap();
     checkpoint.world.restore(&mut membrane).is_ok()
 }
 
@@ -168,7 +169,7 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
     let pair = docked_pair(1);
     for mesh in [&small, &pair] {
         let lipid = vec![1.0; mesh.positions.len()];
-        let state = remembrane::state::SavedState::new("fuzz", 1, 10, 0.5, mesh, &lipid);
+        let state = remembrane::io::state::SavedState::new("fuzz", 1, 10, 0.5, mesh, &lipid);
         out.push((Kind::State, state.to_json().into_bytes()));
         let mut ply = Vec::new();
         let scalars = [VertexScalar {
@@ -409,7 +410,7 @@ fn seed() -> u64 {
 /// checked (and, in debug builds, the incremental topology against a full
 /// rebuild). Returns (applied, rejected).
 fn fuzz_remesh(operations: usize, seed: u64) -> (usize, usize) {
-    use remembrane::membrane::Membrane;
+    use remembrane::mesh::membrane::Membrane;
     use remembrane::remesh::{merge_edge, split_edge};
     // Wide enough for the docked pair (its seam has valence 10).
     let range = ValenceRange { min: 4, max: 10 };

@@ -2,7 +2,7 @@
 //! bounds or stops with a typed error that names the cause and the fix,
 //! never writing a bad frame.
 
-use remembrane::error::{FoldCause, SimError};
+use remembrane::engine::error::{FoldCause, SimError};
 use remembrane::scene::Scene;
 use remembrane::workflow::run::{RunError, RunSummary, run_scene};
 use std::path::{Path, PathBuf};

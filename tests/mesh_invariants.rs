@@ -3,8 +3,8 @@
 //! valid meshes valid.
 
 use glam::DVec3;
-use remembrane::membrane::Membrane;
 use remembrane::mesh::io::{MeshIoError, read_mesh, write_mesh};
+use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::{MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere};
 
 fn sphere() -> SurfaceMesh {

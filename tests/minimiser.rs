@@ -80,7 +80,7 @@ fn removing_the_reactions_leaves_a_force_that_keeps_area_and_volume() {
 #[test]
 fn the_projection_reaches_both_targets_and_approaches_far_ones_in_bounded_steps() {
     let mesh = perturbed_sphere();
-    let mut membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let topology = membrane.topology().unwrap().clone();
     let mut g = Gradients::default();
     g.measure(&mesh.positions, &mesh.faces);

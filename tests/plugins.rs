@@ -3,11 +3,13 @@
 //! and a system gets only the resources it declared.
 
 use glam::DVec3;
-use remembrane::force::{ForceContext, ForceTerm};
-use remembrane::resources::{CheckedResources, FetchError, Res, ResMut};
+use remembrane::engine::force::{ForceContext, ForceTerm};
+use remembrane::engine::resources::{CheckedResources, FetchError, Res, ResMut};
+use remembrane::engine::schedule::{DynamicSystem, Stage, System};
+use remembrane::engine::simulation::{
+    BuildError, Clock, DensePositions, SimBuilder, SimError, Simulation,
+};
 use remembrane::scene::Scene;
-use remembrane::schedule::{DynamicSystem, Stage, System};
-use remembrane::simulation::{BuildError, Clock, DensePositions, SimBuilder, SimError, Simulation};
 use std::path::Path;
 
 /// A uniform external field: E = −Σ_i F·x_i, so every vertex feels F.
@@ -109,12 +111,16 @@ fn a_force_term_added_after_the_scene_is_built_moves_the_centroid_by_mu_f_t() {
 fn a_plugin_registering_a_force_term_on_the_builder_moves_the_centroid_by_mu_f_t() {
     use remembrane::systems::plugins;
     let mesh = remembrane::mesh::icosphere(2, 1.0);
-    let membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
-    let initial = remembrane::simulation::InitialState {
+    let membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let initial = remembrane::engine::simulation::InitialState {
         vertices: mesh.vertex_count(),
         lipid_total: mesh.vertex_count() as f64,
-        area: remembrane::geometry::total_area(&mesh.positions, &mesh.faces),
-        volume: remembrane::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO),
+        area: remembrane::mesh::geometry::total_area(&mesh.positions, &mesh.faces),
+        volume: remembrane::mesh::geometry::enclosed_volume(
+            &mesh.positions,
+            &mesh.faces,
+            DVec3::ZERO,
+        ),
     };
     let field = |b: &mut SimBuilder| -> Result<(), BuildError> {
         b.add_force_term(UniformField(FIELD))?;
@@ -144,8 +150,8 @@ fn a_plugin_registering_a_force_term_on_the_builder_moves_the_centroid_by_mu_f_t
 #[test]
 fn a_force_term_without_the_core_plugin_is_refused_with_the_reason() {
     let mesh = remembrane::mesh::icosphere(1, 1.0);
-    let membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
-    let initial = remembrane::simulation::InitialState {
+    let membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let initial = remembrane::engine::simulation::InitialState {
         vertices: 0,
         lipid_total: 0.0,
         area: 0.0,
@@ -174,7 +180,7 @@ fn a_custom_term_that_goes_non_finite_stops_the_run_naming_it() {
 fn a_custom_term_passes_the_finite_difference_check() {
     let mut mesh = remembrane::mesh::icosphere(2, 1.0);
     mesh.jitter(0.05, 3);
-    let mut membrane = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let topology = membrane.topology().unwrap().clone();
     let report = remembrane::fd::check_force_term(
         &mut UniformField(FIELD),
@@ -234,8 +240,8 @@ impl DynamicSystem for Undeclared {
     fn name(&self) -> &str {
         "undeclared"
     }
-    fn access(&self) -> remembrane::resources::Access {
-        remembrane::resources::Access::default().read::<Clock>()
+    fn access(&self) -> remembrane::engine::resources::Access {
+        remembrane::engine::resources::Access::default().read::<Clock>()
     }
     fn run(&mut self, res: &CheckedResources<'_>) -> Result<(), SimError> {
         let _clock = res.get::<Clock>().unwrap();
@@ -285,8 +291,8 @@ struct FieldParams {
 #[serde(deny_unknown_fields)]
 struct NoParams {}
 
-fn registry() -> remembrane::registry::PluginRegistry {
-    let mut r = remembrane::registry::PluginRegistry::new();
+fn registry() -> remembrane::scene::registry::PluginRegistry {
+    let mut r = remembrane::scene::registry::PluginRegistry::new();
     r.register_term("uniform_field", |p: FieldParams, b: &mut SimBuilder| {
         let (x, y, z) = p.force;
         b.add_force_term(UniformField(DVec3::new(x, y, z)))?;
@@ -448,21 +454,21 @@ impl ForceTerm for Counting {
 /// A column `height` (max z) and a point array `height_field` (z).
 struct Height;
 
-impl remembrane::recorder::Recorder for Height {
+impl remembrane::engine::recorder::Recorder for Height {
     fn name(&self) -> &str {
         "height"
     }
-    fn access(&self) -> remembrane::resources::Access {
-        remembrane::resources::Access::default().read::<DensePositions>()
+    fn access(&self) -> remembrane::engine::resources::Access {
+        remembrane::engine::resources::Access::default().read::<DensePositions>()
     }
     fn record(
         &mut self,
         s: &CheckedResources<'_>,
-        frame: &mut remembrane::recorder::FrameData,
+        frame: &mut remembrane::engine::recorder::FrameData,
     ) -> Result<(), SimError> {
         let p = s
             .get::<DensePositions>()
-            .map_err(remembrane::recorder::read_error("height"))?;
+            .map_err(remembrane::engine::recorder::read_error("height"))?;
         let z: Vec<f64> = p.0.iter().map(|p| p.z).collect();
         frame.column("height", z.iter().copied().fold(f64::MIN, f64::max));
         frame.scalars("height_field", z);

@@ -3,8 +3,8 @@
 
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
-use remembrane::components::LipidDensity;
-use remembrane::membrane::Membrane;
+use remembrane::mesh::components::LipidDensity;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::{ValenceRange, check_mesh, icosphere};
 use remembrane::remesh::{
     Candidates, choose, edge_region, merge_candidates, merge_edge, split_candidates, split_edge,
@@ -89,7 +89,7 @@ fn choosing_best_first_picks_what_checking_every_candidate_picks() {
     let m = membrane(3, 0.3, 11);
     let position = |v: hecs::Entity| {
         m.world
-            .get::<&remembrane::components::Position>(v)
+            .get::<&remembrane::mesh::components::Position>(v)
             .map(|p| p.0)
             .unwrap_or(DVec3::ZERO)
     };
@@ -154,7 +154,7 @@ fn merge_options_of_a_regular_neighbourhood_match_the_hand_count() {
     let r = edge_region(&m, e).unwrap();
     let at = |v| {
         m.world
-            .get::<&remembrane::components::Position>(v)
+            .get::<&remembrane::mesh::components::Position>(v)
             .unwrap()
             .0
     };
@@ -242,7 +242,7 @@ fn random_split_merge_sequences_keep_every_invariant_and_conserve_density() {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Coverage(f64);
 
-impl remembrane::vertex_field::ScalarComponent for Coverage {
+impl remembrane::mesh::vertex_field::ScalarComponent for Coverage {
     fn value(&self) -> f64 {
         self.0
     }
@@ -253,8 +253,8 @@ impl remembrane::vertex_field::ScalarComponent for Coverage {
 
 #[test]
 fn every_registered_field_follows_its_transfer_policy_through_splits_and_merges() {
+    use remembrane::mesh::vertex_field::TransferPolicy;
     use remembrane::remesh::EdgeOp;
-    use remembrane::vertex_field::TransferPolicy;
     let mut m = membrane(3, 0.02, 4);
     m.add_vertex_field::<Coverage>("coverage", TransferPolicy::Interpolate, |slot, p| {
         0.5 + 0.4 * p.z.signum() + 1e-3 * slot as f64

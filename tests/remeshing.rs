@@ -3,13 +3,13 @@
 //! valences stay in range and Σρ is conserved.
 
 use rand::SeedableRng;
-use remembrane::components::LipidDensity;
 use remembrane::energy::vin::{Segmentation, VinParams};
-use remembrane::force::ForceBuffers;
-use remembrane::relax::{
+use remembrane::engine::force::ForceBuffers;
+use remembrane::mesh::components::LipidDensity;
+use remembrane::remesh::RemeshStats;
+use remembrane::remesh::relax::{
     Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, Relaxed, relax, rings, stable_alpha1_beta1,
 };
-use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
 use remembrane::systems::barrier_check::AbnormalEdges;
 use remembrane::systems::vin_forces::VinSegmentation;
@@ -56,7 +56,7 @@ fn check_stable_sample(xs: &[f64]) {
 fn stretched_patch() -> (Patch, Segmentation) {
     let seg = Segmentation::new(VinParams::default());
     let mesh = remembrane::mesh::icosphere(3, 1.0);
-    let mut m = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let mut m = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let t = m.topology().unwrap().clone();
     let [a, b] = t.edges[100];
     let moveable = rings(&t, &[a, b], 1);
@@ -126,7 +126,7 @@ fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
     let mut scene = Scene::load(&path).unwrap();
     scene.lipid_density = true;
     let mut sim = scene.build(&path).unwrap();
-    let total = |sim: &remembrane::simulation::Simulation| -> f64 {
+    let total = |sim: &remembrane::engine::simulation::Simulation| -> f64 {
         let mut v: Vec<f64> = sim
             .membrane()
             .world

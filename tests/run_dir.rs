@@ -1,8 +1,8 @@
-//! The typed run-directory reader (`remembrane::run_dir`): a run's
+//! The typed run-directory reader (`remembrane::io::run_dir`): a run's
 //! `summary.json` and `series.csv` read back whole, and a renamed or
 //! missing field is an error naming the file and the field, not a NaN.
 
-use remembrane::run_dir::Series;
+use remembrane::io::run_dir::Series;
 use remembrane::workflow::run::RunSummary;
 use std::process::Command;
 

@@ -4,8 +4,8 @@
 
 use glam::DVec3;
 use remembrane::energy::self_avoidance::{CellList, self_avoidance, self_avoidance_brute_force};
-use remembrane::membrane::Membrane;
 use remembrane::mesh::icosphere;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::scene::Scene;
 use std::path::Path;
 

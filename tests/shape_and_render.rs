@@ -74,7 +74,7 @@ fn classifies_sphere_ellipsoid_discocyte_and_cup() {
 #[test]
 fn renders_a_decodable_png_with_the_mesh_in_both_views() {
     let rbc = mapped(evans_fung);
-    let bytes = remembrane::render::render_png(&rbc.positions, &rbc.faces, 120);
+    let bytes = remembrane::io::render::render_png(&rbc.positions, &rbc.faces, 120);
     let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     let mut reader = decoder.read_info().unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];

@@ -220,7 +220,7 @@ fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
         "--quiet".as_ref(),
     ];
     assert_eq!(
-        remembrane::cli::main_with_args(remembrane::registry::PluginRegistry::new(), run),
+        remembrane::cli::main_with_args(remembrane::scene::registry::PluginRegistry::new(), run),
         std::process::ExitCode::SUCCESS
     );
     let (kbt, kappa) = (0.1, 1.5);
@@ -260,7 +260,7 @@ fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
 /// those events are not detailed-balanced moves.
 #[test]
 fn a_vesicle_fluid_by_metropolis_flips_fluctuates_with_the_input_kappa() {
-    use remembrane::simulation::{CheckInvariants, Clock, DensePositions};
+    use remembrane::engine::simulation::{CheckInvariants, Clock, DensePositions};
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/flips.ron");
     let scene = remembrane::scene::Scene::load(&path).unwrap();

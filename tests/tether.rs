@@ -1,9 +1,9 @@
 //! The tether experiment's building blocks: saved states between phases,
 //! time-based control-point schedules, radius columns in series.csv.
 
-use remembrane::components::{ControlPoint, ControlPointIndex};
+use remembrane::io::state::SavedState;
+use remembrane::mesh::components::{ControlPoint, ControlPointIndex};
 use remembrane::scene::Scene;
-use remembrane::state::SavedState;
 use remembrane::workflow::run::{Progress, RunOptions, run_scene};
 use std::path::{Path, PathBuf};
 
@@ -61,7 +61,7 @@ fn a_phase_continues_from_the_saved_state_of_the_previous_one() {
         assert_eq!(gathered, rho, "densities are restored vertex by vertex");
         // a0 = A_t / Σρ.
         sim_pull = Some(
-            sim.resource::<remembrane::simulation::InitialState>()
+            sim.resource::<remembrane::engine::simulation::InitialState>()
                 .lipid_total,
         );
         Ok(())

@@ -7,11 +7,11 @@
 //! from the number of independent samples (named constants below).
 
 use glam::DVec3;
-use remembrane::force::{ForceContext, ForceTerm};
-use remembrane::membrane::Membrane;
+use remembrane::engine::force::{ForceContext, ForceTerm};
+use remembrane::engine::simulation::{DensePositions, InitialState, SimBuilder, Simulation};
 use remembrane::mesh::icosphere;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::params::DynamicsParams;
-use remembrane::simulation::{DensePositions, InitialState, SimBuilder, Simulation};
 use remembrane::systems::plugins;
 use remembrane::timestep::TimeStepChoice;
 

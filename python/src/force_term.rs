@@ -15,7 +15,7 @@ use glam::DVec3;
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use remembrane::force::{ForceContext, ForceTerm};
+use remembrane::engine::force::{ForceContext, ForceTerm};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 

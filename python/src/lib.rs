@@ -1,7 +1,7 @@
 //! `remembrane._core`: the compiled part of the `remembrane` Python package.
 //!
 //! It binds the engine's own types: [`remembrane::scene::Scene`] (with
-//! parameter-path overrides), [`remembrane::simulation::Simulation`] built
+//! parameter-path overrides), [`remembrane::engine::simulation::Simulation`] built
 //! and run through the same code as the CLI, force terms written in Python,
 //! the finite-difference checker, frame reading, sweeps and collection. The
 //! pure-Python layer (`remembrane/__init__.py`) adds `load_run`, meshio

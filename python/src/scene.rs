@@ -61,7 +61,7 @@ impl PyScene {
                 .map(|(p, v)| Ok((p, py_to_json(&v)?)))
                 .collect::<PyResult<_>>()?;
             self.scene =
-                remembrane::scene_override::set_parameters(&self.scene, &self.path, &changes)
+                remembrane::scene::overrides::set_parameters(&self.scene, &self.path, &changes)
                     .map_err(|e| scene_error(py, &e))?;
         }
         Ok(self)

@@ -11,11 +11,11 @@ use numpy::PyArray2;
 use pyo3::exceptions::{PyFileExistsError, PyKeyError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use remembrane::force::ForceBuffers;
-use remembrane::quality::MeshQuality;
+use remembrane::engine::force::ForceBuffers;
+use remembrane::engine::simulation::SimError;
+use remembrane::io::report::EnergyReport;
+use remembrane::mesh::quality::MeshQuality;
 use remembrane::remesh::RemeshStats;
-use remembrane::report::EnergyReport;
-use remembrane::simulation::SimError;
 use remembrane::workflow::run::{
     PreparedRun, Progress, RunError, RunOptions, drive_run, prepare_run,
 };
@@ -92,7 +92,7 @@ impl Inner {
         Ok(p)
     }
 
-    fn topology(&mut self) -> PyResult<&remembrane::topology::Topology> {
+    fn topology(&mut self) -> PyResult<&remembrane::mesh::topology::Topology> {
         self.run
             .sim
             .membrane_mut()
@@ -372,7 +372,7 @@ impl PySimulation {
             if let Some(map) = value.as_object_mut() {
                 map.extend(changes);
             }
-            let changed = remembrane::scene_override::set_parameters(
+            let changed = remembrane::scene::overrides::set_parameters(
                 &inner.scene.scene,
                 &inner.scene.path,
                 &[(
@@ -396,7 +396,7 @@ impl PySimulation {
             while sim.clock().iteration - start < cap {
                 sim.tick()?;
                 let done = sim
-                    .resource::<remembrane::simulation::StopRequest>()
+                    .resource::<remembrane::engine::simulation::StopRequest>()
                     .0
                     .is_some();
                 if done || stop() || errors.interrupted() {
@@ -527,7 +527,7 @@ impl PySimulation {
         self.evaluate(py, &mut inner)?;
         let buffers = inner.run.sim.resource::<ForceBuffers>();
         let d = PyDict::new(py);
-        for t in remembrane::report::term_energies(&buffers) {
+        for t in remembrane::io::report::term_energies(&buffers) {
             d.set_item(t.term, t.energy)?;
         }
         Ok(d)

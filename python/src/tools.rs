@@ -10,8 +10,8 @@ use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use remembrane::fd::{FdOptions, Stencil, check_force_term};
-use remembrane::membrane::Membrane;
 use remembrane::mesh::SurfaceMesh;
+use remembrane::mesh::membrane::Membrane;
 use std::path::PathBuf;
 
 type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);

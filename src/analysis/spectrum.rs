@@ -244,7 +244,7 @@ pub fn discrete_mode_stiffness(positions: &[DVec3], faces: &[[u32; 3]], l: usize
     let mut geometry = Vec::new();
     let mut scratch = BendingScratch::default();
     let mut energy = |p: &[DVec3]| {
-        crate::geometry::face_geometry(p, faces, &mut geometry);
+        crate::mesh::geometry::face_geometry(p, faces, &mut geometry);
         bending(p.len(), faces, &geometry, 1.0, 0.0, &mut scratch, None)
     };
     // ε: small against the mode's amplitude scale, large against round-off
@@ -510,7 +510,7 @@ fn write_outputs(
     write("spectrum.csv", csv.as_bytes())?;
     let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
     write("spectrum_fit.json", json.as_bytes())?;
-    use crate::plot::{Series, line_chart};
+    use crate::io::plot::{Series, line_chart};
     let ls: Vec<usize> = (s.l_min..=s.l_max).collect();
     let log = |v: f64| v.log10();
     let measured = Series {

@@ -8,7 +8,7 @@
 //! the adjoints ∂H/∂L_i and ∂H/∂A_i, and a second face pass pulls them back
 //! onto the corner positions ([`Corners::backward`]).
 
-use crate::geometry::{Corners, vertex_curvature_terms};
+use crate::mesh::geometry::{Corners, vertex_curvature_terms};
 use glam::DVec3;
 
 /// Reusable per-vertex buffers for [`bending`].

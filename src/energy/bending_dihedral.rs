@@ -18,8 +18,8 @@
 //! a vertex pass forms M_i, A_i and the adjoints ∂H/∂M_i, ∂H/∂A_i, and an
 //! edge pass and a face pass pull them back onto the positions.
 
-use crate::geometry::Corners;
-use crate::topology::Topology;
+use crate::mesh::geometry::Corners;
+use crate::mesh::topology::Topology;
 use glam::DVec3;
 
 /// Reusable buffers for [`bending_dihedral`].
@@ -209,7 +209,7 @@ mod tests {
 
     fn sphere(level: u32) -> (Vec<DVec3>, Topology) {
         let mesh = crate::mesh::icosphere(level, 1.0);
-        let mut m = crate::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+        let mut m = crate::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
         (mesh.positions.clone(), m.topology().unwrap().clone())
     }
 

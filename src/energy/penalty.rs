@@ -7,7 +7,7 @@
 //! The global penalties make one face pass that sums the quantity and its
 //! unscaled gradient, then scale the gradient by dE/dV (dE/dA).
 
-use crate::geometry::Corners;
+use crate::mesh::geometry::Corners;
 use glam::DVec3;
 
 /// Volume penalty energy; with `force`, adds −∇E_V. `gradient` is scratch.
@@ -21,7 +21,7 @@ pub fn volume_penalty(
 ) -> f64 {
     let origin = positions.first().copied().unwrap_or(DVec3::ZERO);
     let Some(force) = force else {
-        let volume = crate::geometry::enclosed_volume(positions, faces, origin);
+        let volume = crate::mesh::geometry::enclosed_volume(positions, faces, origin);
         return k * (volume - target).powi(2) / target;
     };
     // 6V = Σ a·(b × c) relative to a fixed origin; ∂(6V)/∂a = b × c, cyclically.
@@ -149,7 +149,7 @@ pub struct SmoothingScratch {
 /// `force` and a scratch buffer, so only an odd pass count copies once.
 pub fn smooth_over_rings(
     force: &mut [DVec3],
-    topology: &crate::topology::Topology,
+    topology: &crate::mesh::topology::Topology,
     passes: u32,
     scratch: &mut SmoothingScratch,
 ) {
@@ -203,7 +203,11 @@ mod tests {
     use super::*;
 
     /// The smoothing as first written: copy the forces, average into them.
-    fn smooth_by_copies(force: &mut [DVec3], topology: &crate::topology::Topology, passes: u32) {
+    fn smooth_by_copies(
+        force: &mut [DVec3],
+        topology: &crate::mesh::topology::Topology,
+        passes: u32,
+    ) {
         for _ in 0..passes {
             let previous = force.to_vec();
             for (i, f) in force.iter_mut().enumerate() {
@@ -219,7 +223,8 @@ mod tests {
     #[test]
     fn ping_pong_smoothing_has_the_bits_of_copying_for_every_pass_count() {
         let mut membrane =
-            crate::membrane::Membrane::from_mesh(&crate::mesh::icosphere(2, 1.0), false).unwrap();
+            crate::mesh::membrane::Membrane::from_mesh(&crate::mesh::icosphere(2, 1.0), false)
+                .unwrap();
         let topology = membrane.topology().unwrap().clone();
         let n = topology.vertex_count();
         let forces: Vec<DVec3> = (0..n)

@@ -11,14 +11,14 @@
 
 use glam::DVec3;
 
-pub use crate::cell_list::CellList;
+pub use crate::mesh::cell_list::CellList;
 
 /// The self-avoidance energy (Ē) with stiffness `k` (Ē/l̄²) and range `d0`
 /// (l̄); with `force`, adds −∇E. `topology` gives the 1-rings
 /// (CSR by vertex slot) whose pairs are excluded.
 pub fn self_avoidance(
     positions: &[DVec3],
-    topology: &crate::topology::Topology,
+    topology: &crate::mesh::topology::Topology,
     k: f64,
     d0: f64,
     cells: &mut CellList,
@@ -69,7 +69,7 @@ pub fn self_avoidance(
 /// The same energy by checking every pair (O(N²); a reference for tests).
 pub fn self_avoidance_brute_force(
     positions: &[DVec3],
-    topology: &crate::topology::Topology,
+    topology: &crate::mesh::topology::Topology,
     k: f64,
     d0: f64,
 ) -> f64 {

@@ -4,22 +4,22 @@
 //! (the as-run coupling), or ties the centroid of that patch to c
 //! ([`SpringCoupling::Centroid`]).
 
-use crate::components::ControlPoint;
+use crate::mesh::components::ControlPoint;
 use crate::params::SpringCoupling;
 use glam::DVec3;
 
 /// Index of the vertex nearest to `point` (ties: lowest index).
 pub fn nearest_vertex(positions: &[DVec3], point: DVec3) -> usize {
-    crate::cell_list::nearest_by_scan(positions, point)
+    crate::mesh::cell_list::nearest_by_scan(positions, point)
 }
 
 /// Spring energy; with `force`, adds the spring forces. Each control point
 /// attaches to its nearest vertex and its 1-ring, coupled as `coupling`
 /// says; `nearest[k]` is point k's nearest vertex ([`nearest_vertex`], or
-/// the same answer from a [`crate::cell_list::CellList`]).
+/// the same answer from a [`crate::mesh::cell_list::CellList`]).
 pub fn control_point_springs(
     positions: &[DVec3],
-    topology: &crate::topology::Topology,
+    topology: &crate::mesh::topology::Topology,
     points: &[ControlPoint],
     nearest: &[usize],
     coupling: SpringCoupling,
@@ -129,7 +129,7 @@ pub fn gaussian_patch(
 /// the force the membrane actually receives.
 pub fn delivered_force(
     positions: &[DVec3],
-    topology: &crate::topology::Topology,
+    topology: &crate::mesh::topology::Topology,
     cp: &ControlPoint,
     coupling: SpringCoupling,
     nearest: usize,

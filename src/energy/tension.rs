@@ -5,7 +5,7 @@
 //! reservoir at tension σ (the setting of the tether-pulling theory,
 //! Derényi, Jülicher & Prost, PRL 88, 238101 (2002)).
 
-use crate::geometry::Corners;
+use crate::mesh::geometry::Corners;
 use glam::DVec3;
 
 /// Tension energy σA from the faces' precomputed geometry; with `force`,

@@ -125,7 +125,7 @@ mod tests {
                 capsule_vertex_count(radius, length, 1.0)
             );
             let volume =
-                crate::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
+                crate::mesh::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
             let exact = PI * radius * radius * (length + 4.0 / 3.0 * radius);
             // Inscribed in the convex capsule: a little smaller (a ring of
             // 6 encloses 83 % of its circle).

@@ -1,14 +1,26 @@
-//! Plain triangle meshes: generation, import/export and invariant checks.
+//! The mesh: plain triangle meshes (generation, import/export, invariant
+//! checks), the hecs world's components and membrane, its dense topology
+//! and the edit layer, per-vertex fields, face geometry, quality and a
+//! spatial index.
 //!
 //! [`SurfaceMesh`] is the exchange format between files, generators and the
-//! hecs world ([`crate::membrane::Membrane`]). It is not used in hot loops.
+//! hecs world ([`crate::mesh::membrane::Membrane`]). It is not used in hot loops.
 
 mod capsule;
+pub mod cell_list;
+pub mod components;
 mod docking;
+pub mod edit;
+pub mod geometry;
 mod icosphere;
 pub mod invariants;
 pub mod io;
+pub mod membrane;
+pub mod quality;
 mod revolution;
+pub mod topology;
+pub mod topology_update;
+pub mod vertex_field;
 
 pub use capsule::{capsule, capsule_vertex_count};
 pub use docking::docked_pair;

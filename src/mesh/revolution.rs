@@ -229,7 +229,7 @@ pub fn revolution(profile: &[(f64, f64)], edge: f64) -> Result<SurfaceMesh, Prof
     }
     let rings = profile_rings(&nodes, edge);
     let mut mesh = from_rings(first.1, &rings, last.1);
-    let volume = crate::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
+    let volume = crate::mesh::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
     if volume < 0.0 {
         for f in &mut mesh.faces {
             f.swap(1, 2);
@@ -269,8 +269,11 @@ mod tests {
                     mesh.vertex_count(),
                     revolution_vertex_count(&circle(radius, 400, north_first), 1.0)
                 );
-                let volume =
-                    crate::geometry::enclosed_volume(&mesh.positions, &mesh.faces, DVec3::ZERO);
+                let volume = crate::mesh::geometry::enclosed_volume(
+                    &mesh.positions,
+                    &mesh.faces,
+                    DVec3::ZERO,
+                );
                 let exact = 4.0 / 3.0 * PI * radius.powi(3);
                 assert!(
                     volume > 0.85 * exact && volume < exact,

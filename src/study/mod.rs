@@ -268,20 +268,22 @@ impl Study {
             reason,
         };
         let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
-        let study: Study = crate::setting::ron_options().from_str(&text).map_err(|e| {
-            bad(format!(
-                "{}:{}: {}",
-                e.span.start.line, e.span.start.col, e.code
-            ))
-        })?;
-        if !crate::setting::valid_name(&study.name) {
+        let study: Study = crate::scene::setting::ron_options()
+            .from_str(&text)
+            .map_err(|e| {
+                bad(format!(
+                    "{}:{}: {}",
+                    e.span.start.line, e.span.start.col, e.code
+                ))
+            })?;
+        if !crate::scene::setting::valid_name(&study.name) {
             return Err(bad(format!(
                 "field `name`: `{}` must be a plain directory name",
                 study.name
             )));
         }
         for (k, peer) in study.peers.iter().enumerate() {
-            if !crate::setting::valid_name(&peer.name)
+            if !crate::scene::setting::valid_name(&peer.name)
                 || study.peers[..k].iter().any(|o| o.name == peer.name)
             {
                 return Err(bad(format!(
@@ -301,7 +303,9 @@ impl Study {
         let mut names = std::collections::HashSet::new();
         for (p, problem) in study.problems.iter().enumerate() {
             let field = |f: &str| format!("field `problems[{p}].{f}`");
-            if !crate::setting::valid_name(&problem.name) || !names.insert(problem.name.as_str()) {
+            if !crate::scene::setting::valid_name(&problem.name)
+                || !names.insert(problem.name.as_str())
+            {
                 return Err(bad(format!(
                     "{}: `{}` must be a unique name of letters, digits, `_`, `-` or `.`",
                     field("name"),
@@ -322,7 +326,9 @@ impl Study {
             }
             let mut labels = std::collections::HashSet::new();
             for (r, rung) in problem.rungs.iter().enumerate() {
-                if !crate::setting::valid_name(&rung.label) || !labels.insert(rung.label.as_str()) {
+                if !crate::scene::setting::valid_name(&rung.label)
+                    || !labels.insert(rung.label.as_str())
+                {
                     return Err(bad(format!(
                         "{}: `{}` must be a unique name of letters, digits, `_`, `-` or `.`",
                         field(&format!("rungs[{r}].label")),
@@ -383,9 +389,8 @@ impl Study {
             let scene =
                 Scene::load(&scene_path).map_err(|e| bad(format!("{}: {e}", field("scene"))))?;
             for (r, rung) in problem.rungs.iter().enumerate() {
-                let scene =
-                    crate::scene_override::set_parameters(&scene, &scene_path, &rung.set)
-                        .map_err(|e| bad(format!("{}: {e}", field(&format!("rungs[{r}].set")))))?;
+                let scene = crate::scene::overrides::set_parameters(&scene, &scene_path, &rung.set)
+                    .map_err(|e| bad(format!("{}: {e}", field(&format!("rungs[{r}].set")))))?;
                 check_reference(problem.reference, &scene).map_err(|reason| {
                     bad(format!("{}: {reason}", field(&format!("rungs[{r}]"))))
                 })?;

@@ -2,7 +2,7 @@
 //! the observed convergence order, the cheapest setting per error target,
 //! and the outputs `study.csv`, `study.md`, `study.json` and the charts.
 
-use crate::plot::{Chart, Legend, Marker, Scale, Series};
+use crate::io::plot::{Chart, Legend, Marker, Scale, Series};
 use crate::study::peer::{PeerOutput, PeerRun};
 use crate::study::reference::{Value, sphere_bending, spheroid_bending};
 use crate::study::{Case, Quantity, Reference, Resolution, Study, StudyError, bending_kappa};
@@ -151,7 +151,7 @@ struct RunData {
 
 fn read_run(dir: &Path) -> Result<RunData, String> {
     let summary = crate::workflow::run::RunSummary::read(dir).map_err(|e| e.to_string())?;
-    let series = crate::run_dir::Series::read(dir).map_err(|e| e.to_string())?;
+    let series = crate::io::run_dir::Series::read(dir).map_err(|e| e.to_string())?;
     let vertices = series.first("vertices").map_err(|e| e.to_string())?;
     let initial_bending = series.first("energy_bending").unwrap_or(f64::NAN);
     let rows = series
@@ -592,7 +592,7 @@ pub fn evaluate(study: &Study, cases: &[Case], peers: &[PeerRun], out: &Path) ->
 /// Observe (frames, series rows), so scene building and output are left
 /// out. The force terms count through their system's own row (`part_of`
 /// rows are parts of a system and may overlap in time).
-fn systems_time(timings: &[crate::schedule::SystemTiming]) -> f64 {
+fn systems_time(timings: &[crate::engine::schedule::SystemTiming]) -> f64 {
     if timings.is_empty() {
         return f64::NAN;
     }
@@ -964,11 +964,11 @@ pub fn charts(p: &ProblemResult) -> [(String, Vec<u8>); 2] {
     [
         (
             format!("{}_error_vs_cost.png", p.name),
-            crate::plot::chart(&cost),
+            crate::io::plot::chart(&cost),
         ),
         (
             format!("{}_error_vs_h.png", p.name),
-            crate::plot::chart(&resolution),
+            crate::io::plot::chart(&resolution),
         ),
     ]
 }
@@ -1001,7 +1001,7 @@ mod tests {
     #[test]
     fn systems_time_counts_each_system_once_and_leaves_out_observers() {
         let row = |system: &str, stage: &str, total_s: f64, part_of: Option<&str>| {
-            crate::schedule::SystemTiming {
+            crate::engine::schedule::SystemTiming {
                 system: system.into(),
                 stage: stage.into(),
                 total_s,

@@ -11,7 +11,7 @@
 //! axis, one line per condition, ± 1 sd) and `fig5e_<point>.png` (fitted
 //! curves per condition, one PNG per grid point).
 
-use crate::plot::{Series, line_chart};
+use crate::io::plot::{Series, line_chart};
 use crate::workflow::sweep::{RunSpec, SweepIndex};
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 //! events and the spread σ(|r|) of their positions, as a table, a CSV and
 //! a PNG bar chart.
 
-use crate::plot::{BarPanel, bar_chart};
+use crate::io::plot::{BarPanel, bar_chart};
 use crate::workflow::run::RunSummary;
 
 /// One row of the comparison.

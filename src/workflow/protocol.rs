@@ -18,8 +18,8 @@
 //! directory that looks like a result. A sweep can declare the same phases
 //! as its shared start ([`crate::workflow::sweep::Sweep::phases`]).
 
+use crate::scene::setting::Setting;
 use crate::scene::{Scene, SceneError};
-use crate::setting::Setting;
 use crate::workflow::run::{Progress, RunError, RunOptions, run_scene};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -180,12 +180,14 @@ impl Protocol {
         };
         let text =
             std::fs::read_to_string(path).map_err(|e| file_err(format!("cannot read: {e}")))?;
-        let protocol: Protocol = crate::setting::ron_options().from_str(&text).map_err(|e| {
-            file_err(format!(
-                "{}:{}: {}",
-                e.span.start.line, e.span.start.col, e.code
-            ))
-        })?;
+        let protocol: Protocol = crate::scene::setting::ron_options()
+            .from_str(&text)
+            .map_err(|e| {
+                file_err(format!(
+                    "{}:{}: {}",
+                    e.span.start.line, e.span.start.col, e.code
+                ))
+            })?;
         if protocol.phases.is_empty() {
             return Err(file_err(
                 "field `phases`: a protocol needs at least one phase".into(),
@@ -214,7 +216,7 @@ pub fn check_phases(
     let base = file.parent().unwrap_or(Path::new("."));
     let mut scenes = Vec::with_capacity(phases.len());
     for (i, p) in phases.iter().enumerate() {
-        if !crate::setting::valid_name(&p.name) {
+        if !crate::scene::setting::valid_name(&p.name) {
             return Err(err(
                 i,
                 "name",
@@ -345,7 +347,7 @@ pub struct PhaseRunOptions {
     /// instead of running them again.
     pub skip_completed: bool,
     /// Checkpoint every phase every so many iterations (see
-    /// [`crate::checkpoint`]).
+    /// [`crate::io::checkpoint`]).
     pub checkpoint_every: Option<u64>,
     /// Continue a killed protocol run in its staging directory: phases that
     /// completed are kept (and recorded as completed), the phase that was
@@ -377,7 +379,7 @@ impl ProtocolRun {
     /// The protocol run being staged for `dir`, if it was started with
     /// checkpoints.
     pub fn read(dir: &Path) -> Option<Result<Self, ProtocolError>> {
-        let path = crate::checkpoint::staging_of(dir).join(PROTOCOL_RUN);
+        let path = crate::io::checkpoint::staging_of(dir).join(PROTOCOL_RUN);
         let text = std::fs::read_to_string(&path).ok()?;
         Some(serde_json::from_str(&text).map_err(|e| ProtocolError::Io {
             path,
@@ -464,8 +466,8 @@ pub fn run_phases(
         };
         let resume_phase = options.resume
             && !ran_one
-            && crate::checkpoint::staging_of(&out)
-                .join(crate::checkpoint::CHECKPOINT_FILE)
+            && crate::io::checkpoint::staging_of(&out)
+                .join(crate::io::checkpoint::CHECKPOINT_FILE)
                 .exists();
         ran_one = true;
         let checkpoint =
@@ -590,11 +592,11 @@ pub fn run_protocol(
     };
     let staging = if options.resume {
         // The staging directory of the stopped run, as it was left.
-        crate::checkpoint::staging_of(out)
+        crate::io::checkpoint::staging_of(out)
     } else {
-        crate::output::prepare_staging(out, overwrite).map_err(|e| match e {
-            crate::output::OutputError::Exists(dir) => ProtocolError::Exists(dir),
-            crate::output::OutputError::Write { path, reason } => {
+        crate::io::output::prepare_staging(out, overwrite).map_err(|e| match e {
+            crate::io::output::OutputError::Exists(dir) => ProtocolError::Exists(dir),
+            crate::io::output::OutputError::Write { path, reason } => {
                 ProtocolError::Io { path, reason }
             }
         })?

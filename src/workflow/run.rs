@@ -1,17 +1,17 @@
 //! Running a scene to completion with outputs: the driver behind
 //! `remembrane run`.
 
-use crate::checkpoint::{Checkpoint, CheckpointError};
-use crate::output::{FrameSchedule, FrameWriter, OutputError, RunOutput};
-use crate::recorder::Recorders;
-use crate::remesh::RemeshStats;
-use crate::report::EnergyReport;
-use crate::scene::{Scene, SceneError};
-use crate::schedule::Stage;
-use crate::schedule::SystemTiming;
-use crate::simulation::{
+use crate::engine::recorder::Recorders;
+use crate::engine::schedule::Stage;
+use crate::engine::schedule::SystemTiming;
+use crate::engine::simulation::{
     CheckInvariants, DenseLipid, DensePositions, InitialState, SimError, Simulation,
 };
+use crate::io::checkpoint::{Checkpoint, CheckpointError};
+use crate::io::output::{FrameSchedule, FrameWriter, OutputError, RunOutput};
+use crate::io::report::EnergyReport;
+use crate::remesh::RemeshStats;
+use crate::scene::{Scene, SceneError};
 use crate::systems::barrier_check::AbnormalEdges;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -66,7 +66,7 @@ pub struct RunOptions {
     pub checkpoint: Option<CheckpointSettings>,
 }
 
-/// Checkpointing of a run (see [`crate::checkpoint`]).
+/// Checkpointing of a run (see [`crate::io::checkpoint`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CheckpointSettings {
     /// Iterations between checkpoints (at least 1).
@@ -139,7 +139,7 @@ pub struct RunSummary {
     /// the final state ([`crate::fluid::ModelSummary`]).
     pub model: crate::fluid::ModelSummary,
     /// Frames written.
-    pub frames: Vec<crate::output::FrameRecord>,
+    pub frames: Vec<crate::io::output::FrameRecord>,
     /// Wall time per system.
     pub timings: Vec<SystemTiming>,
 }
@@ -219,8 +219,8 @@ pub enum RunError {
     },
 }
 
-impl From<crate::topology::TopologyError> for RunError {
-    fn from(e: crate::topology::TopologyError) -> Self {
+impl From<crate::mesh::topology::TopologyError> for RunError {
+    fn from(e: crate::mesh::topology::TopologyError) -> Self {
         RunError::Sim(SimError::Topology(e))
     }
 }
@@ -353,7 +353,7 @@ pub fn prepare_resume(
     let load_path = source.working_dir.join(&source.scene_path);
     let scene = Scene::from_ron_str(&source.scene_text, &load_path)?;
     let options = RunOptions {
-        out: crate::checkpoint::run_dir_of(dir),
+        out: crate::io::checkpoint::run_dir_of(dir),
         overwrite: false,
         seed: source.seed,
         iterations: source.iterations,
@@ -370,7 +370,8 @@ pub fn prepare_resume(
     let initial = *run.sim.resource::<InitialState>();
     if initial != checkpoint.initial {
         return Err(RunError::Checkpoint(CheckpointError {
-            path: crate::checkpoint::staging_of(dir).join(crate::checkpoint::CHECKPOINT_FILE),
+            path: crate::io::checkpoint::staging_of(dir)
+                .join(crate::io::checkpoint::CHECKPOINT_FILE),
             reason: format!(
                 "the scene's membrane now starts with {} vertices, area {} and volume {}, the checkpointed run with {}, {} and {}: a mesh or state file it reads has changed",
                 initial.vertices,
@@ -443,8 +444,8 @@ pub fn drive_run(
             sim.start()?;
             checkpoint.restore_into(sim).map_err(|e| {
                 RunError::Checkpoint(CheckpointError {
-                    path: crate::checkpoint::staging_of(&options.out)
-                        .join(crate::checkpoint::CHECKPOINT_FILE),
+                    path: crate::io::checkpoint::staging_of(&options.out)
+                        .join(crate::io::checkpoint::CHECKPOINT_FILE),
                     reason: e.to_string(),
                 })
             })?;
@@ -453,7 +454,7 @@ pub fn drive_run(
     let source = options
         .checkpoint
         .as_ref()
-        .map(|c| crate::checkpoint::RunSource {
+        .map(|c| crate::io::checkpoint::RunSource {
             scene_path: scene_path.to_owned(),
             // A resumed run keeps the directory the run started in, which
             // its relative scene path is resolved against.
@@ -523,7 +524,11 @@ pub fn drive_run(
             stop = Some(e);
             break;
         }
-        if sim.resource::<crate::simulation::StopRequest>().0.is_some() {
+        if sim
+            .resource::<crate::engine::simulation::StopRequest>()
+            .0
+            .is_some()
+        {
             break;
         }
         if let Some(source) = &source
@@ -572,8 +577,15 @@ pub fn drive_run(
     // Only a completed run leaves a state to continue from.
     let clock = sim.clock();
     let state = stop.is_none().then(|| {
-        crate::state::SavedState::new(name, scene.seed, clock.iteration, clock.time, &mesh, &lipid)
-            .to_json()
+        crate::io::state::SavedState::new(
+            name,
+            scene.seed,
+            clock.iteration,
+            clock.time,
+            &mesh,
+            &lipid,
+        )
+        .to_json()
     });
     let dir = out.finish(&json, &mesh, &lipid, state.as_deref())?;
     match stop {
@@ -660,7 +672,7 @@ fn summarize(
         },
         minimiser: minimiser_summary(sim),
         constraints: sim
-            .resource::<crate::force::ForceBuffers>()
+            .resource::<crate::engine::force::ForceBuffers>()
             .evaluation
             .constraint,
         model,
@@ -680,10 +692,10 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
     let t = membrane.cached_topology();
     let positions = &sim.resource::<DensePositions>().0;
     let has_vin = sim
-        .resource::<crate::force::ForceBuffers>()
+        .resource::<crate::engine::force::ForceBuffers>()
         .terms()
         .iter()
-        .any(|term| term.kind == crate::force::ForceKind::Maintenance);
+        .any(|term| term.kind == crate::engine::force::ForceKind::Maintenance);
     let vin_moduli = sim
         .resources()
         .get::<VinSegmentation>()
@@ -703,7 +715,7 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
         .map(|k| k.0)
         .filter(|k| *k > 0.0);
     let foppl_von_karman = vin_moduli.zip(kappa).map(|(m, kappa)| {
-        let area = crate::geometry::total_area(positions, &t.faces);
+        let area = crate::mesh::geometry::total_area(positions, &t.faces);
         crate::energy::vin_elasticity::foppl_von_karman(m.young, area, kappa)
     });
     let residuals = fluid
@@ -712,7 +724,7 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
                 .resources()
                 .get::<crate::systems::vertex_normals::VertexNormals>()
                 .ok()?;
-            let buffers = sim.resource::<crate::force::ForceBuffers>();
+            let buffers = sim.resource::<crate::engine::force::ForceBuffers>();
             let ev = &buffers.evaluation;
             let n = ev.total.len();
             if normals.0.len() != n {
@@ -720,7 +732,7 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
             }
             let mut maintenance = vec![glam::DVec3::ZERO; n];
             for (term, buf) in buffers.terms().iter().zip(&ev.term_forces) {
-                if term.kind == crate::force::ForceKind::Maintenance && buf.len() == n {
+                if term.kind == crate::engine::force::ForceKind::Maintenance && buf.len() == n {
                     for (m, f) in maintenance.iter_mut().zip(buf) {
                         *m += *f;
                     }
@@ -748,7 +760,7 @@ pub fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
         .resources()
         .get::<crate::minimise::MinimiserStatus>()
         .ok()?;
-    let buffers = sim.resource::<crate::force::ForceBuffers>();
+    let buffers = sim.resource::<crate::engine::force::ForceBuffers>();
     let ev = &buffers.evaluation;
     Some(MinimiserSummary {
         stopped_by: status

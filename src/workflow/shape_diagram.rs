@@ -37,8 +37,8 @@
 //! Everything is staged in `DIR.incomplete` and renamed only when every
 //! point completed, so a failed diagram never looks like a result.
 
+use crate::scene::setting::Setting;
 use crate::scene::{Scene, SceneError};
-use crate::setting::Setting;
 use crate::study::axisymmetric::{self, Branch};
 use crate::workflow::run::{Progress, RunOptions, RunSummary, run_scene};
 use serde::{Deserialize, Serialize};
@@ -92,7 +92,7 @@ pub struct DiagramBranch {
 }
 
 /// One mesh every branch is walked on: changes to each branch scene by
-/// dotted path (see [`crate::scene_override`]).
+/// dotted path (see [`crate::scene::overrides`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DiagramMesh {
@@ -201,12 +201,14 @@ impl ShapeDiagram {
             reason,
         };
         let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
-        let diagram: ShapeDiagram = crate::setting::ron_options().from_str(&text).map_err(|e| {
-            err(format!(
-                "{}:{}: {}",
-                e.span.start.line, e.span.start.col, e.code
-            ))
-        })?;
+        let diagram: ShapeDiagram = crate::scene::setting::ron_options()
+            .from_str(&text)
+            .map_err(|e| {
+                err(format!(
+                    "{}:{}: {}",
+                    e.span.start.line, e.span.start.col, e.code
+                ))
+            })?;
         let check_volumes = |field: &str, vs: &[f64]| -> Result<(), DiagramError> {
             if vs.is_empty() {
                 return Err(err(format!("field `{field}`: give at least one")));
@@ -236,7 +238,7 @@ impl ShapeDiagram {
             ("meshes", diagram.meshes.iter().map(|m| &m.label).collect()),
         ] {
             for (i, n) in names.iter().enumerate() {
-                if !crate::setting::valid_name(n) {
+                if !crate::scene::setting::valid_name(n) {
                     return Err(err(format!(
                         "field `{field}[{i}]`: `{n}` must be a plain directory name"
                     )));
@@ -288,7 +290,7 @@ impl ShapeDiagram {
                         applied[m][k] = true;
                     }
                 }
-                let scene = crate::scene_override::set_parameters(&scene, &scene_path, &changes)?;
+                let scene = crate::scene::overrides::set_parameters(&scene, &scene_path, &changes)?;
                 if !matches!(scene.dynamics.method, crate::params::Method::Minimise(_)) {
                     return Err(err(format!(
                         "field `branches[{i}].scene`: {} does not minimise (a shape diagram holds \
@@ -552,10 +554,13 @@ pub fn run_diagram(
             reason: format!("--meshes: no mesh `{l}` in field `meshes`"),
         });
     }
-    let staging = crate::output::prepare_staging(out, options.overwrite).map_err(|e| match e {
-        crate::output::OutputError::Exists(dir) => DiagramError::Exists(dir),
-        crate::output::OutputError::Write { path, reason } => DiagramError::Io { path, reason },
-    })?;
+    let staging =
+        crate::io::output::prepare_staging(out, options.overwrite).map_err(|e| match e {
+            crate::io::output::OutputError::Exists(dir) => DiagramError::Exists(dir),
+            crate::io::output::OutputError::Write { path, reason } => {
+                DiagramError::Io { path, reason }
+            }
+        })?;
     let walks: Vec<&Walk> = loaded
         .walks
         .iter()
@@ -987,7 +992,7 @@ pub fn markdown(s: &DiagramSummary) -> String {
 /// `diagram.png`: the continuum curves as lines, each mesh's points as
 /// markers in its branch's colour.
 fn chart(s: &DiagramSummary) -> Vec<u8> {
-    use crate::plot::{Chart, Legend, Marker, Series};
+    use crate::io::plot::{Chart, Legend, Marker, Series};
     let colour = |b: Branch| match b {
         Branch::Prolate => 0,
         Branch::Oblate => 1,
@@ -1035,7 +1040,7 @@ fn chart(s: &DiagramSummary) -> Vec<u8> {
             });
         }
     }
-    crate::plot::chart(&Chart {
+    crate::io::plot::chart(&Chart {
         title: format!("Shape diagram: {}", s.name),
         x_label: "reduced volume v".into(),
         y_label: "E_b / 8πκ".into(),

@@ -18,9 +18,9 @@
 //! `--emit-slurm` prints a campaign script that submits the phases as one
 //! job and the run array after it (`--dependency=afterok`).
 
+pub use crate::scene::setting::Setting;
+use crate::scene::setting::{ron_options, valid_name};
 use crate::scene::{Scene, SceneError};
-pub use crate::setting::Setting;
-use crate::setting::{ron_options, valid_name};
 use crate::util::rng::stream_seed;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

@@ -28,7 +28,7 @@ pub fn cli(args: &[&dyn AsRef<std::ffi::OsStr>]) -> std::process::ExitCode {
     let argv = std::iter::once(std::ffi::OsStr::new("remembrane"))
         .chain(args.iter().map(|a| a.as_ref()))
         .collect::<Vec<_>>();
-    remembrane::cli::main_with_args(remembrane::registry::PluginRegistry::new(), argv)
+    remembrane::cli::main_with_args(remembrane::scene::registry::PluginRegistry::new(), argv)
 }
 
 /// Whether every point and every point-data value of a frame is finite
@@ -99,7 +99,7 @@ pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf
 #[allow(dead_code)]
 pub fn closest_non_neighbours(out: &Path) -> f64 {
     let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
-    let mut m = remembrane::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let mut m = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let t = m.topology().unwrap().clone();
     let mut closest = f64::INFINITY;
     for i in 0..mesh.positions.len() {

@@ -21,15 +21,15 @@
 use glam::DVec3;
 use hecs::Entity;
 use remembrane::energy::bending::{BendingScratch, bending_varying, signed_curvatures};
-use remembrane::force::{FaceGeometry, ForceContext, ForceTerm};
-use remembrane::membrane::Membrane;
-use remembrane::recorder::{FrameData, Recorder, read_error};
-use remembrane::registry::PluginRegistry;
-use remembrane::resources::{Access, CheckedResources, Res, ResMut};
-use remembrane::schedule::{Stage, System};
-use remembrane::simulation::{BuildError, DensePositions, SimBuilder, SimError};
+use remembrane::engine::force::{FaceGeometry, ForceContext, ForceTerm};
+use remembrane::engine::recorder::{FrameData, Recorder, read_error};
+use remembrane::engine::resources::{Access, CheckedResources, Res, ResMut};
+use remembrane::engine::schedule::{Stage, System};
+use remembrane::engine::simulation::{BuildError, DensePositions, SimBuilder, SimError};
+use remembrane::mesh::membrane::Membrane;
+use remembrane::mesh::vertex_field::{ScalarComponent, TransferPolicy};
+use remembrane::scene::registry::PluginRegistry;
 use remembrane::timestep::TimeStepChoice;
-use remembrane::vertex_field::{ScalarComponent, TransferPolicy};
 use serde::{Deserialize, Serialize};
 
 /// Protein coverage of a vertex: the area fraction covered by BAR-domain
@@ -146,7 +146,7 @@ impl Patch {
 /// The coverage of every vertex by dense slot (0 where a vertex has none).
 pub fn coverage_by_slot(
     world: &hecs::World,
-    topology: &remembrane::topology::Topology,
+    topology: &remembrane::mesh::topology::Topology,
     out: &mut Vec<f64>,
 ) {
     out.clear();
@@ -314,7 +314,7 @@ impl CoverageRecorder {
 pub fn patch_measures(
     positions: &[DVec3],
     faces: &[[u32; 3]],
-    geometry: &[remembrane::geometry::Corners],
+    geometry: &[remembrane::mesh::geometry::Corners],
     phi: &[f64],
     axis: DVec3,
     scratch: &mut BendingScratch,
@@ -385,7 +385,7 @@ impl Recorder for CoverageRecorder {
 
 /// The `bar_domain` plugin: the coverage field (initialised from `patch`,
 /// interpolated through remeshing), the energy term and the recorder.
-pub fn plugin(params: BarDomainParams) -> impl remembrane::simulation::Plugin {
+pub fn plugin(params: BarDomainParams) -> impl remembrane::engine::simulation::Plugin {
     move |b: &mut SimBuilder| -> Result<(), BuildError> {
         params.patch.check()?;
         let membrane = b.resource_mut::<Membrane>().ok_or(BuildError::Requires {

@@ -4,13 +4,13 @@
 //! its own components in the world) from a [`ForceContext`] and *adds* −∇E
 //! into the force buffer it is given. Every term is evaluated into
 //! its own buffer (so forces can be reported and checked per term): the
-//! [`ForceTermsSystem`](crate::force_term_system::ForceTermsSystem) evaluates every registered term into its slot of
+//! [`ForceTermsSystem`](crate::engine::force_term_system::ForceTermsSystem) evaluates every registered term into its slot of
 //! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
 //! smoothing to penalty terms and sums the total.
 
-use crate::error::DuplicateTerm;
-use crate::geometry::{Corners, face_geometry};
-use crate::topology::Topology;
+use crate::engine::error::DuplicateTerm;
+use crate::mesh::geometry::{Corners, face_geometry};
+use crate::mesh::topology::Topology;
 use glam::DVec3;
 use hecs::World;
 
@@ -107,7 +107,7 @@ pub trait ForceTerm: Send {
     /// State the term carries from one evaluation to the next, for
     /// checkpoints; `None` (the default) means none (caches that do not
     /// change results do not count). See
-    /// [`crate::schedule::System::save_state`].
+    /// [`crate::engine::schedule::System::save_state`].
     fn save_state(&self) -> Option<serde_json::Value> {
         None
     }
@@ -168,7 +168,7 @@ pub struct TermInfo {
 }
 
 /// The force buffers: one per registered term, their sum and the penalty
-/// smoothing setting. Registering a term ([`crate::simulation::SimBuilder::add_force_term`])
+/// smoothing setting. Registering a term ([`crate::engine::simulation::SimBuilder::add_force_term`])
 /// adds its buffer here and hands the term to the `force_terms` system.
 #[derive(Debug, Default)]
 pub struct ForceBuffers {
@@ -217,7 +217,7 @@ impl ForceBuffers {
     }
 
     /// Hands a registered term to the system that evaluates it (see
-    /// [`crate::force_term_system::ForceTermsSystem`]).
+    /// [`crate::engine::force_term_system::ForceTermsSystem`]).
     pub fn push_pending_term(&mut self, term: Box<dyn ForceTerm>) {
         self.pending.0.push(term);
     }

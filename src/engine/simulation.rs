@@ -3,15 +3,15 @@
 //! through which built-in and user physics register alike. The core
 //! resources and the errors are re-exported here.
 
-pub use crate::core_resources::{
+pub use crate::engine::core_resources::{
     CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed, StopRequest,
 };
-pub use crate::error::{BuildError, SimError};
-use crate::force::{ForceBuffers, ForceTerm, TermInfo};
-use crate::membrane::Membrane;
-use crate::persisted::PersistedResources;
-use crate::resources::{Res, Resource, Resources};
-use crate::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
+pub use crate::engine::error::{BuildError, SimError};
+use crate::engine::force::{ForceBuffers, ForceTerm, TermInfo};
+use crate::engine::persisted::PersistedResources;
+use crate::engine::resources::{Res, Resource, Resources};
+use crate::engine::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
+use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 
 /// A plugin: anything that registers resources and systems on a
@@ -62,7 +62,7 @@ impl SimBuilder {
 
     /// Declares resource `T` part of the run's state that carries from one
     /// tick to the next, so checkpoints save it and a resumed run gets it
-    /// back (see [`crate::persisted`]). Resources that the scene sets up or
+    /// back (see [`crate::engine::persisted`]). Resources that the scene sets up or
     /// that are recomputed every tick need no declaration.
     pub fn persist_resource<T>(&mut self) -> &mut Self
     where
@@ -97,7 +97,7 @@ impl SimBuilder {
     pub fn add_dynamic_system(
         &mut self,
         stage: Stage,
-        system: impl crate::schedule::DynamicSystem,
+        system: impl crate::engine::schedule::DynamicSystem,
     ) -> Registered<'_> {
         self.schedule.add_dynamic(stage, system)
     }
@@ -111,7 +111,7 @@ impl SimBuilder {
     }
 
     /// Adds a recorder: its columns and point data go into every frame.
-    pub fn add_recorder(&mut self, recorder: impl crate::recorder::Recorder) -> &mut Self {
+    pub fn add_recorder(&mut self, recorder: impl crate::engine::recorder::Recorder) -> &mut Self {
         push_recorder(&mut self.resources, Box::new(recorder));
         self
     }
@@ -127,11 +127,11 @@ impl SimBuilder {
     }
 }
 
-fn push_recorder(resources: &mut Resources, recorder: Box<dyn crate::recorder::Recorder>) {
-    if !resources.contains::<crate::recorder::Recorders>() {
-        resources.insert(crate::recorder::Recorders::default());
+fn push_recorder(resources: &mut Resources, recorder: Box<dyn crate::engine::recorder::Recorder>) {
+    if !resources.contains::<crate::engine::recorder::Recorders>() {
+        resources.insert(crate::engine::recorder::Recorders::default());
     }
-    if let Some(r) = resources.value_mut::<crate::recorder::Recorders>() {
+    if let Some(r) = resources.value_mut::<crate::engine::recorder::Recorders>() {
         r.0.push(recorder);
     }
 }
@@ -190,7 +190,7 @@ impl Simulation {
     pub fn add_dynamic_system(
         &mut self,
         stage: Stage,
-        system: impl crate::schedule::DynamicSystem,
+        system: impl crate::engine::schedule::DynamicSystem,
     ) -> Result<Registered<'_>, SimError> {
         Ok(self.pending(system.name())?.add_dynamic(stage, system))
     }
@@ -205,10 +205,10 @@ impl Simulation {
     }
 
     /// Adds a recorder before the run's frame writer takes the recorders
-    /// (see [`crate::recorder`]).
+    /// (see [`crate::engine::recorder`]).
     pub fn add_recorder(
         &mut self,
-        recorder: impl crate::recorder::Recorder,
+        recorder: impl crate::engine::recorder::Recorder,
     ) -> Result<(), SimError> {
         if self.schedule.is_some() {
             return Err(SimError::AlreadyStarted(recorder.name().to_string()));
@@ -237,7 +237,9 @@ impl Simulation {
     pub fn insert_resource<T: Resource>(&mut self, value: T) -> Result<(), SimError> {
         if self.schedule.is_some() {
             return Err(SimError::AlreadyStarted(
-                crate::resources::ResourceId::of::<T>().name().to_string(),
+                crate::engine::resources::ResourceId::of::<T>()
+                    .name()
+                    .to_string(),
             ));
         }
         self.resources.insert(value);
@@ -294,7 +296,7 @@ impl Simulation {
 
     /// Resource `T`, mutably. Panics if no plugin inserted it.
     pub fn resource_mut<T: Resource>(&mut self) -> &mut T {
-        let id = crate::resources::ResourceId::of::<T>();
+        let id = crate::engine::resources::ResourceId::of::<T>();
         self.resources
             .value_mut::<T>()
             .unwrap_or_else(|| panic!("Simulation::resource_mut: resource `{id}` does not exist"))

@@ -1,9 +1,9 @@
 //! `Custom(...)` entries of a scene: a plugin named in `energy` or
-//! `systems`, resolved through the active [`crate::registry::PluginRegistry`]
+//! `systems`, resolved through the active [`crate::scene::registry::PluginRegistry`]
 //! while the scene is parsed (see that module).
 
-use crate::registry::{PluginEntry, PluginKind, resolve};
-use crate::schedule::Stage;
+use crate::engine::schedule::Stage;
+use crate::scene::registry::{PluginEntry, PluginKind, resolve};
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize};
 use std::sync::Arc;

@@ -1,7 +1,7 @@
 //! Updating the topology cache after one edit in O(patch) instead of
 //! rebuilding it from the whole world.
 //!
-//! The edit layer ([`crate::edit`]) records every spawn, despawn and edge
+//! The edit layer ([`crate::mesh::edit`]) records every spawn, despawn and edge
 //! refresh it makes, in order ([`WorldChange`]). Dense slots follow the
 //! world's storage order: hecs appends a spawned entity to its archetype
 //! and fills a despawned entity's place with the archetype's last entity
@@ -14,8 +14,8 @@
 //! [`Topology::build`] would give for the edited world; tests and debug
 //! builds check that after every edit.
 
-use crate::components::{Edge, Face};
-use crate::topology::{NO_SLOT, Topology, TopologyError};
+use crate::mesh::components::{Edge, Face};
+use crate::mesh::topology::{NO_SLOT, Topology, TopologyError};
 use hecs::{Entity, World};
 
 /// One change the edit layer made to the world, in the order it made it.

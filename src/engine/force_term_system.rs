@@ -1,13 +1,13 @@
 //! The system that runs every registered force term (see
-//! [`crate::simulation::SimBuilder::add_force_term`]).
+//! [`crate::engine::simulation::SimBuilder::add_force_term`]).
 
-use crate::core_resources::{DenseLipid, DensePositions};
 use crate::energy::vin::VinEdgeSamples;
-use crate::error::SimError;
-use crate::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
-use crate::membrane::Membrane;
-use crate::resources::{Res, ResMut};
-use crate::schedule::System;
+use crate::engine::core_resources::{DenseLipid, DensePositions};
+use crate::engine::error::SimError;
+use crate::engine::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::System;
+use crate::mesh::membrane::Membrane;
 use std::time::{Duration, Instant};
 
 /// Name of the system that evaluates the force terms.
@@ -64,7 +64,7 @@ impl System for ForceTermsSystem {
         self.terms.extend(buffers.take_pending_terms());
         self.timings.resize(self.terms.len(), Duration::ZERO);
         if let Some(state) = self.restored.take() {
-            crate::persisted::restore_named(
+            crate::engine::persisted::restore_named(
                 &mut self.terms,
                 |_, t| t.name().to_string(),
                 |t, v| t.restore_state(v),
@@ -115,7 +115,7 @@ impl System for ForceTermsSystem {
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {
-        crate::persisted::save_named(
+        crate::engine::persisted::save_named(
             self.terms
                 .iter()
                 .map(|t| (t.name().to_string(), t.save_state())),

@@ -17,8 +17,8 @@
 //! Phys. Rev. E 51, 514, 1995).
 
 use crate::energy::vin::{Segmentation, VinForm};
-use crate::geometry::Corners;
-use crate::topology::Topology;
+use crate::mesh::geometry::Corners;
+use crate::mesh::topology::Topology;
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -121,9 +121,9 @@ impl Flip {
 
     /// The flip as a mesh edit: its two faces out, the two new ones in
     /// (entities from `t`, the topology it was found in).
-    pub fn edit(&self, t: &Topology) -> crate::edit::PatchEdit {
+    pub fn edit(&self, t: &Topology) -> crate::mesh::edit::PatchEdit {
         let [a, b, c, d] = [self.a, self.b, self.c, self.d].map(|v| t.vertex_entities[v as usize]);
-        crate::edit::PatchEdit {
+        crate::mesh::edit::PatchEdit {
             remove_faces: self.faces.map(|f| t.face_entities[f as usize]).to_vec(),
             add_faces: vec![[a, d, c], [d, b, c]],
             ..Default::default()
@@ -194,8 +194,8 @@ impl FlipTotals {
     pub fn of(positions: &[DVec3], faces: &[[u32; 3]]) -> Self {
         let origin = positions.first().copied().unwrap_or(DVec3::ZERO);
         Self {
-            volume: crate::geometry::enclosed_volume(positions, faces, origin),
-            area: crate::geometry::total_area(positions, faces),
+            volume: crate::mesh::geometry::enclosed_volume(positions, faces, origin),
+            area: crate::mesh::geometry::total_area(positions, faces),
         }
     }
 }

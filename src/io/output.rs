@@ -8,16 +8,16 @@
 //! file is written atomically (temporary file + rename).
 //!
 //! Frames are written by [`FrameWriter`], an Observe-stage system, from what
-//! the registered recorders produce (see [`crate::recorder`]).
+//! the registered recorders produce (see [`crate::engine::recorder`]).
 
 use crate::atomic_write;
-use crate::membrane::Membrane;
+use crate::engine::recorder::{FrameData, PointArray, Recorder};
+use crate::engine::resources::{Access, CheckedResources};
+use crate::engine::schedule::DynamicSystem;
+use crate::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
 use crate::mesh::SurfaceMesh;
 use crate::mesh::io::{VertexScalar, write_ply_to};
-use crate::recorder::{FrameData, PointArray, Recorder};
-use crate::resources::{Access, CheckedResources};
-use crate::schedule::DynamicSystem;
-use crate::simulation::{Clock, DensePositions, SimError, StopRequest};
+use crate::mesh::membrane::Membrane;
 use std::path::{Path, PathBuf};
 use vtkio::model::{
     Attribute, Attributes, ByteOrder, DataSet, IOBuffer, Piece, PolyDataPiece, Version,
@@ -59,7 +59,7 @@ pub struct FrameRecord {
 }
 
 /// File name of a run's checkpoint inside its staging directory
-/// ([`crate::checkpoint`]).
+/// ([`crate::io::checkpoint`]).
 pub const CHECKPOINT_FILE: &str = "checkpoint.json";
 
 /// The outputs written so far (what a checkpoint keeps of them).
@@ -301,7 +301,7 @@ impl RunOutput {
         )
         .map_err(|e| write_err(&self.staging.join("final.ply"), e))?;
         self.write("final.ply", &ply)?;
-        let png = crate::render::render_png(&final_mesh.positions, &final_mesh.faces, 400);
+        let png = crate::io::render::render_png(&final_mesh.positions, &final_mesh.faces, 400);
         self.write("final.png", &png)?;
         if let Some(state) = state_json {
             self.write("state.json", state.as_bytes())?;
@@ -585,7 +585,7 @@ impl DynamicSystem for FrameWriter {
     fn save_state(&self) -> Option<serde_json::Value> {
         let state = FrameWriterState {
             next_frame_time: self.schedule.next_frame_time(),
-            recorders: crate::persisted::save_named(
+            recorders: crate::engine::persisted::save_named(
                 self.recorders
                     .iter()
                     .enumerate()
@@ -599,7 +599,7 @@ impl DynamicSystem for FrameWriter {
         let state: FrameWriterState = serde_json::from_value(state).map_err(|e| e.to_string())?;
         self.schedule.resume_at(state.next_frame_time);
         if let Some(recorders) = state.recorders {
-            crate::persisted::restore_named(
+            crate::engine::persisted::restore_named(
                 &mut self.recorders,
                 |i, r| recorder_key(i, r.as_ref()),
                 |r, v| r.restore_state(v),

@@ -13,14 +13,17 @@
 //! broken by the most uniform lengths of the quadrilaterals' diagonals.
 //!
 //! Every per-vertex field follows its transfer policy
-//! ([`crate::vertex_field`]); lipid density is conserved: split ρ_i1, ρ_i2
+//! ([`crate::mesh::vertex_field`]); lipid density is conserved: split ρ_i1, ρ_i2
 //! ×= 2/3 and ρ_n = (ρ_i1 + ρ_i2)/3; merge ρ_i = ρ_i1 + ρ_i2.
 
-use crate::components::Position;
-use crate::edit::{EditError, KeptFaces, PatchEdit};
-use crate::membrane::Membrane;
+pub mod flip;
+pub mod relax;
+
 use crate::mesh::ValenceRange;
-use crate::vertex_field::TransferPolicy;
+use crate::mesh::components::Position;
+use crate::mesh::edit::{EditError, KeptFaces, PatchEdit};
+use crate::mesh::membrane::Membrane;
+use crate::mesh::vertex_field::TransferPolicy;
 use glam::DVec3;
 use hecs::Entity;
 use std::sync::Arc;

@@ -46,19 +46,19 @@ pub fn set_parameters(
         }
         *node = value.clone();
     }
-    let changed: Scene =
-        crate::registry::with_active(&crate::registry::PluginRegistry::default_registry(), || {
-            serde_path_to_error::deserialize(tree)
-        })
-        .map_err(|e| {
-            let inner = e.path().to_string();
-            let reason = e.into_inner().to_string();
-            match changes {
-                [(path, _)] if inner == *path || inner == "." => invalid(path, reason),
-                [(path, _)] => invalid(path, format!("at `{inner}`: {reason}")),
-                _ => invalid(&inner, reason),
-            }
-        })?;
+    let changed: Scene = crate::scene::registry::with_active(
+        &crate::scene::registry::PluginRegistry::default_registry(),
+        || serde_path_to_error::deserialize(tree),
+    )
+    .map_err(|e| {
+        let inner = e.path().to_string();
+        let reason = e.into_inner().to_string();
+        match changes {
+            [(path, _)] if inner == *path || inner == "." => invalid(path, reason),
+            [(path, _)] => invalid(path, format!("at `{inner}`: {reason}")),
+            _ => invalid(&inner, reason),
+        }
+    })?;
     changed.validate(scene_path)?;
     Ok(changed)
 }

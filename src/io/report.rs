@@ -1,10 +1,10 @@
 //! The energy report of `remembrane energy`: energies by term, area, volume,
 //! reduced volume and mesh quality, as text or JSON; per-vertex forces as CSV.
 
-use crate::force::ForceBuffers;
-use crate::geometry::{enclosed_volume, reduced_volume, total_area};
-use crate::quality::MeshQuality;
-use crate::simulation::{DensePositions, Simulation};
+use crate::engine::force::ForceBuffers;
+use crate::engine::simulation::{DensePositions, Simulation};
+use crate::mesh::geometry::{enclosed_volume, reduced_volume, total_area};
+use crate::mesh::quality::MeshQuality;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -54,7 +54,7 @@ pub struct EnergyReport {
 
 impl EnergyReport {
     /// Summarises the last force evaluation of `sim` (call
-    /// [`crate::simulation::Simulation::evaluate_forces`] first).
+    /// [`crate::engine::simulation::Simulation::evaluate_forces`] first).
     pub fn new(scene: &str, sim: &Simulation) -> Self {
         let membrane = sim.membrane();
         let t = membrane.cached_topology();

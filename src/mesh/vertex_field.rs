@@ -34,7 +34,7 @@ pub trait ScalarComponent: hecs::Component + Copy {
     fn from_value(value: f64) -> Self;
 }
 
-impl ScalarComponent for crate::components::LipidDensity {
+impl ScalarComponent for crate::mesh::components::LipidDensity {
     fn value(&self) -> f64 {
         self.0
     }

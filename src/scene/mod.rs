@@ -5,11 +5,18 @@
 //! `FILE:LINE:COL: field `path`: reason`; checks that need the whole scene
 //! (e.g. local tension without lipid density) name the file and field.
 
-use crate::components::ControlPoint;
+pub mod overrides;
+pub mod plugin_decl;
+pub mod registry;
+pub mod resolution;
+pub mod setting;
+
 use crate::energy::vin::VinParams;
-use crate::geometry::{enclosed_volume, total_area};
-use crate::membrane::Membrane;
+use crate::engine::simulation::{BuildError, InitialState, SimBuilder, Simulation};
+use crate::mesh::components::ControlPoint;
+use crate::mesh::geometry::{enclosed_volume, total_area};
 use crate::mesh::io::{MeshIoError, read_mesh};
+use crate::mesh::membrane::Membrane;
 use crate::mesh::{
     MAX_ICOSPHERE_LEVEL, MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere,
 };
@@ -17,7 +24,6 @@ use crate::params::{
     AreaParams, BendingParams, DynamicsParams, LocalTensionParams, RemeshParams, SpringParams,
     VolumeParams,
 };
-use crate::simulation::{BuildError, InitialState, SimBuilder, Simulation};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -88,9 +94,9 @@ pub struct Scene {
     /// (the initial mesh's mean edge length). Every mesh-scale length of the
     /// scene (V_in's, remeshing's, flips', self-avoidance's, the Gaussian
     /// spring patch) is written for h = 1 and multiplied by h; the mobility
-    /// per vertex follows a per-area mobility ([`crate::resolution`]).
+    /// per vertex follows a per-area mobility ([`crate::scene::resolution`]).
     #[serde(default)]
-    pub resolution: crate::resolution::Resolution,
+    pub resolution: crate::scene::resolution::Resolution,
 }
 
 fn default_seed() -> u64 {
@@ -254,7 +260,7 @@ pub enum EnergyTerm {
     /// Repulsion between non-neighbouring vertices closer than a range.
     SelfAvoidance(crate::params::SelfAvoidanceParams),
     /// A plugin term from the registry: `Custom(name: "...", params: (...))`.
-    Custom(crate::plugin_decl::TermPlugin),
+    Custom(crate::scene::plugin_decl::TermPlugin),
 }
 
 /// A system declared by a scene.
@@ -262,7 +268,7 @@ pub enum EnergyTerm {
 pub enum SystemDecl {
     /// A plugin system from the registry:
     /// `Custom(name: "...", stage: Observe, params: (...))`.
-    Custom(crate::plugin_decl::SystemPlugin),
+    Custom(crate::scene::plugin_decl::SystemPlugin),
 }
 
 impl EnergyTerm {
@@ -378,7 +384,7 @@ impl Scene {
         Self::from_ron_str_with(
             text,
             path,
-            &crate::registry::PluginRegistry::default_registry(),
+            &crate::scene::registry::PluginRegistry::default_registry(),
         )
     }
 
@@ -386,9 +392,9 @@ impl Scene {
     pub fn from_ron_str_with(
         text: &str,
         path: &Path,
-        registry: &crate::registry::PluginRegistry,
+        registry: &crate::scene::registry::PluginRegistry,
     ) -> Result<Self, SceneError> {
-        crate::registry::with_active(registry, || Self::parse(text, path))
+        crate::scene::registry::with_active(registry, || Self::parse(text, path))
     }
 
     fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
@@ -425,13 +431,16 @@ impl Scene {
 
     /// Reads and parses a scene file with the process default registry.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        Self::load_with(path, &crate::registry::PluginRegistry::default_registry())
+        Self::load_with(
+            path,
+            &crate::scene::registry::PluginRegistry::default_registry(),
+        )
     }
 
     /// Reads and parses a scene file, resolving plugins through `registry`.
     pub fn load_with(
         path: &Path,
-        registry: &crate::registry::PluginRegistry,
+        registry: &crate::scene::registry::PluginRegistry,
     ) -> Result<Self, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             path: path.to_owned(),
@@ -1100,7 +1109,7 @@ impl Scene {
             }
             MembraneSource::State { path, refine } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));
-                let state = crate::state::SavedState::read(&base.join(path)).map_err(|e| {
+                let state = crate::io::state::SavedState::read(&base.join(path)).map_err(|e| {
                     SceneError::Invalid {
                         path: scene_path.to_owned(),
                         field: "membrane".into(),
@@ -1269,7 +1278,7 @@ impl Scene {
                 .map_err(build_err)?;
         }
         if let Some(flips) = self.edge_flips {
-            let mut terms = crate::edge_flip::FlipTerms::default();
+            let mut terms = crate::remesh::flip::FlipTerms::default();
             for term in &self.energy {
                 match term {
                     EnergyTerm::Vin(p) if !geometric => terms.vin = Some(p.form),
@@ -1300,7 +1309,7 @@ impl Scene {
 
 /// Adds a scene-declared plugin (resolved when the scene was parsed).
 fn add_declared<'b>(
-    decl: &crate::plugin_decl::PluginDecl,
+    decl: &crate::scene::plugin_decl::PluginDecl,
     builder: &'b mut SimBuilder,
 ) -> Result<&'b mut SimBuilder, BuildError> {
     let entry = decl.entry().ok_or_else(|| BuildError::Invalid {

@@ -1,15 +1,15 @@
 //! Resources that carry a run's state from one tick to the next and so go
-//! into a checkpoint ([`crate::checkpoint`]).
+//! into a checkpoint ([`crate::io::checkpoint`]).
 //!
 //! Most resources are either set up by the scene (parameters, the V_in
 //! segmentation) or recomputed every tick (forces, face geometry, the dense
 //! mirrors); rebuilding the scene restores them. The few that persist (the
 //! clock, the last time step, the abnormal edges handed to the next tick,
 //! the remeshing statistics) are declared by the plugin that inserts them
-//! with [`crate::simulation::SimBuilder::persist_resource`]; a user's plugin
+//! with [`crate::engine::simulation::SimBuilder::persist_resource`]; a user's plugin
 //! does the same for its own stateful resources.
 
-use crate::resources::{Resource, Resources};
+use crate::engine::resources::{Resource, Resources};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;

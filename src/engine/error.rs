@@ -2,8 +2,8 @@
 //! that cannot be added ([`BuildError`]), a schedule that cannot run
 //! ([`ScheduleError`]).
 
-use crate::resources::ResourceId;
-use crate::topology::TopologyError;
+use crate::engine::resources::ResourceId;
+use crate::mesh::topology::TopologyError;
 
 /// A run cannot continue.
 #[derive(Debug, thiserror::Error)]
@@ -93,7 +93,7 @@ pub enum SimError {
         /// The system.
         system: String,
         /// What went wrong.
-        source: crate::resources::FetchError,
+        source: crate::engine::resources::FetchError,
     },
     /// A plugin could not be registered.
     #[error(transparent)]

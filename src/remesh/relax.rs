@@ -9,8 +9,8 @@
 //! the global time step, so no edge crosses more than one V_in segment.
 
 use crate::energy::vin::Segmentation;
+use crate::mesh::topology::Topology;
 use crate::timestep::edge_time_step_in;
-use crate::topology::Topology;
 use glam::DVec3;
 use rand::RngExt;
 use std::f64::consts::FRAC_PI_2;

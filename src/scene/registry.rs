@@ -15,8 +15,8 @@
 //! every command (run, check, energy, compare, sweep) resolves the same
 //! plugins; [`crate::scene::Scene::from_ron_str_with`] takes one explicitly.
 
-use crate::schedule::Stage;
-use crate::simulation::{BuildError, SimBuilder};
+use crate::engine::schedule::Stage;
+use crate::engine::simulation::{BuildError, SimBuilder};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;

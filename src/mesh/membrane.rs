@@ -1,10 +1,10 @@
 //! [`Membrane`]: the hecs world holding one closed membrane, its structure
 //! epoch and the derived caches (topology, dense position mirror).
 
-use crate::components::{ControlPoint, Edge, Face, Force, LipidDensity, Position};
 use crate::mesh::SurfaceMesh;
-use crate::topology::{Topology, TopologyError};
-use crate::vertex_field::{FieldTransfer, ScalarComponent, ScalarField, TransferPolicy};
+use crate::mesh::components::{ControlPoint, Edge, Face, Force, LipidDensity, Position};
+use crate::mesh::topology::{Topology, TopologyError};
+use crate::mesh::vertex_field::{FieldTransfer, ScalarComponent, ScalarField, TransferPolicy};
 use glam::DVec3;
 use hecs::{Entity, World};
 // Keys are small integer pairs looked up, never iterated: the fast
@@ -187,7 +187,7 @@ impl Membrane {
     /// rebuild.
     pub(crate) fn update_topology(
         &mut self,
-        changes: &[crate::topology_update::WorldChange],
+        changes: &[crate::mesh::topology_update::WorldChange],
     ) -> Result<&Topology, TopologyError> {
         let current = self.topology.epoch == self.epoch;
         self.epoch += 1;
@@ -196,7 +196,7 @@ impl Membrane {
                 Ok(()) => true,
                 // A ring block outgrown is expected (rarely); anything else
                 // is a bug in the update, which debug builds report.
-                Err(crate::topology_update::UpdateError::RingOverflow(_)) => false,
+                Err(crate::mesh::topology_update::UpdateError::RingOverflow(_)) => false,
                 Err(e) => {
                     debug_assert!(false, "incremental topology update failed: {e}");
                     false
@@ -292,7 +292,7 @@ impl Membrane {
     pub fn add_control_point(&mut self, point: ControlPoint) -> Entity {
         let index = self.world.query::<&ControlPoint>().iter().count() as u32;
         self.world
-            .spawn((point, crate::components::ControlPointIndex(index)))
+            .spawn((point, crate::mesh::components::ControlPointIndex(index)))
     }
 
     /// All control points, in world order.

@@ -28,7 +28,7 @@ pub struct Clock {
 }
 
 /// Dense position mirror, by vertex slot (l̄). Gathered from the world's
-/// [`crate::components::Position`] every tick; written back by integration.
+/// [`crate::mesh::components::Position`] every tick; written back by integration.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DensePositions(pub Vec<DVec3>);
 

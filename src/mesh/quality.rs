@@ -1,6 +1,6 @@
 //! Mesh-quality statistics: edge lengths, smallest angle, valence histogram.
 
-use crate::topology::Topology;
+use crate::mesh::topology::Topology;
 use glam::DVec3;
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -108,7 +108,7 @@ impl Setting {
                 if !(h.is_finite() && *h > 0.0) {
                     return Err(format!("an edge length must be positive (got {h})"));
                 }
-                scene.resolution = crate::resolution::Resolution::EdgeLength(*h);
+                scene.resolution = crate::scene::resolution::Resolution::EdgeLength(*h);
             }
         }
         Ok(())

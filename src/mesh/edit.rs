@@ -18,12 +18,12 @@
 //!
 //! A patch that would break any of these is rejected with an [`EditError`]
 //! and the world is unchanged. A successful edit updates the topology
-//! cache for its patch only ([`crate::topology_update`]).
+//! cache for its patch only ([`crate::mesh::topology_update`]).
 
-use crate::components::{Edge, Face, Force, Position};
-use crate::membrane::Membrane;
 use crate::mesh::ValenceRange;
-use crate::topology_update::WorldChange;
+use crate::mesh::components::{Edge, Face, Force, Position};
+use crate::mesh::membrane::Membrane;
+use crate::mesh::topology_update::WorldChange;
 use glam::DVec3;
 use hecs::Entity;
 // Entity keys are not attacker-controlled: a fast non-cryptographic hash.
@@ -37,7 +37,7 @@ pub struct PatchEdit {
     /// Faces to add, as vertex entities counter-clockwise from outside.
     pub add_faces: Vec<[Entity; 3]>,
     /// New vertices: reserved entity and position (they get every
-    /// registered per-vertex field; see [`crate::vertex_field`]).
+    /// registered per-vertex field; see [`crate::mesh::vertex_field`]).
     pub add_vertices: Vec<(Entity, DVec3)>,
     /// Vertex entities to remove.
     pub remove_vertices: Vec<Entity>,

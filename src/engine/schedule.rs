@@ -4,19 +4,19 @@
 //! A tick runs the stages in [`Stage::ALL`] order; within a stage, systems
 //! run in registration order adjusted by their `before`/`after`
 //! constraints. Built-in systems register through the same path as a
-//! user's ([`crate::simulation::SimBuilder::add_system`]).
+//! user's ([`crate::engine::simulation::SimBuilder::add_system`]).
 //!
 //! A [`System`] names its data in its type ([`System::Data`], a tuple of
-//! [`Res`](crate::resources::Res) / [`ResMut`](crate::resources::ResMut)),
+//! [`Res`](crate::engine::resources::Res) / [`ResMut`](crate::engine::resources::ResMut)),
 //! so its declared access is derived, never written by hand, and it can
 //! touch nothing else. When the schedule is built every declared resource
 //! must exist (or be optional), no system may borrow one resource twice
 //! with a write, and Forces-stage systems may write only the force buffers.
 
-pub use crate::error::ScheduleError;
-use crate::error::SimError;
-use crate::force::ForceBuffers;
-use crate::resources::{Access, CheckedResources, ResourceId, Resources, SystemData};
+pub use crate::engine::error::ScheduleError;
+use crate::engine::error::SimError;
+use crate::engine::force::ForceBuffers;
+use crate::engine::resources::{Access, CheckedResources, ResourceId, Resources, SystemData};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
@@ -88,9 +88,9 @@ impl Stage {
 /// A system: one step of a tick, over the data its type declares.
 ///
 /// ```
-/// use remembrane::resources::{Res, ResMut};
-/// use remembrane::schedule::System;
-/// use remembrane::simulation::{Clock, SimError};
+/// use remembrane::engine::resources::{Res, ResMut};
+/// use remembrane::engine::schedule::System;
+/// use remembrane::engine::simulation::{Clock, SimError};
 ///
 /// /// Counts ticks that reached a simulated time of one millisecond.
 /// struct LateTicks(u64);
@@ -114,9 +114,9 @@ impl Stage {
 /// gives no mutable access, and there is no other way to reach a resource.
 ///
 /// ```compile_fail,E0594
-/// use remembrane::resources::Res;
-/// use remembrane::schedule::System;
-/// use remembrane::simulation::{Clock, SimError};
+/// use remembrane::engine::resources::Res;
+/// use remembrane::engine::schedule::System;
+/// use remembrane::engine::simulation::{Clock, SimError};
 ///
 /// struct Sneaky;
 ///
@@ -132,10 +132,10 @@ impl Stage {
 /// }
 /// ```
 ///
-/// [`Res`]: crate::resources::Res
+/// [`Res`]: crate::engine::resources::Res
 pub trait System: Send + 'static {
-    /// The resources the system reads ([`Res`](crate::resources::Res)) and
-    /// writes ([`ResMut`](crate::resources::ResMut)).
+    /// The resources the system reads ([`Res`](crate::engine::resources::Res)) and
+    /// writes ([`ResMut`](crate::engine::resources::ResMut)).
     type Data<'a>: SystemData<'a>;
     /// Unique name (used in ordering constraints, timings and errors).
     fn name(&self) -> &str;

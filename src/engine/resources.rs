@@ -4,13 +4,13 @@
 //! state...).
 //!
 //! A system names what it reads and writes in its signature: its
-//! [`crate::schedule::System::Data`] is a tuple of [`Res`] (read),
+//! [`crate::engine::schedule::System::Data`] is a tuple of [`Res`] (read),
 //! [`ResMut`] (write) and `Option<...>` of them (present only if some
 //! plugin inserted it). The schedule derives the system's [`Access`] from
 //! that type, checks it when it is built, and hands the system exactly
 //! those resources, so a typed system cannot reach one it did not declare.
 //! Systems whose access is only known at run time (scripted terms) use a
-//! [`crate::schedule::DynamicSystem`], whose every access is checked
+//! [`crate::engine::schedule::DynamicSystem`], whose every access is checked
 //! against its declaration.
 
 use std::any::{Any, TypeId};
@@ -371,7 +371,7 @@ tuple_data!(A, B, C, D, E, F, G, H, I, J);
 tuple_data!(A, B, C, D, E, F, G, H, I, J, K);
 tuple_data!(A, B, C, D, E, F, G, H, I, J, K, L);
 
-/// The resources a [`crate::schedule::DynamicSystem`] may touch: every
+/// The resources a [`crate::engine::schedule::DynamicSystem`] may touch: every
 /// borrow is checked against its declared [`Access`].
 pub struct CheckedResources<'a> {
     resources: &'a Resources,

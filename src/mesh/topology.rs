@@ -1,7 +1,7 @@
 //! The topology cache: dense index arrays derived from the hecs world.
 //!
 //! Built from the world once, then updated edit by edit in O(patch)
-//! ([`Topology::apply_edit`], `src/topology_update.rs`); rebuilt in full only
+//! ([`Topology::apply_edit`], `src/mesh/topology_update.rs`); rebuilt in full only
 //! when the structure changes outside the edit layer. Hot loops index these
 //! arrays and never touch the world.
 //!
@@ -9,7 +9,7 @@
 //! arrays (`ring_stride` entries, `valence` of them used), so an edit that
 //! changes a valence rewrites that block alone.
 
-use crate::components::{Edge, Face, Position};
+use crate::mesh::components::{Edge, Face, Position};
 use hecs::{Entity, World};
 
 /// Sentinel for "no slot".

@@ -4,7 +4,7 @@
 //! calls every recorder when a frame is due and writes the VTK frame and the
 //! `series.csv` row from what they produced, so a plugin adds a column or a
 //! point-data array by registering a recorder
-//! ([`crate::simulation::SimBuilder::add_recorder`]), without touching the
+//! ([`crate::engine::simulation::SimBuilder::add_recorder`]), without touching the
 //! output code.
 //!
 //! The Observe stage runs right after the Forces stage: it sees the state
@@ -12,8 +12,8 @@
 //! will apply, so frames reuse the tick's forces instead of evaluating them
 //! again.
 
-use crate::error::SimError;
-use crate::resources::{Access, CheckedResources};
+use crate::engine::error::SimError;
+use crate::engine::resources::{Access, CheckedResources};
 use glam::DVec3;
 
 /// One per-vertex array of a frame (by dense vertex slot).
@@ -103,7 +103,9 @@ pub trait Recorder: Send + 'static {
 pub struct Recorders(pub Vec<Box<dyn Recorder>>);
 
 /// A recorder's read failed: the error names the recorder.
-pub fn read_error(recorder: &str) -> impl Fn(crate::resources::FetchError) -> SimError + '_ {
+pub fn read_error(
+    recorder: &str,
+) -> impl Fn(crate::engine::resources::FetchError) -> SimError + '_ {
     move |source| SimError::Resource {
         system: format!("recorder `{recorder}`"),
         source,

@@ -16,8 +16,8 @@
 //! points. An entity with any other component (a plugin's own entities) is
 //! refused with an error naming it, never dropped silently.
 
-use crate::components::{ControlPoint, ControlPointIndex, Edge, Face, Force, Position};
-use crate::membrane::Membrane;
+use crate::mesh::components::{ControlPoint, ControlPointIndex, Edge, Face, Force, Position};
+use crate::mesh::membrane::Membrane;
 use hecs::{Entity, EntityBuilder, World};
 use serde::{Deserialize, Serialize};
 use std::any::TypeId;

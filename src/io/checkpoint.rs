@@ -14,7 +14,7 @@
 //!   same as in the uninterrupted run;
 //! - the persisted resources (clock, last time step, abnormal edges handed
 //!   to the next tick, remeshing statistics and events:
-//!   [`crate::persisted`]);
+//!   [`crate::engine::persisted`]);
 //! - the state of every stateful system, force term and recorder (control
 //!   point schedules, the frame schedule, a tube's first radius);
 //! - the output so far: frames written and the rows of `series.csv`.
@@ -26,9 +26,9 @@
 //! Only the per-system timings in `summary.json` cover the last segment
 //! alone (its wall time is the sum of all segments).
 
-use crate::core_resources::InitialState;
-pub use crate::output::{CHECKPOINT_FILE, OutputProgress, run_dir_of, staging_of};
-use crate::world_snapshot::WorldSnapshot;
+use crate::engine::core_resources::InitialState;
+pub use crate::io::output::{CHECKPOINT_FILE, OutputProgress, run_dir_of, staging_of};
+use crate::io::world_snapshot::WorldSnapshot;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -150,23 +150,23 @@ impl Checkpoint {
     }
 }
 
-fn sim_error(e: impl std::fmt::Display) -> crate::error::SimError {
-    crate::error::SimError::Checkpoint(e.to_string())
+fn sim_error(e: impl std::fmt::Display) -> crate::engine::error::SimError {
+    crate::engine::error::SimError::Checkpoint(e.to_string())
 }
 
 impl Checkpoint {
     /// The state of `sim` after a completed tick, with the outputs of its
-    /// [`crate::output::RunOutput`] so far; `wall_time_s` is the run's wall
+    /// [`crate::io::output::RunOutput`] so far; `wall_time_s` is the run's wall
     /// time up to now.
     pub fn capture(
-        sim: &crate::simulation::Simulation,
+        sim: &crate::engine::simulation::Simulation,
         run: &RunSource,
         wall_time_s: f64,
-    ) -> Result<Self, crate::error::SimError> {
+    ) -> Result<Self, crate::engine::error::SimError> {
         let world = WorldSnapshot::capture(&sim.membrane()).map_err(sim_error)?;
         let resources = match sim
             .resources()
-            .get::<crate::persisted::PersistedResources>()
+            .get::<crate::engine::persisted::PersistedResources>()
         {
             Ok(p) => p.save(sim.resources()).map_err(sim_error)?,
             Err(_) => BTreeMap::new(),
@@ -174,7 +174,7 @@ impl Checkpoint {
         let systems = sim.schedule().map(|s| s.save_states()).unwrap_or_default();
         let output = sim
             .resources()
-            .get::<crate::output::RunOutput>()
+            .get::<crate::io::output::RunOutput>()
             .map_err(sim_error)?
             .progress();
         Ok(Self {
@@ -195,14 +195,14 @@ impl Checkpoint {
     /// same scene and started (its schedule fixed), before its first tick.
     pub fn restore_into(
         &self,
-        sim: &mut crate::simulation::Simulation,
-    ) -> Result<(), crate::error::SimError> {
+        sim: &mut crate::engine::simulation::Simulation,
+    ) -> Result<(), crate::engine::error::SimError> {
         self.world
             .restore(sim.membrane_mut())
             .map_err(|e| sim_error(format!("world: {e}")))?;
         match sim
             .resources()
-            .get::<crate::persisted::PersistedResources>()
+            .get::<crate::engine::persisted::PersistedResources>()
         {
             Ok(p) => p.restore(sim.resources(), &self.resources),
             Err(_) if self.resources.is_empty() => Ok(()),

@@ -1,0 +1,14 @@
+//! The ECS runtime and its plug-in interfaces: typed resources, the
+//! schedule of systems, the simulation and its builder, the core
+//! resources, the force-term interface and its system, recorders,
+//! persisted resources and the simulation's errors.
+
+pub mod core_resources;
+pub mod error;
+pub mod force;
+pub mod force_term_system;
+pub mod persisted;
+pub mod recorder;
+pub mod resources;
+pub mod schedule;
+pub mod simulation;
