@@ -139,6 +139,23 @@ fn shards_run_their_share_resume_and_collect_sees_every_run() {
     let table = std::fs::read_to_string(out.join("collect.csv")).unwrap();
     assert_eq!(table.lines().count(), 1 + 4);
     assert!(table.starts_with("condition,kappa,runs,"));
+    // Outputs are read typed: a renamed column or summary field is an
+    // error naming the file and the field, never a NaN.
+    let run = out.join(&report.runs[0].spec.dir);
+    let series = run.join("series.csv");
+    let text = std::fs::read_to_string(&series).unwrap();
+    std::fs::write(&series, text.replacen("energy_total", "energy_sum", 1)).unwrap();
+    let e = collect(&out, &energy_over_time).unwrap_err().to_string();
+    assert!(
+        e.contains("series.csv") && e.contains("field `energy_total`"),
+        "{e}"
+    );
+    std::fs::write(&series, text).unwrap();
+    let summary = run.join("summary.json");
+    let text = std::fs::read_to_string(&summary).unwrap();
+    std::fs::write(&summary, text.replacen("\"status\"", "\"state\"", 1)).unwrap();
+    let e = collect(&out, &energy_over_time).unwrap_err().to_string();
+    assert!(e.contains("summary.json") && e.contains("status"), "{e}");
 }
 
 #[test]

@@ -113,38 +113,36 @@ pub fn polyval(c: &[f64], x: f64) -> f64 {
     c.iter().rev().fold(0.0, |acc, &k| acc * x + k)
 }
 
-fn read_points(series: &Path, options: &CollectOptions) -> Result<Vec<(f64, f64)>, CollectError> {
-    let err = |reason: String| CollectError {
-        path: series.to_owned(),
-        reason,
-    };
-    let text = std::fs::read_to_string(series).map_err(|e| err(format!("cannot read: {e}")))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-    let column = |name: &str| {
-        header.iter().position(|c| *c == name).ok_or_else(|| {
-            err(format!(
-                "no column `{name}` (columns: {})",
-                header.join(", ")
-            ))
-        })
-    };
-    let (cx, cy) = (column(&options.x)?, column(&options.y)?);
-    let mut points = Vec::new();
-    for (k, line) in lines.take(options.frames).enumerate() {
-        let cells: Vec<&str> = line.split(',').collect();
-        let value = |c: usize| -> Result<f64, CollectError> {
-            cells
-                .get(c)
-                .and_then(|v| v.parse::<f64>().ok())
-                .ok_or_else(|| err(format!("row {}: unreadable value in column {c}", k + 2)))
+/// The (x, y) points of the first `options.frames` rows of a run's
+/// `series.csv` (typed reader: a missing column or an unreadable value is
+/// an error naming the file, the column and the line), rows where either is
+/// not finite left out.
+fn read_points(run_dir: &Path, options: &CollectOptions) -> Result<Vec<(f64, f64)>, CollectError> {
+    let series = crate::io::run_dir::Series::read(run_dir).map_err(CollectError::from)?;
+    let (cx, cy) = (
+        series.index(&options.x).map_err(CollectError::from)?,
+        series.index(&options.y).map_err(CollectError::from)?,
+    );
+    Ok(series
+        .rows
+        .iter()
+        .take(options.frames)
+        .map(|r| (r[cx], r[cy]))
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect())
+}
+
+impl From<crate::io::run_dir::RunDirError> for CollectError {
+    fn from(e: crate::io::run_dir::RunDirError) -> Self {
+        let reason = match &e.field {
+            Some(f) => format!("field `{f}`: {}", e.reason),
+            None => e.reason.clone(),
         };
-        let (x, y) = (value(cx)?, value(cy)?);
-        if x.is_finite() && y.is_finite() {
-            points.push((x, y));
+        CollectError {
+            path: e.path,
+            reason,
         }
     }
-    Ok(points)
 }
 
 /// Aggregates the sweep output in `dir` and writes the tables and charts.
@@ -165,19 +163,17 @@ pub fn collect(dir: &Path, options: &CollectOptions) -> Result<CollectReport, Co
     };
     for spec in &index.runs {
         let run_dir = dir.join(&spec.dir);
-        let summary_path = run_dir.join("summary.json");
-        let Ok(summary) = std::fs::read_to_string(&summary_path) else {
+        if !run_dir.join("summary.json").is_file() {
             report.missing.push(spec.dir.clone());
             continue;
-        };
-        let status = serde_json::from_str::<serde_json::Value>(&summary)
-            .ok()
-            .and_then(|v| v.get("status").and_then(|s| s.as_str()).map(String::from))
-            .ok_or_else(|| CollectError {
-                path: summary_path.clone(),
-                reason: "no `status` field".into(),
-            })?;
-        let points = read_points(&run_dir.join("series.csv"), options)?;
+        }
+        let summary = crate::workflow::run::RunSummary::read(&run_dir)?;
+        let status = match summary.status {
+            crate::workflow::run::RunStatus::Completed => "completed",
+            crate::workflow::run::RunStatus::BlewUp => "blew_up",
+        }
+        .to_string();
+        let points = read_points(&run_dir, options)?;
         let fit = polyfit(&points, options.degree);
         let metric = match (&fit, points.last()) {
             (Some(c), Some(&(x, _))) => Some(polyval(c, x)),
