@@ -188,15 +188,12 @@ fn bending_with_the_stability_bound_relaxes_without_a_cap() {
     let s = checked_summary(&out);
     assert_eq!(s["status"], "completed");
     // The energy never rises (an unstable explicit step makes it grow).
-    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
-    let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (e, dt) = (col("energy_bending"), col("dt"));
-    let rows: Vec<Vec<f64>> = series
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
-        .collect();
+    let series = remembrane::io::run_dir::Series::read(&out).unwrap();
+    let (e, dt) = (
+        series.index("energy_bending").unwrap(),
+        series.index("dt").unwrap(),
+    );
+    let rows = series.rows;
     for w in rows.windows(2) {
         assert!(
             w[1][e] <= w[0][e] + 1e-12,

@@ -505,11 +505,10 @@ fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
     assert_eq!(summary.frames.len(), 11);
     // One evaluation per tick plus the final state's: frames add none.
     assert_eq!(calls.load(std::sync::atomic::Ordering::Relaxed), 100 + 1);
-    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
-    let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
-    assert_eq!(header.last(), Some(&"height"));
-    assert!(header.contains(&"energy_counting"));
-    assert_eq!(series.lines().count(), 1 + 11);
+    let series = remembrane::io::run_dir::Series::read(&out).unwrap();
+    assert_eq!(series.columns.last().map(String::as_str), Some("height"));
+    assert!(series.index("energy_counting").is_ok());
+    assert_eq!(series.rows.len(), 11);
     let frame = std::fs::read_to_string(out.join(&summary.frames[3].file)).unwrap();
     assert!(
         frame.contains("Name=\"height_field\""),

@@ -69,27 +69,18 @@ fn a_phase_continues_from_the_saved_state_of_the_previous_one() {
     .unwrap();
     assert!((sim_pull.unwrap() - 642.0).abs() < 1e-9);
     assert_eq!(summary.iterations, 50);
-    let series = std::fs::read_to_string(dir.path().join("pull/series.csv")).unwrap();
-    let header = series.lines().next().unwrap();
+    let series = remembrane::io::run_dir::Series::read(&dir.path().join("pull")).unwrap();
     for column in [
         "radius_left",
         "radius_left_norm",
         "radius_right",
         "radius_right_norm",
     ] {
-        assert!(header.split(',').any(|c| c == column), "{column} missing");
+        assert!(series.index(column).is_ok(), "{column} missing");
     }
     // 400 iterations are too few for tethers: no plane section has enough
     // points, which is written as NaN (not as a made-up radius).
-    let index = |name: &str| header.split(',').position(|c| c == name).unwrap();
-    let first_row: Vec<f64> = series
-        .lines()
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .map(|v| v.parse().unwrap())
-        .collect();
-    let r = first_row[index("radius_left")];
+    let r = series.first("radius_left").unwrap();
     assert!(r.is_nan() || r > 0.0);
 }
 

@@ -55,16 +55,8 @@ pub fn frame_is_finite(path: &Path) -> bool {
 /// One column of a run's `series.csv`, a value per frame.
 #[allow(dead_code)]
 pub fn series_column(run_dir: &Path, name: &str) -> Vec<f64> {
-    let series = std::fs::read_to_string(run_dir.join("series.csv")).unwrap();
-    let mut lines = series.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let k = header
-        .iter()
-        .position(|h| *h == name)
-        .unwrap_or_else(|| panic!("no column {name} in {header:?}"));
-    lines
-        .map(|l| l.split(',').nth(k).unwrap().parse().unwrap())
-        .collect()
+    let series = remembrane::io::run_dir::Series::read(run_dir).unwrap_or_else(|e| panic!("{e}"));
+    series.column(name).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Every file under `dir` by relative path; `summary.json` without the
