@@ -1207,10 +1207,8 @@ fn diagram_command(
 }
 
 fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
-    use crate::workflow::sweep::{
-        Sweep, SweepError, SweepOptions, parse_shard, run_sweep, slurm_campaign_script,
-        slurm_script,
-    };
+    use crate::workflow::slurm::{slurm_campaign_script, slurm_script};
+    use crate::workflow::sweep::{Sweep, SweepError, SweepOptions, parse_shard, run_sweep};
     let SweepArgs {
         out,
         jobs,

@@ -1,7 +1,8 @@
 //! Sweeps: expansion, seeds, shards, resumption, errors; and collect.
 
 use remembrane::workflow::collect::{CollectOptions, collect, polyfit, polyval};
-use remembrane::workflow::sweep::{Sweep, SweepOptions, parse_shard, run_sweep, slurm_script};
+use remembrane::workflow::slurm::slurm_script;
+use remembrane::workflow::sweep::{Sweep, SweepOptions, parse_shard, run_sweep};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -220,7 +221,8 @@ fn write_phased_sweep(dir: &Path) -> std::path::PathBuf {
 
 #[test]
 fn shared_phases_run_once_and_conditions_start_from_them() {
-    use remembrane::workflow::sweep::{SweepError, phases_dir, slurm_campaign_script};
+    use remembrane::workflow::slurm::slurm_campaign_script;
+    use remembrane::workflow::sweep::{SweepError, phases_dir};
     let dir = tempfile::tempdir().unwrap();
     let path = write_phased_sweep(dir.path());
     let out = dir.path().join("out");
