@@ -216,6 +216,9 @@ class Run:
         summary = self.dir / "summary.json"
         if not summary.exists():
             raise FileNotFoundError(f"{summary}: not a finished run (no summary.json)")
+        # The engine's typed reader: a renamed or missing field is a
+        # ValueError naming the file and the field, not a KeyError later.
+        _core.check_run_dir(str(self.dir))
         self.summary: Dict[str, Any] = json.loads(summary.read_text())
         series = self.dir / "series.csv"
         self.series = _read_series(series) if series.exists() else None

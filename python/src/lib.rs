@@ -32,6 +32,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tools::read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(tools::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(tools::collect, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::check_run_dir, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -340,3 +340,18 @@ pub fn collect<'py>(
         }),
     )
 }
+
+/// Reads a run directory's `summary.json` and `series.csv` with the
+/// engine's typed reader: raises ValueError naming the file and the field
+/// when a field or column is missing, renamed or malformed (what the
+/// engine wrote always passes). `series.csv` is optional.
+#[pyfunction]
+pub fn check_run_dir(dir: PathBuf) -> PyResult<()> {
+    remembrane::workflow::run::RunSummary::read(&dir)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    if dir.join("series.csv").is_file() {
+        remembrane::io::run_dir::Series::read(&dir)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    }
+    Ok(())
+}

@@ -78,6 +78,21 @@ def test_load_run_reads_series_summary_and_frames(cli_dir):
     assert len(list(run.frames())) == len(run.frame_files)
 
 
+def test_load_run_names_a_renamed_or_malformed_field(cli_dir, tmp_path):
+    import shutil
+
+    for name, edit, pattern in [
+        ("summary.json", lambda t: t.replace('"iterations"', '"its"', 1), "summary.json.*iterations"),
+        ("series.csv", lambda t: t.replace("\n0,", "\nx,", 1), "series.csv.*iteration.*line 2"),
+    ]:
+        copy = tmp_path / name.replace(".", "_")
+        shutil.copytree(cli_dir, copy)
+        path = copy / name
+        path.write_text(edit(path.read_text()))
+        with pytest.raises(ValueError, match=pattern):
+            rm.load_run(copy)
+
+
 def test_run_refuses_an_existing_directory_and_a_stepped_simulation(tmp_path):
     scene = rm.Scene.load(RBC, iterations=10)
     (tmp_path / "taken").mkdir()
