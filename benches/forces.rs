@@ -191,6 +191,19 @@ fn each_system(c: &mut Criterion) {
             });
             g.finish();
         }
+        // The bending term in Jülicher's dihedral form, beside the
+        // cotangent form's `bending` group above.
+        let mut term = BendingForces::new(BendingParams {
+            kappa: 5.0,
+            discretisation: remembrane::params::BendingDiscretisation::Dihedral,
+            ..Default::default()
+        });
+        let mut g = configure(c, "bending_dihedral");
+        g.throughput(Throughput::Elements(n as u64));
+        g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| black_box(term.accumulate(&ctx, &mut force)))
+        });
+        g.finish();
     }
 }
 

@@ -40,6 +40,9 @@ pub struct DihedralScratch {
     g_a: Vec<f64>,
     edge_gradients: Vec<(f64, [DVec3; 4])>,
     face_gradients: Vec<(f64, [DVec3; 3])>,
+    /// The topology the quads were built for: its structure epoch and its
+    /// edge and face counts (a remesh event or flip changes the epoch).
+    oriented_for: Option<(u64, usize, usize)>,
 }
 
 /// The signed dihedral angle θ of an edge x0 → x1 between face A (normal
@@ -54,6 +57,11 @@ impl DihedralScratch {
     /// faces: a closed mesh).
     fn orient(&mut self, topology: &Topology) {
         let ne = topology.edges.len();
+        let key = (topology.epoch, ne, topology.faces.len());
+        if self.oriented_for == Some(key) {
+            return;
+        }
+        self.oriented_for = Some(key);
         self.quads.resize(ne, [0; 4]);
         self.quad_faces.resize(ne, [0; 2]);
         for e in 0..ne {
@@ -160,13 +168,7 @@ pub fn bending_dihedral(
             [ct * t0 - cl * e_hat, ct * t1 + cl * e_hat, ct * t2, ct * t3],
         )
     };
-    crate::util::parallel::accumulate(
-        quads,
-        force,
-        &mut s.edge_gradients,
-        edge_gradient,
-        |f, g| *f -= g,
-    );
+    subtract(quads, force, &mut s.edge_gradients, edge_gradient);
     let faces = &topology.faces;
     let face_gradient = |k: usize| {
         let [i0, i1, i2] = faces[k].map(|v| v as usize);
@@ -175,37 +177,53 @@ pub fn bending_dihedral(
         let w = (g_a[i0] + g_a[i1] + g_a[i2]) / 6.0;
         (0.0, c.e.map(|e| w * c.n_hat.cross(e)))
     };
-    crate::util::parallel::accumulate(
-        faces,
-        force,
-        &mut s.face_gradients,
-        face_gradient,
-        |f, g| *f -= g,
-    );
+    subtract(faces, force, &mut s.face_gradients, face_gradient);
     energy
 }
 
-/// The signed curvature h_i = 2M_i/A_i of every vertex (1/l̄), with the
-/// barycentric vertex areas A_i (l̄²).
-pub fn dihedral_curvatures(
-    positions: &[DVec3],
-    topology: &Topology,
-    geometry: &[Corners],
-    scratch: &mut DihedralScratch,
-) -> (Vec<f64>, Vec<f64>) {
-    bending_dihedral(positions, topology, geometry, 0.0, 0.0, scratch, None);
-    let h = scratch
-        .m
-        .iter()
-        .zip(&scratch.a)
-        .map(|(m, a)| 2.0 * m / a)
-        .collect();
-    (h, scratch.a.clone())
+/// Subtracts every item's per-vertex gradients from `force`, in item order:
+/// on a large mesh computed in parallel blocks, otherwise in one serial
+/// loop (a small mesh would pay more for handing blocks to the pool than
+/// for the work: 180 µs against 89 µs at 642 vertices, criterion).
+fn subtract<const K: usize>(
+    items: &[[u32; K]],
+    force: &mut [DVec3],
+    scratch: &mut Vec<(f64, [DVec3; K])>,
+    gradient: impl Fn(usize) -> (f64, [DVec3; K]) + Sync + Send,
+) {
+    if crate::util::parallel::splits(items.len()) {
+        crate::util::parallel::accumulate(items, force, scratch, gradient, |f, g| *f -= g);
+        return;
+    }
+    for (k, item) in items.iter().enumerate() {
+        let (_, g) = gradient(k);
+        for (&v, g) in item.iter().zip(g) {
+            force[v as usize] -= g;
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The signed curvature h_i = 2M_i/A_i of every vertex (1/l̄), with the
+    /// barycentric vertex areas A_i (l̄²).
+    fn dihedral_curvatures(
+        positions: &[DVec3],
+        topology: &Topology,
+        geometry: &[Corners],
+        scratch: &mut DihedralScratch,
+    ) -> (Vec<f64>, Vec<f64>) {
+        bending_dihedral(positions, topology, geometry, 0.0, 0.0, scratch, None);
+        let h = scratch
+            .m
+            .iter()
+            .zip(&scratch.a)
+            .map(|(m, a)| 2.0 * m / a)
+            .collect();
+        (h, scratch.a.clone())
+    }
 
     fn sphere(level: u32) -> (Vec<DVec3>, Topology) {
         let mesh = crate::mesh::icosphere(level, 1.0);
