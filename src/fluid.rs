@@ -76,6 +76,65 @@ pub fn remove_net_force(forces: &mut [DVec3]) {
     crate::util::parallel::for_each_mut(forces, |_, f| *f -= mean);
 }
 
+/// Removes the net force and the net torque from a force field: f_i ← f_i
+/// − f̄ − ω × (x_i − x̄), with f̄ the mean force, x̄ the centroid and ω
+/// solving I ω = Σ_j (x_j − x̄) × f_j (I the inertia tensor of unit point
+/// masses about x̄). Like a uniform force, a rigid rotation moves no shape;
+/// the projections break angular momentum as they break linear momentum,
+/// and on a helically ordered tube the tangential V_in forces of a
+/// compressed lattice sum to a torque that spun the tube about its axis
+/// without end (the n = 13 tether started at 0.8 r0: the largest force
+/// stuck near 1e-3 Ē/l̄ while the energy crept up, session 22). Sums are
+/// sequential (the same bits on any thread count).
+pub fn remove_net_force_and_torque(forces: &mut [DVec3], positions: &[DVec3]) {
+    remove_net_force(forces);
+    set_torque(forces, positions, DVec3::ZERO);
+}
+
+/// The torque of a force field about the centroid x̄ of its vertices,
+/// Σ_j (x_j − x̄) × f_j (sequential sum).
+pub fn torque(forces: &[DVec3], positions: &[DVec3]) -> DVec3 {
+    let centroid = centroid(&positions[..forces.len()]);
+    positions
+        .iter()
+        .zip(forces)
+        .map(|(x, f)| (*x - centroid).cross(*f))
+        .sum()
+}
+
+fn centroid(positions: &[DVec3]) -> DVec3 {
+    positions.iter().copied().sum::<DVec3>() / positions.len().max(1) as f64
+}
+
+/// Adds the rigid rotation field ω × (x_i − x̄) that brings the field's
+/// [`torque`] to `target`, leaving its net force unchanged (the field sums
+/// to zero about the centroid). A degenerate inertia tensor (the vertices
+/// on a line) leaves the field as it is.
+pub fn set_torque(forces: &mut [DVec3], positions: &[DVec3], target: DVec3) {
+    let n = forces.len();
+    if n == 0 {
+        return;
+    }
+    let centroid = centroid(&positions[..n]);
+    let mut excess = -target;
+    let mut inertia = glam::DMat3::ZERO;
+    for (x, f) in positions[..n].iter().zip(forces.iter()) {
+        let r = *x - centroid;
+        excess += r.cross(*f);
+        inertia += glam::DMat3::from_diagonal(DVec3::splat(r.length_squared()))
+            - glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z);
+    }
+    let scale = inertia.col(0).length() + inertia.col(1).length() + inertia.col(2).length();
+    let det = inertia.determinant().abs();
+    if det.is_nan() || det <= 1e-12 * scale * scale * scale {
+        return;
+    }
+    let omega = inertia.inverse() * excess;
+    crate::util::parallel::for_each_mut(forces, |v, f| {
+        *f -= omega.cross(positions[v] - centroid);
+    });
+}
+
 /// Keeps of every force only its component along the vertex normal:
 /// f ← (f·n) n.
 pub fn keep_normal(forces: &mut [DVec3], normals: &[DVec3]) {
@@ -122,6 +181,40 @@ pub fn residuals(total: &[DVec3], maintenance: &[DVec3], normals: &[DVec3]) -> F
 mod tests {
     use super::*;
     use crate::mesh::geometry::enclosed_volume;
+
+    /// After the removal the field has no net force and no torque, and what
+    /// was removed is a rigid motion: (d_i − d_j)·(x_i − x_j) = 0.
+    #[test]
+    fn removing_net_force_and_torque_takes_away_a_rigid_motion() {
+        let points: Vec<DVec3> = (0..40)
+            .map(|i| {
+                let t = i as f64;
+                DVec3::new((1.3 * t).sin() * 2.0, (0.7 * t).cos() * 3.0, 0.1 * t - 1.0)
+            })
+            .collect();
+        let forces: Vec<DVec3> = (0..40)
+            .map(|i| {
+                let t = i as f64;
+                DVec3::new(
+                    (2.1 * t).cos() + 0.3,
+                    (1.7 * t).sin(),
+                    (0.9 * t).sin() - 0.2,
+                )
+            })
+            .collect();
+        assert!(torque(&forces, &points).length() > 1.0);
+        let mut g = forces.clone();
+        remove_net_force_and_torque(&mut g, &points);
+        assert!(g.iter().copied().sum::<DVec3>().length() < 1e-12);
+        assert!(torque(&g, &points).length() < 1e-11);
+        let d: Vec<DVec3> = forces.iter().zip(&g).map(|(f, g)| *f - *g).collect();
+        for i in 0..40 {
+            for j in 0..40 {
+                let rigid = (d[i] - d[j]).dot(points[i] - points[j]);
+                assert!(rigid.abs() < 1e-11, "{i} {j}: {rigid}");
+            }
+        }
+    }
 
     #[test]
     fn normal_is_the_volume_gradient_direction() {

@@ -227,8 +227,9 @@ pub enum SpringCoupling {
     Centroid,
     /// A smooth patch of physical size (the fluid model's coupling): the
     /// weighted centroid x̄ = Σ g_j x_j / Σ g_j of the vertices within 3a of
-    /// c, with g_j = exp(−r_j²/2a²) − exp(−9/2) (r_j = |x_j − c|, zero at
-    /// the cut-off), is tied to c: E = ½k|c − x̄|², k the point's whole
+    /// c, with g_j = exp(−r_j²/2a²) − exp(−9/2)·(11/2 − r_j²/2a²) (r_j =
+    /// |x_j − c|: the Gaussian less its tangent in r² at the cut-off, so
+    /// weight and gradient both vanish there), is tied to c: E = ½k|c − x̄|², k the point's whole
     /// stiffness (not per vertex). The weights follow the vertices, so a
     /// remesh event near c changes the pull continuously, and the force is
     /// the exact gradient (weights included). With no vertex within 3a the

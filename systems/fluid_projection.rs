@@ -2,13 +2,14 @@
 //! only in the tangent planes, external loads only along the normals.
 //!
 //! Stage: Forces (after `force_terms`, before `force_total`). Reads:
-//! [`VertexNormals`]. Writes: in [`ForceBuffers`], the buffers of the
-//! [`ForceKind::Maintenance`] terms (V_in), which lose their component
-//! along the area-weighted vertex normal and then their net force (a rigid
-//! translation, so that a free vesicle does not drift), and of the
+//! [`DensePositions`], [`VertexNormals`]. Writes: in [`ForceBuffers`], the
+//! buffers of the [`ForceKind::Maintenance`] terms (V_in), which lose their
+//! component along the area-weighted vertex normal and then their net force
+//! and torque (rigid motions, so that a free vesicle neither drifts nor
+//! spins), and of the
 //! [`ForceKind::External`] terms (control-point springs), which keep only
 //! that component, and with [`PhysicalForces::Normal`] the physical terms,
-//! which keep only that component and lose their net force too (measured
+//! which keep only that component and lose their net force and torque too (measured
 //! on the stomatocyte: 0.54 Ē/l̄ left, a drift that kept the minimiser from
 //! converging). The per-term forces reported are then the ones that act.
 
@@ -16,8 +17,9 @@ use crate::engine::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
 use crate::engine::force_term_system::FORCE_TERMS;
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
+use crate::engine::simulation::DensePositions;
 use crate::engine::simulation::SimError;
-use crate::fluid::{keep_normal, keep_tangential, remove_net_force};
+use crate::fluid::{keep_normal, keep_tangential, remove_net_force_and_torque};
 use crate::params::PhysicalForces;
 use crate::systems::vertex_normals::VertexNormals;
 
@@ -38,26 +40,30 @@ impl FluidProjection {
 }
 
 impl System for FluidProjection {
-    type Data<'a> = (Res<'a, VertexNormals>, ResMut<'a, ForceBuffers>);
+    type Data<'a> = (
+        Res<'a, DensePositions>,
+        Res<'a, VertexNormals>,
+        ResMut<'a, ForceBuffers>,
+    );
 
     fn name(&self) -> &str {
         FLUID_PROJECTION
     }
 
-    fn run(&mut self, (normals, mut buffers): Self::Data<'_>) -> Result<(), SimError> {
+    fn run(&mut self, (positions, normals, mut buffers): Self::Data<'_>) -> Result<(), SimError> {
         let kinds: Vec<ForceKind> = buffers.terms().iter().map(|t| t.kind).collect();
         for (kind, buf) in kinds.iter().zip(&mut buffers.evaluation.term_forces) {
             match kind {
                 ForceKind::Maintenance => {
                     keep_tangential(buf, &normals.0);
-                    remove_net_force(buf);
+                    remove_net_force_and_torque(buf, &positions.0);
                 }
                 ForceKind::External => keep_normal(buf, &normals.0),
                 ForceKind::Conservative | ForceKind::Penalty => match self.physical {
                     PhysicalForces::Full => {}
                     PhysicalForces::Normal => {
                         keep_normal(buf, &normals.0);
-                        remove_net_force(buf);
+                        remove_net_force_and_torque(buf, &positions.0);
                     }
                 },
             }
