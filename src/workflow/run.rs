@@ -427,7 +427,59 @@ pub fn drive_run(
         .unwrap_or_default();
     sim.add_dynamic_system(Stage::Observe, FrameWriter::new(name, frames, recorders))?;
     let earlier_wall = resume.as_ref().map_or(0.0, |c| c.wall_time_s);
-    match &resume {
+    open_output(sim, options, resume.as_deref())?;
+    let source = checkpoint_source(scene_path, options, resume.as_deref());
+    let write_checkpoint = |sim: &Simulation, source| -> Result<(), RunError> {
+        let wall = earlier_wall + started.elapsed().as_secs_f64();
+        let checkpoint = Checkpoint::capture(sim, source, wall)?;
+        Ok(sim
+            .resource::<RunOutput>()
+            .write_checkpoint(&checkpoint.to_json())?)
+    };
+    // A first checkpoint before the first tick: a scene whose state cannot
+    // be saved (a plugin's own entities) fails here, not hours later.
+    if let Some(source) = &source
+        && resume.is_none()
+        && let Err(e) = write_checkpoint(sim, source)
+    {
+        if let Some(out) = sim.remove_resource::<RunOutput>() {
+            out.discard();
+        }
+        return Err(e);
+    }
+    let stop = tick_to_the_end(
+        sim,
+        name,
+        (iterations, duration),
+        options.progress,
+        started,
+        interrupted,
+        |sim, it| match &source {
+            Some(source)
+                if it.is_multiple_of(source.every)
+                    && it < iterations
+                    && sim.clock().time < duration =>
+            {
+                write_checkpoint(sim, source)
+            }
+            _ => Ok(()),
+        },
+    )?;
+    let wall = earlier_wall + started.elapsed().as_secs_f64();
+    finish_run(sim, name, scene, scene_path, stop, wall)
+}
+
+/// Inserts the run's output: a new staging directory, or for a resumed
+/// run the one its checkpoint left, and starts the simulation (restoring
+/// the checkpoint). A failed fresh start discards its staging directory; a
+/// failed resume leaves the staging directory and its checkpoint as they
+/// were.
+fn open_output(
+    sim: &mut Simulation,
+    options: &RunOptions,
+    resume: Option<&Checkpoint>,
+) -> Result<(), RunError> {
+    match resume {
         None => {
             sim.insert_resource(RunOutput::create(&options.out, options.overwrite)?)?;
             if let Err(e) = sim.start() {
@@ -437,8 +489,6 @@ pub fn drive_run(
                 return Err(e.into());
             }
         }
-        // A failed resume leaves the staging directory and its checkpoint
-        // as they were.
         Some(checkpoint) => {
             sim.insert_resource(RunOutput::reopen(&options.out, &checkpoint.output)?)?;
             sim.start()?;
@@ -451,7 +501,17 @@ pub fn drive_run(
             })?;
         }
     }
-    let source = options
+    Ok(())
+}
+
+/// What a checkpoint records of how the run was started (`None` without
+/// checkpoints).
+fn checkpoint_source(
+    scene_path: &Path,
+    options: &RunOptions,
+    resume: Option<&Checkpoint>,
+) -> Option<crate::io::checkpoint::RunSource> {
+    options
         .checkpoint
         .as_ref()
         .map(|c| crate::io::checkpoint::RunSource {
@@ -472,27 +532,23 @@ pub fn drive_run(
                 .map(|f| std::path::absolute(f).unwrap_or_else(|_| f.clone())),
             check_invariants: options.check_invariants,
             every: c.every.max(1),
-        });
+        })
+}
 
-    let write_checkpoint = |sim: &Simulation, source| -> Result<(), RunError> {
-        let wall = earlier_wall + started.elapsed().as_secs_f64();
-        let checkpoint = Checkpoint::capture(sim, source, wall)?;
-        Ok(sim
-            .resource::<RunOutput>()
-            .write_checkpoint(&checkpoint.to_json())?)
-    };
-    // A first checkpoint before the first tick: a scene whose state cannot
-    // be saved (a plugin's own entities) fails here, not hours later.
-    if let Some(source) = &source
-        && resume.is_none()
-        && let Err(e) = write_checkpoint(sim, source)
-    {
-        if let Some(out) = sim.remove_resource::<RunOutput>() {
-            out.discard();
-        }
-        return Err(e);
-    }
-    let bar = progress_bar(options.progress, iterations);
+/// Ticks until the scene's iterations or duration are reached, a tick
+/// fails (returned as the stop) or a stop is requested, reporting progress
+/// and calling `after_tick` with each iteration reached (checkpoints). An
+/// interrupt ends the run with [`RunError::Interrupted`].
+fn tick_to_the_end(
+    sim: &mut Simulation,
+    name: &str,
+    (iterations, duration): (u64, f64),
+    progress: Progress,
+    started: Instant,
+    interrupted: &dyn Fn() -> bool,
+    mut after_tick: impl FnMut(&Simulation, u64) -> Result<(), RunError>,
+) -> Result<Option<SimError>, RunError> {
+    let bar = progress_bar(progress, iterations);
     let mut stop: Option<SimError> = None;
     // Lines every 10 % of the run, from where it starts (a resumed run
     // starts at its checkpoint).
@@ -531,16 +587,10 @@ pub fn drive_run(
         {
             break;
         }
-        if let Some(source) = &source
-            && it.is_multiple_of(source.every)
-            && it < iterations
-            && sim.clock().time < duration
-        {
-            write_checkpoint(sim, source)?;
-        }
+        after_tick(sim, it)?;
         if let Some(b) = &bar {
             b.set_position(it);
-        } else if options.progress == Progress::Lines && it >= next_line && iterations >= 10 {
+        } else if progress == Progress::Lines && it >= next_line && iterations >= 10 {
             eprintln!(
                 "{name}: iteration {it}/{iterations} ({:.0} s)",
                 started.elapsed().as_secs_f64()
@@ -551,6 +601,19 @@ pub fn drive_run(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    Ok(stop)
+}
+
+/// The final state's forces and frame, then the summary, events, state
+/// and mesh written and the staging directory renamed into place.
+fn finish_run(
+    sim: &mut Simulation,
+    name: &str,
+    scene: &Scene,
+    scene_path: &Path,
+    mut stop: Option<SimError>,
+    wall: f64,
+) -> Result<RunSummary, RunError> {
     // Final state: its forces and its frame.
     if stop.is_none() {
         if let Err(e) = sim.observe() {
@@ -565,7 +628,6 @@ pub fn drive_run(
     let out = sim
         .remove_resource::<RunOutput>()
         .expect("the run's output stays a resource");
-    let wall = earlier_wall + started.elapsed().as_secs_f64();
     let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), wall);
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
