@@ -1,0 +1,107 @@
+//! `remembrane compare`: the same scene run by remembrane and by Mem3DG
+//! side by side.
+
+use super::*;
+
+pub(super) fn compare_command(
+    first: &Path,
+    second: &Path,
+    iterations: Option<u64>,
+    out: Option<PathBuf>,
+    overwrite: bool,
+    seed: Option<u64>,
+    quiet: bool,
+) -> ExitCode {
+    use crate::workflow::compare::{ComparisonRow, chart_png, csv, table};
+    use crate::workflow::run::{Progress, RunOptions, run_scene};
+    let mut scenes = Vec::new();
+    for path in [first, second] {
+        match Scene::load(path) {
+            Ok(s) => scenes.push((s, path.to_path_buf())),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let names: Vec<String> = scenes
+        .iter()
+        .map(|(s, p)| crate::workflow::run::run_name(s, p))
+        .collect();
+    if names[0] == names[1] {
+        eprintln!(
+            "error: both scenes are named `{}`; give them different `name`s",
+            names[0]
+        );
+        return ExitCode::from(2);
+    }
+    let dir = out.unwrap_or_else(|| {
+        free_directory(Path::new("out").join(format!("compare-{}-{}", names[0], names[1])))
+    });
+    if dir.exists() {
+        if !overwrite {
+            eprintln!(
+                "error: {}: output directory already exists (choose another --out or pass --overwrite)",
+                dir.display()
+            );
+            return ExitCode::from(2);
+        }
+        if let Err(e) = std::fs::remove_dir_all(&dir) {
+            eprintln!("error: {}: cannot replace: {e}", dir.display());
+            return ExitCode::from(1);
+        }
+    }
+    let mut rows = Vec::new();
+    for ((scene, path), name) in scenes.iter().zip(&names) {
+        let options = RunOptions {
+            out: dir.join(name),
+            overwrite: false,
+            seed,
+            iterations,
+            frames: None,
+            from: None,
+            progress: if quiet {
+                Progress::Quiet
+            } else {
+                Progress::Lines
+            },
+            check_invariants: false,
+            checkpoint: None,
+        };
+        match run_scene(scene, path, &options, |_| Ok(())) {
+            Ok(summary) => rows.push(ComparisonRow::from_summary(&summary)),
+            Err(e) => {
+                eprintln!("error: {}: {e}", path.display());
+                return ExitCode::from(e.exit_code());
+            }
+        }
+    }
+    let rows: [ComparisonRow; 2] = [rows[0].clone(), rows[1].clone()];
+    let written = crate::atomic_write(&dir.join("comparison.csv"), csv(&rows).as_bytes())
+        .and_then(|_| crate::atomic_write(&dir.join("comparison.png"), &chart_png(&rows)));
+    if let Err(e) = written {
+        eprintln!("error: {}: cannot write the comparison: {e}", dir.display());
+        return ExitCode::from(1);
+    }
+    say_raw!("{}", table(&rows));
+    if !quiet {
+        eprintln!("comparison in {}", dir.display());
+    }
+    ExitCode::SUCCESS
+}
+
+/// `base`, or `base.1`, `base.2`, … whichever does not exist yet, so a new
+/// run never mixes with an earlier one.
+pub(super) fn free_directory(base: PathBuf) -> PathBuf {
+    if !base.exists() {
+        return base;
+    }
+    (1..)
+        .map(|k| {
+            let mut p = base.clone().into_os_string();
+            p.push(format!(".{k}"));
+            PathBuf::from(p)
+        })
+        .find(|p| !p.exists())
+        .unwrap_or(base)
+}

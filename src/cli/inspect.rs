@@ -1,0 +1,237 @@
+//! `remembrane check`, `energy` and `spectrum`: reading a scene, a
+//! protocol or a run without running it.
+
+use super::*;
+
+/// `remembrane check PROTOCOL`: every phase's scene and start.
+pub(super) fn check_protocol(path: &Path) -> Result<(), String> {
+    let loaded = crate::workflow::protocol::Protocol::load(path).map_err(|e| e.to_string())?;
+    say!(
+        "{}: ok (protocol `{}`)",
+        path.display(),
+        loaded.protocol.name
+    );
+    for (phase, (scene, scene_path)) in loaded.protocol.phases.iter().zip(&loaded.scenes) {
+        say!(
+            "  phase {:<12} {} ({} iterations{}), start {:?}",
+            phase.name,
+            scene_path.display(),
+            scene.dynamics.iterations,
+            scene
+                .dynamics
+                .duration
+                .map(|t| format!(", at most {t} s"))
+                .unwrap_or_default(),
+            phase.start
+        );
+    }
+    Ok(())
+}
+
+pub(super) fn spectrum_command(
+    dir: &Path,
+    equilibration: f64,
+    (l_min, l_max): (usize, usize),
+    blocks: usize,
+    kbt: Option<f64>,
+    kappa: Option<f64>,
+    discrete: bool,
+) -> Result<(), String> {
+    if !dir.join("summary.json").is_file() {
+        return Err(format!(
+            "{}: no summary.json: not a run directory",
+            dir.display()
+        ));
+    }
+    let scene = run_scene_file(dir);
+    let kbt = kbt
+        .or_else(|| scene.as_ref().map(|s| s.dynamics.temperature))
+        .ok_or_else(|| {
+            format!(
+                "{}: the run's scene cannot be read: give --kbt",
+                dir.display()
+            )
+        })?;
+    if !(kbt > 0.0 && kbt.is_finite()) {
+        return Err(format!(
+            "k_BT must be > 0 (got {kbt}): is this a run with noise?"
+        ));
+    }
+    let kappa_input = kappa.or_else(|| {
+        scene.as_ref()?.energy.iter().find_map(|t| match t {
+            crate::scene::EnergyTerm::Bending(p) => Some(p.kappa),
+            _ => None,
+        })
+    });
+    let options = crate::analysis::spectrum::SpectrumOptions {
+        equilibration,
+        l_min,
+        l_max,
+        blocks,
+        kbt,
+        kappa_input,
+        discrete,
+    };
+    let s = crate::analysis::spectrum::analyse_run(dir, &options)?;
+    say!(
+        "{} frames, R0 = {:.4} l̄, l = {}..={}: κ = {:.4} ± {:.4} Ē, σ = {:.4e} ± {:.1e} Ē/l̄², χ²/dof = {:.2}",
+        s.frames,
+        s.mean_radius,
+        s.l_min,
+        s.l_max,
+        s.kappa,
+        s.kappa_error,
+        s.sigma,
+        s.sigma_error,
+        s.chi2_per_dof
+    );
+    if let Some(k) = kappa_input {
+        say!("input κ = {k} Ē: fitted/input = {:.3}", s.kappa / k);
+    }
+    Ok(())
+}
+
+pub(super) fn check(path: &Path) -> Result<(), String> {
+    if std::fs::read_to_string(path).is_ok_and(|t| crate::workflow::protocol::is_protocol(&t)) {
+        return check_protocol(path);
+    }
+    let (scene, mut sim) = load(path)?;
+    let initial = *sim.resource::<crate::engine::simulation::InitialState>();
+    let mesh_mean_edge = sim
+        .membrane_mut()
+        .to_mesh()
+        .map_err(|e| e.to_string())?
+        .mean_edge_length();
+    let t = sim.membrane_mut().topology().map_err(|e| e.to_string())?;
+    say!("{}: ok", path.display());
+    for caution in scene.cautions() {
+        say!("  warning: {caution}");
+    }
+    say!(
+        "  name         {}",
+        crate::workflow::run::run_name(&scene, path)
+    );
+    say!("  seed         {}", scene.seed);
+    say!("  membrane     {:?}", scene.membrane);
+    say!(
+        "  mesh         {} vertices, {} edges, {} faces",
+        t.vertex_count(),
+        t.edges.len(),
+        t.faces.len()
+    );
+    say!(
+        "  valence      {}..={}",
+        scene.valence.min,
+        scene.valence.max
+    );
+    say!(
+        "  lipid        {}",
+        if scene.lipid_density {
+            "per-vertex density"
+        } else {
+            "none"
+        }
+    );
+    say!(
+        "  initial      area {:.4} l̄², volume {:.4} l̄³",
+        initial.area,
+        initial.volume
+    );
+    say!("  energy terms {}", scene.energy.len());
+    for term in &scene.energy {
+        say!("    {term:?}");
+    }
+    say!("  systems      {}", scene.systems.len());
+    for system in &scene.systems {
+        say!("    {system:?}");
+    }
+    say!("  penalty smoothing passes {}", scene.penalty_smoothing);
+    say!(
+        "  model        {}",
+        match scene.model {
+            crate::params::MembraneModel::Paper =>
+                "Paper (V_in acts on the shape: an elastic shell)",
+            crate::params::MembraneModel::Fluid(_) =>
+                "Fluid (V_in acts in the tangent planes only: no shear modulus)",
+        }
+    );
+    let h = scene.resolution.edge_length(mesh_mean_edge);
+    if h != 1.0 {
+        let r = scene.at_resolution(h);
+        let well = r
+            .energy
+            .iter()
+            .find_map(|t| match t {
+                crate::scene::EnergyTerm::Vin(p) => Some((p.near_barrier.1, p.far_barrier.0)),
+                _ => None,
+            })
+            .unwrap_or((f64::NAN, f64::NAN));
+        say!(
+            "  resolution   h = {h:.5} l̄: V_in well ({:.4}, {:.4}), triggers ({:.4}, {:.4}), \
+             mobility per vertex {:.6e} l̄²/(Ē s)",
+            well.0,
+            well.1,
+            r.remesh.shorter_than,
+            r.remesh.longer_than,
+            r.dynamics.mobility
+        );
+    }
+    if let Some(c) = &scene.constraints {
+        let (area, volume) = c.targets(initial.area, initial.volume);
+        let show = |x: Option<f64>| x.map_or("free".to_string(), |x| format!("{x:.4}"));
+        let reduced = match (area, volume) {
+            (Some(a), Some(v)) => format!(
+                " (reduced volume {:.4})",
+                crate::mesh::geometry::reduced_volume(v, a)
+            ),
+            _ => String::new(),
+        };
+        say!(
+            "  constraints  area {} l̄², volume {} l̄³{reduced}, held exactly",
+            show(area),
+            show(volume)
+        );
+    }
+    match scene.dynamics.method {
+        crate::params::Method::Overdamped => say!(
+            "  dynamics     overdamped, {} iterations",
+            scene.dynamics.iterations
+        ),
+        crate::params::Method::Minimise(m) => say!(
+            "  dynamics     FIRE minimiser, at most {} iterations, until the largest force < {:e} Ē/l̄ or |ΔE|/E < {:e} over {}",
+            scene.dynamics.iterations,
+            m.force_tolerance,
+            m.energy_tolerance,
+            m.energy_window
+        ),
+    }
+    say!("  control points {}", scene.control_points.len());
+    Ok(())
+}
+
+pub(super) fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {
+    let (scene, mut sim) = load(path)?;
+    sim.evaluate_forces().map_err(|e| e.to_string())?;
+    let report = EnergyReport::new(&crate::workflow::run::run_name(&scene, path), &sim);
+    if let Some(bad) = report.energies.iter().find(|e| !e.energy.is_finite()) {
+        return Err(format!(
+            "{}: energy term `{}` is not finite ({})",
+            path.display(),
+            bad.term,
+            bad.energy
+        ));
+    }
+    if let Some(out) = forces {
+        crate::atomic_write(out, forces_csv(&sim).as_bytes())
+            .map_err(|e| format!("{}: cannot write forces: {e}", out.display()))?;
+    }
+    if json {
+        say!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
+        );
+    } else {
+        say_raw!("{}", report.to_text());
+    }
+    Ok(())
+}
