@@ -90,7 +90,7 @@ fn gaussian_weight(r2: f64, inv_a2: f64) -> (f64, f64) {
 /// lies within 3a.
 ///
 /// With d = c − x̄, G = Σ g, w_j = g_j/G and ∇g_j = −φ_j (x_j − c)
-/// ([`gaussian_weight`]): F_j = k [w_j d + (d·(x_j − x̄)) ∇g_j / G].
+/// (`gaussian_weight`): F_j = k [w_j d + (d·(x_j − x̄)) ∇g_j / G].
 pub fn gaussian_patch(
     positions: &[DVec3],
     cp: &ControlPoint,

@@ -1,0 +1,113 @@
+//! What `summary.json` holds: a run's status, energies, shape, remeshing
+//! and minimiser.
+
+use super::*;
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// All iterations done.
+    Completed,
+    /// Stopped by a non-finite value; the last frame is the last good state.
+    BlewUp,
+}
+
+/// `summary.json` (read back by [`RunSummary::read`]).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct RunSummary {
+    /// Scene file.
+    pub scene_file: String,
+    /// Seed used.
+    pub seed: u64,
+    /// How the run ended.
+    pub status: RunStatus,
+    /// The error that stopped the run, if any.
+    pub error: Option<String>,
+    /// The last frame written, i.e. the last good state (relative path).
+    pub last_good_frame: Option<String>,
+    /// Iterations done.
+    pub iterations: u64,
+    /// Simulated time (s).
+    pub simulated_time: f64,
+    /// Wall time of the whole run (s).
+    pub wall_time_s: f64,
+    /// The final state: scene name, mesh size, energies by term, area,
+    /// volume, reduced volume and mesh quality (flattened into the JSON).
+    #[serde(flatten)]
+    pub last: EnergyReport,
+    /// Final shape in its principal frame (diameter, centre vs maximal
+    /// height, axisymmetry, discocyte/stomatocyte/convex).
+    pub shape: crate::analysis::shape::ShapeMetrics,
+    /// Edges outside [l_−, l_+] at the end.
+    pub abnormal_edges: usize,
+    /// Remeshing outcome counts (split/merge × success/cancel/impossible/failure).
+    pub remesh: RemeshSummary,
+    /// Known biases of the scene's settings ([`crate::scene::Scene::cautions`]; omitted
+    /// when none).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub cautions: Vec<String>,
+    /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
+    /// Delaunay maintenance flips of the fluid model (scenes with
+    /// `model: Fluid(flips: ...)` only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub maintenance_flips: Option<crate::systems::maintenance_flips::MaintenanceFlipStats>,
+    /// How the minimisation ended (scenes with `method: Minimise` only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub minimiser: Option<MinimiserSummary>,
+    /// The exact constraints at the final state: targets, area, volume and
+    /// the multipliers σ (`tension`, Ē/l̄²) and Δp (`pressure`, Ē/l̄³)
+    /// (scenes with `constraints` only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub constraints: Option<crate::constraint::ConstraintState>,
+    /// The membrane model and what V_in's in-plane elasticity weighs at
+    /// the final state ([`crate::fluid::ModelSummary`]).
+    pub model: crate::fluid::ModelSummary,
+    /// Frames written.
+    pub frames: Vec<crate::io::output::FrameRecord>,
+    /// Wall time per system.
+    pub timings: Vec<SystemTiming>,
+}
+
+/// How a minimisation ended, in `summary.json`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct MinimiserSummary {
+    /// `force_residual` or `energy_change` (the criterion that held), or
+    /// `iteration_cap` (neither held within `iterations`).
+    pub stopped_by: String,
+    /// Whether a convergence criterion held.
+    pub converged: bool,
+    /// The largest force on a vertex at the final state, constraint
+    /// reactions removed (Ē/l̄).
+    pub force_residual: f64,
+    /// |ΔE| / |E| over the energy window at the end (absent until the
+    /// window had filled since the last restart).
+    pub energy_change: Option<f64>,
+    /// The largest relative constraint violation at the end.
+    pub constraint_violation: f64,
+    /// Restarts after topology changes.
+    pub restarts: u64,
+    /// Steps undone because they folded a face.
+    pub folds_undone: u64,
+}
+
+/// Remeshing counts in `summary.json`.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct RemeshSummary {
+    /// Split outcomes.
+    pub split: crate::remesh::OutcomeCounts,
+    /// Merge outcomes.
+    pub merge: crate::remesh::OutcomeCounts,
+    /// Ticks that hit the per-tick event cap.
+    pub overflow_ticks: u64,
+    /// Ticks that ended with abnormal edges although each was attempted.
+    pub unresolved_ticks: u64,
+    /// Successful events.
+    pub events: u64,
+    /// Relaxation iterations by phase.
+    pub relax_iterations: crate::remesh::RelaxIterations,
+    /// σ(|r|) of the event positions (l̄).
+    pub event_position_spread: f64,
+}
