@@ -1,0 +1,292 @@
+//! From a scene to a simulation: its initial mesh (generated, imported or
+//! a saved state), and the built-in and declared plugins assembled into
+//! one build.
+
+use super::*;
+
+impl Scene {
+    /// The initial mesh (jittered with the scene seed if requested).
+    pub fn initial_mesh(&self, scene_path: &Path) -> Result<SurfaceMesh, SceneError> {
+        Ok(self.initial_state(scene_path)?.0)
+    }
+
+    /// The initial mesh and, when starting from a saved state that has
+    /// them, the lipid densities.
+    pub fn initial_state(
+        &self,
+        scene_path: &Path,
+    ) -> Result<(SurfaceMesh, Option<Vec<f64>>), SceneError> {
+        let mut lipid = None;
+        let mut mesh = match &self.membrane {
+            MembraneSource::Icosphere {
+                level,
+                mean_edge_length,
+                jitter,
+            } => {
+                let mut m = icosphere(*level, *mean_edge_length);
+                if *jitter > 0.0 {
+                    m.jitter(*jitter, self.seed);
+                }
+                m
+            }
+            MembraneSource::Ellipsoid {
+                level,
+                semi_axes: (a, b, c),
+                jitter,
+                tilt,
+            } => crate::mesh::ellipsoid_tilted(*level, [*a, *b, *c], *jitter, *tilt, self.seed),
+            MembraneSource::Capsule {
+                radius,
+                length,
+                mean_edge_length,
+            } => crate::mesh::capsule(*radius, *length, *mean_edge_length),
+            MembraneSource::Axisymmetric {
+                branch,
+                reduced_volume,
+                area,
+                mean_edge_length,
+            } => {
+                let invalid = |field: &str, reason: String| SceneError::Invalid {
+                    path: scene_path.to_owned(),
+                    field: field.to_string(),
+                    reason,
+                };
+                let shape =
+                    crate::study::axisymmetric::solve_on_branch(*reduced_volume, 200, *branch)
+                        .map_err(|e| {
+                            invalid(
+                                "membrane.reduced_volume",
+                                format!("no {branch} shape at v = {reduced_volume}: {e}"),
+                            )
+                        })?;
+                let r0 = (area / (4.0 * std::f64::consts::PI)).sqrt();
+                let profile: Vec<(f64, f64)> = shape
+                    .profile
+                    .iter()
+                    .map(|&(r, z)| (r0 * r, r0 * z))
+                    .collect();
+                crate::mesh::revolution(&profile, *mean_edge_length)
+                    .map_err(|e| invalid("membrane", e.to_string()))?
+            }
+            MembraneSource::DockedPair { level } => docked_pair(*level),
+            MembraneSource::File { path, scale } => {
+                let base = scene_path.parent().unwrap_or(Path::new("."));
+                let mut m = read_mesh(&base.join(path)).map_err(|source| SceneError::MeshFile {
+                    path: scene_path.to_owned(),
+                    source,
+                })?;
+                m.scale(*scale);
+                m
+            }
+            MembraneSource::State { path, refine } => {
+                let base = scene_path.parent().unwrap_or(Path::new("."));
+                let state = crate::io::state::SavedState::read(&base.join(path)).map_err(|e| {
+                    SceneError::Invalid {
+                        path: scene_path.to_owned(),
+                        field: "membrane".into(),
+                        reason: format!("state file {e}"),
+                    }
+                })?;
+                let mut mesh = state.mesh();
+                if *refine == 0 {
+                    lipid = state.lipid_density.clone();
+                }
+                for _ in 0..*refine {
+                    mesh = mesh.subdivided();
+                }
+                mesh
+            }
+            MembraneSource::Mesh { positions, faces } => SurfaceMesh {
+                positions: positions.clone(),
+                faces: faces.clone(),
+            },
+        };
+        // Generated meshes are valid by construction; this also applies the
+        // scene's valence limits to files and docked pairs.
+        check_mesh(&mesh.positions, &mesh.faces, Some(self.valence)).map_err(|source| {
+            let field = if matches!(source, MeshError::ValenceOutOfRange { .. }) {
+                "valence"
+            } else {
+                "membrane"
+            };
+            SceneError::Mesh {
+                path: scene_path.to_owned(),
+                field,
+                source,
+            }
+        })?;
+        mesh.positions.shrink_to_fit();
+        Ok((mesh, lipid))
+    }
+
+    /// Builds the world and the force systems this scene declares.
+    pub fn build(&self, scene_path: &Path) -> Result<Simulation, SceneError> {
+        let (mesh, saved_lipid) = self.initial_state(scene_path)?;
+        let h = self.resolution.edge_length(mesh.mean_edge_length());
+        if h != 1.0 {
+            return self
+                .at_resolution(h)
+                .build_from(mesh, saved_lipid, scene_path);
+        }
+        self.build_from(mesh, saved_lipid, scene_path)
+    }
+
+    /// Builds from the initial mesh (and saved lipid density), with this
+    /// scene's parameters as they stand (already at its resolution).
+    fn build_from(
+        &self,
+        mesh: SurfaceMesh,
+        saved_lipid: Option<Vec<f64>>,
+        scene_path: &Path,
+    ) -> Result<Simulation, SceneError> {
+        let lipid_total = match (&saved_lipid, self.lipid_density) {
+            (Some(rho), true) => rho.iter().sum(),
+            _ => mesh.vertex_count() as f64,
+        };
+        let initial = InitialState {
+            vertices: mesh.vertex_count(),
+            lipid_total,
+            area: total_area(&mesh.positions, &mesh.faces),
+            volume: enclosed_volume(&mesh.positions, &mesh.faces, mesh.positions[0]),
+        };
+        let invalid = |reason: String| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field: "membrane".into(),
+            reason,
+        };
+        let mut membrane =
+            Membrane::from_mesh(&mesh, self.lipid_density).map_err(|e| invalid(e.to_string()))?;
+        if let (Some(rho), true) = (&saved_lipid, self.lipid_density) {
+            membrane.topology().map_err(|e| invalid(e.to_string()))?;
+            membrane.scatter_lipid(rho);
+        }
+        use crate::systems::plugins;
+        let mut builder = SimBuilder::new(membrane, initial);
+        let build_err = |e: BuildError| invalid(e.to_string());
+        let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field,
+            reason: e.to_string(),
+        };
+        builder
+            .add_plugin(plugins::core(plugins::CoreSettings {
+                dynamics: self.dynamics,
+                seed: self.seed,
+                penalty_smoothing: self.penalty_smoothing,
+                remesh: self.remesh,
+            }))
+            .map_err(build_err)?;
+        if let crate::params::MembraneModel::Fluid(f) = self.model {
+            builder
+                .add_plugin(plugins::fluid(f))
+                .map_err(|e| invalid_at("model".into(), e))?;
+        }
+        if let Some(c) = self.constraints {
+            builder
+                .add_plugin(plugins::constraints(c))
+                .map_err(|e| invalid_at("constraints".into(), e))?;
+        }
+        builder
+            .add_plugin(plugins::recorders(
+                self.tube_radius.clone(),
+                self.control_points
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, cp)| Some((cp.name.clone()?, i as u32)))
+                    .collect(),
+            ))
+            .map_err(build_err)?;
+        let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
+        let mut spring_stiffness = SpringParams::default().stiffness;
+        for (i, term) in self.energy.iter().enumerate() {
+            let added = match term {
+                // The geometric baseline: V_in sets Δt and drives the local
+                // relaxation but exerts no global force.
+                EnergyTerm::Vin(p) => builder.add_plugin(plugins::vin(*p, !geometric)),
+                EnergyTerm::Bending(p) => builder.add_plugin(plugins::bending(*p)),
+                EnergyTerm::Volume(p) => builder.add_plugin(plugins::volume(*p)),
+                EnergyTerm::Area(p) => builder.add_plugin(plugins::area(*p)),
+                EnergyTerm::LocalTension(p) => builder.add_plugin(plugins::local_tension(*p)),
+                EnergyTerm::Tension(p) => builder.add_plugin(plugins::tension(*p)),
+                EnergyTerm::Springs(p) => {
+                    spring_stiffness = p.stiffness;
+                    builder.add_plugin(plugins::springs(p.coupling))
+                }
+                EnergyTerm::SelfAvoidance(p) => builder.add_plugin(plugins::self_avoidance(*p)),
+                EnergyTerm::Custom(c) => add_declared(&c.0, &mut builder),
+            };
+            added.map_err(|e| invalid_at(format!("energy[{i}]"), e))?;
+        }
+        let points = self
+            .control_points
+            .iter()
+            .map(|cp| {
+                let (x, y, z) = cp.position;
+                ControlPoint {
+                    position: DVec3::new(x, y, z),
+                    stiffness: cp.stiffness.unwrap_or(spring_stiffness),
+                }
+            })
+            .collect();
+        builder
+            .add_plugin(plugins::control_points(
+                points,
+                self.control_point_schedule.clone(),
+            ))
+            .map_err(build_err)?;
+        if let crate::params::MembraneModel::Fluid(crate::params::FluidParams {
+            flips: Some(flips),
+            ..
+        }) = self.model
+        {
+            builder
+                .add_plugin(plugins::maintenance_flips(flips, self.valence))
+                .map_err(|e| invalid_at("model.flips".into(), e))?;
+        }
+        if self.remesh.mode != crate::params::RemeshMode::Off {
+            builder
+                .add_plugin(plugins::remesh(self.valence))
+                .map_err(build_err)?;
+        }
+        if let Some(flips) = self.edge_flips {
+            let mut terms = crate::remesh::flip::FlipTerms::default();
+            for term in &self.energy {
+                match term {
+                    EnergyTerm::Vin(p) if !geometric => terms.vin = Some(p.form),
+                    EnergyTerm::Bending(p) => terms.bending = Some(*p),
+                    EnergyTerm::Volume(p) => terms.volume = Some(*p),
+                    EnergyTerm::Area(p) => terms.area = Some(*p),
+                    EnergyTerm::Tension(p) => terms.tension = Some(*p),
+                    EnergyTerm::Springs(_) => terms.springs = true,
+                    _ => {}
+                }
+            }
+            builder
+                .add_plugin(plugins::edge_flips(flips, terms, self.valence))
+                .map_err(|e| invalid_at("edge_flips".into(), e))?;
+        }
+        if let Some(d) = &self.diffusion {
+            builder
+                .add_plugin(plugins::diffusion(d.clone()))
+                .map_err(build_err)?;
+        }
+        for (i, SystemDecl::Custom(c)) in self.systems.iter().enumerate() {
+            add_declared(&c.0, &mut builder).map_err(|e| invalid_at(format!("systems[{i}]"), e))?;
+        }
+        let sim = builder.build();
+        Ok(sim)
+    }
+}
+
+/// Adds a scene-declared plugin (resolved when the scene was parsed).
+fn add_declared<'b>(
+    decl: &crate::scene::plugin_decl::PluginDecl,
+    builder: &'b mut SimBuilder,
+) -> Result<&'b mut SimBuilder, BuildError> {
+    let entry = decl.entry().ok_or_else(|| BuildError::Invalid {
+        field: "Custom.name".into(),
+        reason: format!("plugin \"{}\" was not resolved by a registry", decl.name),
+    })?;
+    entry.build(&decl.params, decl.stage, builder)?;
+    Ok(builder)
+}
