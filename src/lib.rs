@@ -57,8 +57,9 @@
 //!   state, checkpoints, reports) → [`analysis`] (measuring a run) → [`scene`] (the file format,
 //!   overrides, the plugin registry) → [`workflow`] (runs, protocols, sweeps, collection,
 //!   comparison, the shape diagram) → [`study`] (speed against error, the axisymmetric
-//!   reference solver) → [`cli`]. Still flat: `constraint`, `fd`, `fluid`, `minimise`,
-//!   `params`, `timestep`.
+//!   reference solver) → [`cli`] (one file per group of commands). [`params`] holds the
+//!   scene's parameters by part (energy terms, dynamics, remeshing, diffusion, model). Still
+//!   flat: `constraint`, `fd`, `fluid`, `minimise`, `timestep`.
 //! - **Layers.** The core ([`resources`](engine::resources), [`schedule`](engine::schedule), [`simulation`](engine::simulation), [`force`](engine::force), [`membrane`](mesh::membrane),
 //!   [`topology`](mesh::topology), [`energy`], [`remesh`], [`edit`](mesh::edit), [`recorder`](engine::recorder), [`vertex_field`](mesh::vertex_field)) never imports
 //!   `systems/`; `systems/` ([`systems`], mounted with `#[path]`, one system per file, plugins in
