@@ -362,7 +362,7 @@ pub fn drive_run(
             _ => Ok(()),
         },
     )?;
-    let wall = earlier_wall + started.elapsed().as_secs_f64();
+    let wall = || earlier_wall + started.elapsed().as_secs_f64();
     finish_run(sim, name, scene, scene_path, stop, wall)
 }
 
@@ -509,7 +509,7 @@ fn finish_run(
     scene: &Scene,
     scene_path: &Path,
     mut stop: Option<SimError>,
-    wall: f64,
+    wall: impl Fn() -> f64,
 ) -> Result<RunSummary, RunError> {
     // Final state: its forces and its frame.
     if stop.is_none() {
@@ -525,7 +525,7 @@ fn finish_run(
     let out = sim
         .remove_resource::<RunOutput>()
         .expect("the run's output stays a resource");
-    let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), wall);
+    let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), wall());
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
     let mesh = sim.membrane_mut().to_mesh()?;
