@@ -76,26 +76,43 @@ fn flippable_edge(m: &Membrane) -> remembrane::remesh::flip::Flip {
 }
 
 fn edge_flips(c: &mut Criterion) {
-    use remembrane::remesh::flip::{FlipEnergy, FlipTotals};
+    use remembrane::engine::force::{FlipProposal, ForceContext, ForceTerm};
+    use remembrane::remesh::flip::{FlipPricer, FlipTotals};
+    use remembrane::systems::{AreaForces, BendingForces, VinForces, VolumeForces};
     use std::sync::Arc;
     let mesh = icosphere(3, 1.0);
     let m = membrane(3);
     let t = m.cached_topology();
     let flip = flippable_edge(&m);
     let totals = FlipTotals::of(&mesh.positions, &t.faces);
-    let model = FlipEnergy {
-        vin: Some((
+    let mut terms: Vec<Box<dyn ForceTerm>> = vec![
+        Box::new(VinForces::new(
             Arc::new(Segmentation::new(VinParams::default())),
             remembrane::energy::vin::VinForm::PiecewiseLinear,
         )),
-        bending: Some((1.5, 0.0)),
-        volume: Some((1.0, totals.volume)),
-        area: Some((20.0, totals.area)),
-        tension: None,
-        springs: false,
+        Box::new(BendingForces::new(remembrane::params::BendingParams {
+            kappa: 1.5,
+            ..Default::default()
+        })),
+        Box::new(VolumeForces::new(1.0, totals.volume)),
+        Box::new(AreaForces::new(20.0, totals.area)),
+    ];
+    let proposal = FlipProposal {
+        flip,
+        before: ForceContext {
+            world: &m.world,
+            topology: t,
+            positions: &mesh.positions,
+            lipid: &[],
+            face_geometry: &[],
+            edge_samples: &[],
+        },
+        totals,
+        change: flip.totals_change(&mesh.positions),
     };
+    let mut pricer = FlipPricer::default();
     c.bench_function("flip_energy_change/642", |b| {
-        b.iter(|| black_box(model.change(black_box(&flip), t, &mesh.positions, totals)))
+        b.iter(|| black_box(pricer.change(&mut terms, black_box(&proposal))))
     });
     for level in [3, 6] {
         let n = remembrane::mesh::vertex_count_for_level(level);

@@ -176,3 +176,95 @@ pub fn perturbed_icosphere(level: u32, seed: u64) -> crate::mesh::SurfaceMesh {
     mesh.translate(DVec3::splat(-TEST_PERTURBATION));
     mesh
 }
+
+/// The result of [`check_flip_energy_change`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlipCheckReport {
+    /// Flips checked.
+    pub flips: usize,
+    /// The largest |priced ΔE − (E_after − E_before)| (Ē).
+    pub max_error: f64,
+    /// The largest |E| seen, the scale for a relative tolerance (Ē).
+    pub scale: f64,
+}
+
+/// Checks how `term` prices edge flips (its
+/// [`ForceTerm::flip_energy_change`], or the flip system's whole-energy
+/// default when it returns `None`) against whole-energy differences. For
+/// every `stride`-th edge of `membrane` whose flip the edit layer accepts
+/// (valences 3 to 12), the priced ΔE is compared with E after minus E
+/// before, the flip made through the mesh-edit layer and then undone by
+/// flipping the new edge back. `positions` and `lipid` are by dense slot
+/// (slots of vertices do not change under flips).
+pub fn check_flip_energy_change(
+    term: &mut Box<dyn ForceTerm>,
+    membrane: &mut crate::mesh::membrane::Membrane,
+    positions: &[DVec3],
+    lipid: &[f64],
+    stride: usize,
+) -> FlipCheckReport {
+    use crate::engine::force::FlipProposal;
+    use crate::mesh::flip::{Flip, FlipTotals};
+    let range = crate::mesh::ValenceRange { min: 3, max: 12 };
+    let mut pricer = crate::remesh::flip::FlipPricer::default();
+    let mut report = FlipCheckReport::default();
+    let edges = membrane.cached_topology().edges.len();
+    let mut geometry = Vec::new();
+    for edge in (0..edges as u32).step_by(stride.max(1)) {
+        let t = membrane.cached_topology();
+        let Some(flip) = Flip::of(t, edge) else {
+            continue;
+        };
+        let (c, d) = (flip.c, flip.d);
+        if t.edge_between(c, d).is_some() {
+            continue;
+        }
+        let before = whole_energy(term, membrane, positions, lipid, &mut geometry);
+        let t = membrane.cached_topology();
+        let proposal = FlipProposal {
+            flip,
+            before: ForceContext {
+                world: &membrane.world,
+                topology: t,
+                positions,
+                lipid,
+                face_geometry: &[],
+                edge_samples: &[],
+            },
+            totals: FlipTotals::of(positions, &t.faces),
+            change: flip.totals_change(positions),
+        };
+        pricer.invalidate();
+        let priced = pricer.change(std::slice::from_mut(term), &proposal);
+        let edit = flip.edit(t);
+        if membrane.apply_patch(&edit, range).is_err() {
+            continue;
+        }
+        let after = whole_energy(term, membrane, positions, lipid, &mut geometry);
+        report.flips += 1;
+        report.max_error = report.max_error.max((priced - (after - before)).abs());
+        report.scale = report.scale.max(before.abs()).max(after.abs());
+        let t = membrane.cached_topology();
+        let back = t
+            .edge_between(c, d)
+            .and_then(|e| Flip::of(t, e))
+            .expect("the new edge c–d flips back");
+        membrane
+            .apply_patch(&back.edit(t), range)
+            .expect("flipping back restores a valid mesh");
+    }
+    report
+}
+
+/// `term`'s energy on `membrane` at `positions`.
+fn whole_energy(
+    term: &mut Box<dyn ForceTerm>,
+    membrane: &crate::mesh::membrane::Membrane,
+    positions: &[DVec3],
+    lipid: &[f64],
+    geometry: &mut Vec<crate::mesh::geometry::Corners>,
+) -> f64 {
+    let t = membrane.cached_topology();
+    let ctx = ForceContext::new(&membrane.world, t, positions, lipid, geometry, true);
+    term.energy(&ctx)
+}

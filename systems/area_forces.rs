@@ -5,7 +5,7 @@
 //! Ē/l̄², A_t in l̄².
 
 use crate::energy::penalty::area_penalty;
-use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 
 /// The area-penalty force system with a resolved target area.
@@ -61,5 +61,11 @@ impl ForceTerm for AreaForces {
             &mut self.gradient,
             Some(force),
         )
+    }
+
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let (x, dx) = (proposal.totals.area, proposal.change.area);
+        let target = self.target;
+        Some(self.k * ((x + dx - target).powi(2) - (x - target).powi(2)) / target)
     }
 }

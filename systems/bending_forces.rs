@@ -7,7 +7,7 @@
 
 use crate::energy::bending::{BendingScratch, bending};
 use crate::energy::bending_dihedral::{DihedralScratch, bending_dihedral};
-use crate::engine::force::{ForceContext, ForceTerm};
+use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
 use crate::params::{BendingDiscretisation, BendingParams};
 use glam::DVec3;
 
@@ -44,6 +44,21 @@ impl ForceTerm for BendingForces {
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         self.evaluate(ctx, Some(force))
+    }
+
+    /// The cotangent form's change at the four vertices whose rings the
+    /// flip changes; `None` for the dihedral form (priced whole).
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let p = &self.params;
+        (p.discretisation == BendingDiscretisation::Cotangent).then(|| {
+            crate::energy::bending::flip_energy_change(
+                proposal.before.positions,
+                proposal.before.topology,
+                &proposal.flip,
+                p.kappa,
+                |_| p.c0,
+            )
+        })
     }
 }
 

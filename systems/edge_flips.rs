@@ -1,11 +1,13 @@
 //! Edge flips as Metropolis moves ([`crate::remesh::flip`]).
 //!
 //! Stage: Remesh (after split/merge, if the scene remeshes). Reads:
-//! [`DensePositions`], [`DynamicsParams`] (k_BT), [`ValenceRange`],
-//! [`Seed`], [`Clock`], [`CheckInvariants`]. Writes: the face and edge
-//! entities of [`Membrane`] (flips through the mesh-edit layer; no vertex
-//! moves or is added, so the dense vertex slots and positions stay valid)
-//! and [`FlipStats`].
+//! [`DensePositions`], [`DenseLipid`], [`DynamicsParams`] (k_BT),
+//! [`ValenceRange`], [`Seed`], [`Clock`], [`CheckInvariants`], and
+//! [`SpringCoupling`] when springs act. Writes: the face and edge entities
+//! of [`Membrane`] (flips through the mesh-edit layer; no vertex moves or
+//! is added, so the dense vertex slots and positions stay valid),
+//! [`FlipStats`], and the force terms in [`ForceBuffers`] (each prices the
+//! flips, [`crate::engine::force::ForceTerm::flip_energy_change`]).
 //!
 //! Each tick proposes ⌊r·E⌋ flips (plus one with probability of the
 //! fraction) for r proposals per edge and E edges, each on an edge drawn
@@ -14,16 +16,18 @@
 //! nearest vertex, remove or create an edge outside `edge_range`, or fold
 //! the surface (each rule holds both ways, so the reverse flip is allowed
 //! exactly when this one is); otherwise it is accepted with probability
-//! min(1, exp(−ΔE/k_BT)). Reads the control points too (scenes with
-//! springs).
+//! min(1, exp(−ΔE/k_BT)), ΔE summed over every registered term.
 
+use crate::engine::force::{FlipProposal, ForceBuffers, ForceContext};
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
-use crate::engine::simulation::{CheckInvariants, Clock, DensePositions, Seed, SimError};
+use crate::engine::simulation::{
+    CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
+};
 use crate::mesh::ValenceRange;
 use crate::mesh::membrane::Membrane;
-use crate::params::{DynamicsParams, EdgeFlipParams};
-use crate::remesh::flip::{Flip, FlipEnergy, FlipTotals, keeps_surface_unfolded};
+use crate::params::{DynamicsParams, EdgeFlipParams, SpringCoupling};
+use crate::remesh::flip::{Flip, FlipPricer, FlipTotals, keeps_surface_unfolded};
 use crate::util::rng::stream_seed;
 use rand::{RngExt, SeedableRng};
 
@@ -50,13 +54,16 @@ pub struct FlipStats {
 /// The edge-flip system.
 pub struct EdgeFlips {
     params: EdgeFlipParams,
-    energy: FlipEnergy,
+    pricer: FlipPricer,
 }
 
 impl EdgeFlips {
-    /// Flips at `params`' rate under the energy `energy`.
-    pub fn new(params: EdgeFlipParams, energy: FlipEnergy) -> Self {
-        Self { params, energy }
+    /// Flips at `params`' rate under the registered force terms.
+    pub fn new(params: EdgeFlipParams) -> Self {
+        Self {
+            params,
+            pricer: FlipPricer::default(),
+        }
     }
 }
 
@@ -64,13 +71,19 @@ impl System for EdgeFlips {
     type Data<'a> = (
         (
             Res<'a, DensePositions>,
+            Res<'a, DenseLipid>,
             Res<'a, DynamicsParams>,
             Res<'a, ValenceRange>,
             Res<'a, Seed>,
             Res<'a, Clock>,
             Res<'a, CheckInvariants>,
+            Option<Res<'a, SpringCoupling>>,
         ),
-        (ResMut<'a, Membrane>, ResMut<'a, FlipStats>),
+        (
+            ResMut<'a, Membrane>,
+            ResMut<'a, FlipStats>,
+            ResMut<'a, ForceBuffers>,
+        ),
     );
 
     fn name(&self) -> &str {
@@ -79,11 +92,14 @@ impl System for EdgeFlips {
 
     fn run(
         &mut self,
-        ((positions, dynamics, valence, seed, clock, check), (mut membrane, mut stats)): Self::Data<
-            '_,
-        >,
+        (
+            (positions, lipid, dynamics, valence, seed, clock, check, springs),
+            (mut membrane, mut stats, mut buffers),
+        ): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let positions = &positions.0;
+        let terms = buffers.term_objects_mut();
+        self.pricer.invalidate();
         let kbt = dynamics.temperature;
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(stream_seed(
             seed.0,
@@ -96,7 +112,7 @@ impl System for EdgeFlips {
         let mut totals = FlipTotals::of(positions, &t.faces);
         // Each control point's nearest vertex (first on ties, like the
         // springs' full scan): flips never touch one.
-        let pinned: Vec<u32> = if self.energy.springs {
+        let pinned: Vec<u32> = if springs.is_some() {
             membrane
                 .control_points()
                 .iter()
@@ -139,9 +155,23 @@ impl System for EdgeFlips {
                 stats.rejected_geometry += 1;
                 continue;
             }
-            let change = self.energy.change(&flip, t, positions, totals);
-            let accept = change.energy <= 0.0
-                || (kbt > 0.0 && rng.random::<f64>() < (-change.energy / kbt).exp());
+            let proposal = FlipProposal {
+                flip,
+                before: ForceContext {
+                    world: &membrane.world,
+                    topology: t,
+                    positions,
+                    lipid: &lipid.0,
+                    face_geometry: &[],
+                    edge_samples: &[],
+                },
+                totals,
+                change: flip.totals_change(positions),
+            };
+            let energy = self.pricer.change(terms, &proposal);
+            let change = proposal.change;
+            let accept =
+                energy <= 0.0 || (kbt > 0.0 && rng.random::<f64>() < (-energy / kbt).exp());
             if !accept {
                 stats.rejected_energy += 1;
                 continue;
@@ -152,6 +182,7 @@ impl System for EdgeFlips {
                 continue;
             }
             stats.accepted += 1;
+            self.pricer.invalidate();
             totals.volume += change.volume;
             totals.area += change.area;
             if check.0 {

@@ -310,46 +310,16 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
     }
 }
 
-/// Edge flips as Metropolis moves ([`crate::remesh::flip`]) under `terms`
-/// (V_in's segmentation from the Vin plugin, added before; penalty
-/// targets resolved against the initial mesh), in the Remesh stage after
-/// any split/merge.
-pub fn edge_flips(
-    params: crate::params::EdgeFlipParams,
-    terms: crate::remesh::flip::FlipTerms,
-    valence: ValenceRange,
-) -> impl Plugin {
+/// Edge flips as Metropolis moves ([`crate::remesh::flip`]), priced under
+/// every registered force term, in the Remesh stage after any split/merge.
+pub fn edge_flips(params: crate::params::EdgeFlipParams, valence: ValenceRange) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::remesh::flip::FlipEnergy;
-        let vin = match terms.vin {
-            Some(form) => {
-                let seg =
-                    b.resources()
-                        .get::<VinSegmentation>()
-                        .map_err(|_| BuildError::Requires {
-                            what: "EdgeFlips".to_string(),
-                            resource: "VinSegmentation",
-                            plugin: "vin",
-                        })?;
-                Some((seg.0.clone(), form))
-            }
-            None => None,
-        };
-        let init = initial(b, "EdgeFlips")?;
-        let energy = FlipEnergy {
-            vin,
-            bending: terms.bending.map(|p| (p.kappa, p.c0)),
-            volume: terms.volume.map(|p| (p.k, p.target.resolve(init.volume))),
-            area: terms.area.map(|p| (p.k, p.target.resolve(init.area))),
-            tension: terms.tension.map(|p| p.sigma),
-            springs: terms.springs,
-        };
         b.insert_resource(valence)
             .insert_resource(crate::systems::edge_flips::FlipStats::default())
             .persist_resource::<crate::systems::edge_flips::FlipStats>();
         b.add_system(
             Stage::Remesh,
-            crate::systems::edge_flips::EdgeFlips::new(params, energy),
+            crate::systems::edge_flips::EdgeFlips::new(params),
         );
         Ok(())
     }

@@ -7,7 +7,7 @@
 //! centroid coupling, the patch's centroid toward the point.
 
 use crate::energy::springs::control_point_springs;
-use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
 use crate::mesh::cell_list::CellList;
 use crate::mesh::components::ControlPoint;
 use crate::params::SpringCoupling;
@@ -73,5 +73,14 @@ impl ForceTerm for SpringForces {
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         self.evaluate(ctx, Some(force))
+    }
+
+    /// Zero: the springs act on each point's nearest vertex and its 1-ring,
+    /// and a flip changes the 1-rings of its four vertices only, so the
+    /// flip system, while springs act, never flips at a point's nearest
+    /// vertex (nearest vertices depend on positions alone, so the rule is
+    /// the same both ways).
+    fn flip_energy_change(&mut self, _: &FlipProposal<'_>) -> Option<f64> {
+        Some(0.0)
     }
 }

@@ -5,7 +5,7 @@
 //! Ē/l̄².
 
 use crate::energy::tension::surface_tension;
-use crate::engine::force::{ForceContext, ForceTerm};
+use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
 use glam::DVec3;
 
 /// The constant-tension force system.
@@ -41,5 +41,9 @@ impl ForceTerm for TensionForces {
             self.sigma,
             Some(force),
         )
+    }
+
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        Some(self.sigma * proposal.change.area)
     }
 }

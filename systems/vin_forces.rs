@@ -6,7 +6,7 @@
 //! the chord slope of l's segment (piecewise-linear form) or the exact slope.
 
 use crate::energy::vin::{Segmentation, VinForm};
-use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -112,5 +112,18 @@ impl ForceTerm for VinForces {
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         self.run(ctx, Some(force))
+    }
+
+    /// V of the new edge c–d less V of the old edge a–b, in the form the
+    /// force uses.
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let (p, flip) = (proposal.before.positions, &proposal.flip);
+        let v = |l: f64| match self.form {
+            VinForm::PiecewiseLinear => self.segmentation.linear(l).0,
+            VinForm::Exact => self.segmentation.exact(l),
+        };
+        let ab = p[flip.a as usize].distance(p[flip.b as usize]);
+        let cd = p[flip.c as usize].distance(p[flip.d as usize]);
+        Some(v(cd) - v(ab))
     }
 }

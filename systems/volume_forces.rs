@@ -5,7 +5,7 @@
 //! Ē/l̄³, V_t in l̄³.
 
 use crate::energy::penalty::volume_penalty;
-use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
 use glam::DVec3;
 
 /// The volume-penalty force system with a resolved target volume.
@@ -57,5 +57,11 @@ impl ForceTerm for VolumeForces {
             &mut self.gradient,
             Some(force),
         )
+    }
+
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let (x, dx) = (proposal.totals.volume, proposal.change.volume);
+        let target = self.target;
+        Some(self.k * ((x + dx - target).powi(2) - (x - target).powi(2)) / target)
     }
 }

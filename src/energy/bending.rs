@@ -185,3 +185,58 @@ fn pull_back(
         force[i2] -= grad[2];
     }
 }
+
+/// Bending energy ½κ A (h − C0)² of vertex `v` over the faces `ring` (those
+/// containing v), with h = s|L|/(2A) as in [`bending`].
+fn vertex_energy(p: &[DVec3], v: u32, ring: &[[u32; 3]], kappa: f64, c0: f64) -> f64 {
+    let (mut area, mut lap, mut nrm) = (0.0, DVec3::ZERO, DVec3::ZERO);
+    for f in ring {
+        let k = f
+            .iter()
+            .position(|&x| x == v)
+            .expect("ring face contains v");
+        let c = Corners::new(p[f[0] as usize], p[f[1] as usize], p[f[2] as usize]);
+        area += c.mixed_areas()[k];
+        lap += c.laplacian()[k];
+        nrm += c.n_hat * c.twice_area;
+    }
+    let len = lap.length();
+    let sign = if lap.dot(nrm) < 0.0 { -1.0 } else { 1.0 };
+    let h = sign * len / (2.0 * area);
+    0.5 * kappa * area * (h - c0) * (h - c0)
+}
+
+/// The change of the cotangent bending energy when `flip` is taken at
+/// `positions`: only the vertices a, b, c and d change their rings, so it
+/// is the change of their four vertex energies. `c0` gives each vertex's
+/// spontaneous curvature (1/l̄; a constant for [`bending`], a field for
+/// [`bending_varying`]).
+pub fn flip_energy_change(
+    positions: &[DVec3],
+    topology: &crate::mesh::topology::Topology,
+    flip: &crate::mesh::flip::Flip,
+    kappa: f64,
+    c0: impl Fn(u32) -> f64,
+) -> f64 {
+    let (old, new) = (flip.old_faces(), flip.new_faces());
+    let mut energy = 0.0;
+    let mut ring = Vec::with_capacity(12);
+    for v in [flip.a, flip.b, flip.c, flip.d] {
+        ring.clear();
+        ring.extend(
+            topology
+                .ring_faces_of(v as usize)
+                .iter()
+                .filter(|&&f| f != flip.faces[0] && f != flip.faces[1])
+                .map(|&f| topology.faces[f as usize]),
+        );
+        let kept = ring.len();
+        ring.extend(old.iter().filter(|f| f.contains(&v)));
+        let before = vertex_energy(positions, v, &ring, kappa, c0(v));
+        ring.truncate(kept);
+        ring.extend(new.iter().filter(|f| f.contains(&v)));
+        let after = vertex_energy(positions, v, &ring, kappa, c0(v));
+        energy += after - before;
+    }
+    energy
+}

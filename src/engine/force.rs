@@ -9,6 +9,7 @@
 //! smoothing to penalty terms and sums the total.
 
 use crate::engine::error::DuplicateTerm;
+use crate::mesh::flip::{Flip, FlipTotals};
 use crate::mesh::geometry::{Corners, face_geometry};
 use crate::mesh::topology::Topology;
 use glam::DVec3;
@@ -63,6 +64,22 @@ impl<'a> ForceContext<'a> {
     }
 }
 
+/// A proposed edge flip, as the force terms price it
+/// ([`ForceTerm::flip_energy_change`]).
+#[derive(Clone, Copy)]
+pub struct FlipProposal<'a> {
+    /// The flip, in the dense slots of `before.topology`.
+    pub flip: Flip,
+    /// The state before the flip. Its face geometry and edge samples are
+    /// empty: a flip touches two faces, so a term measures what it needs.
+    pub before: ForceContext<'a>,
+    /// Area and enclosed volume before the flip (l̄², l̄³), kept current as
+    /// flips are taken.
+    pub totals: FlipTotals,
+    /// The flip's change of the area and the enclosed volume (l̄², l̄³).
+    pub change: FlipTotals,
+}
+
 /// How the force stage treats a term's force.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ForceKind {
@@ -104,6 +121,21 @@ pub trait ForceTerm: Send {
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64;
     /// Adds −∇E to `force` (Ē/l̄) and returns the energy (Ē).
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64;
+    /// ΔE (Ē) of a proposed edge flip ([`FlipProposal`]; positions do not
+    /// move), for the Metropolis edge flips ([`crate::remesh::flip`]).
+    ///
+    /// `None` (the default) means the term has no local formula: the flip
+    /// system then prices it as the difference of two whole evaluations of
+    /// [`ForceTerm::energy`], before and after the flip (on a scratch copy
+    /// of the topology, [`Topology::apply_flip`]). That is exact for any
+    /// term, at the cost of an evaluation per proposal. A term whose energy
+    /// is a sum of local contributions overrides it with the change of the
+    /// few contributions the flip touches; check such an override with
+    /// [`crate::fd::check_flip_energy_change`].
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let _ = proposal;
+        None
+    }
     /// State the term carries from one evaluation to the next, for
     /// checkpoints; `None` (the default) means none (caches that do not
     /// change results do not count). See
@@ -180,14 +212,14 @@ pub struct ForceBuffers {
     pub evaluation: ForceEvaluation,
     vertices: usize,
     scratch: crate::energy::penalty::SmoothingScratch,
-    pending: PendingTerms,
+    objects: TermObjects,
 }
 
-/// Terms registered but not yet taken by the `force_terms` system.
+/// The registered terms themselves, in registration order.
 #[derive(Default)]
-struct PendingTerms(Vec<Box<dyn ForceTerm>>);
+struct TermObjects(Vec<Box<dyn ForceTerm>>);
 
-impl std::fmt::Debug for PendingTerms {
+impl std::fmt::Debug for TermObjects {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_list()
             .entries(self.0.iter().map(|t| t.name()))
@@ -207,24 +239,60 @@ impl ForceBuffers {
         }
     }
 
-    /// Adds a buffer for `term`; returns its index.
-    pub fn register(&mut self, term: TermInfo) -> Result<usize, DuplicateTerm> {
-        if self.terms.iter().any(|t| t.name == term.name) {
-            return Err(DuplicateTerm(term.name));
+    /// Registers `term` and adds its buffer; returns its index.
+    pub fn register(&mut self, term: Box<dyn ForceTerm>) -> Result<usize, DuplicateTerm> {
+        let info = TermInfo {
+            name: term.name().to_string(),
+            kind: term.kind(),
+            uses_face_geometry: term.uses_face_geometry(),
+        };
+        if self.terms.iter().any(|t| t.name == info.name) {
+            return Err(DuplicateTerm(info.name));
         }
-        self.terms.push(term);
+        self.terms.push(info);
+        self.objects.0.push(term);
         Ok(self.terms.len() - 1)
     }
 
-    /// Hands a registered term to the system that evaluates it (see
-    /// [`crate::engine::force_term_system::ForceTermsSystem`]).
-    pub fn push_pending_term(&mut self, term: Box<dyn ForceTerm>) {
-        self.pending.0.push(term);
+    /// The registered terms, in evaluation order, to evaluate or to price
+    /// a flip with.
+    pub fn term_objects_mut(&mut self) -> &mut [Box<dyn ForceTerm>] {
+        &mut self.objects.0
     }
 
-    /// The terms registered since the last call, in registration order.
-    pub fn take_pending_terms(&mut self) -> Vec<Box<dyn ForceTerm>> {
-        std::mem::take(&mut self.pending.0)
+    /// The registered terms and the evaluation they write, borrowed together.
+    pub fn terms_and_evaluation(&mut self) -> (&mut [Box<dyn ForceTerm>], &mut ForceEvaluation) {
+        (&mut self.objects.0, &mut self.evaluation)
+    }
+
+    /// The terms' own states ([`ForceTerm::save_state`]) for a checkpoint:
+    /// a map from term name to state, `null` when no term keeps one.
+    pub(crate) fn save_term_states(
+        resources: &crate::engine::resources::Resources,
+    ) -> Result<serde_json::Value, String> {
+        let buffers = resources.get::<Self>().map_err(|e| e.to_string())?;
+        let states = buffers
+            .objects
+            .0
+            .iter()
+            .map(|t| (t.name().to_string(), t.save_state()));
+        Ok(crate::engine::persisted::save_named(states).unwrap_or(serde_json::Value::Null))
+    }
+
+    /// Gives the terms back the states [`ForceBuffers::save_term_states`]
+    /// saved.
+    pub(crate) fn restore_term_states(
+        resources: &crate::engine::resources::Resources,
+        state: serde_json::Value,
+    ) -> Result<(), String> {
+        let mut buffers = resources.get_mut::<Self>().map_err(|e| e.to_string())?;
+        crate::engine::persisted::restore_named(
+            &mut buffers.objects.0,
+            |_, t| t.name().to_string(),
+            |t, v| t.restore_state(v),
+            state,
+        )
+        .map_err(|e| format!("force term {e}"))
     }
 
     /// The registered terms, in evaluation order.
@@ -371,5 +439,14 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     }
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         (**self).accumulate(ctx, force)
+    }
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        (**self).flip_energy_change(proposal)
+    }
+    fn save_state(&self) -> Option<serde_json::Value> {
+        (**self).save_state()
+    }
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        (**self).restore_state(state)
     }
 }

@@ -24,15 +24,13 @@ pub const FORCE_TERMS: &str = "force_terms";
 ///
 /// Stage: Forces (before `force_total`). Reads: the membrane (topology, the
 /// terms' own components), dense positions and lipid density, face
-/// geometry, the V_in edge samples when measured. Writes: the terms' buffers and energies in [`ForceBuffers`],
-/// and takes newly registered terms from it.
+/// geometry, the V_in edge samples when measured. Writes: the terms (they
+/// live in [`ForceBuffers`], where the flip system prices flips with them),
+/// their buffers and energies.
 #[derive(Default)]
 pub struct ForceTermsSystem {
-    terms: Vec<Box<dyn ForceTerm>>,
+    names: Vec<String>,
     timings: Vec<Duration>,
-    /// Terms' states from a checkpoint, given back once the terms are taken
-    /// from [`ForceBuffers`] on the first tick.
-    restored: Option<serde_json::Value>,
 }
 
 /// One term's evaluation: where its force, energy and time go.
@@ -61,16 +59,10 @@ impl System for ForceTermsSystem {
         &mut self,
         (membrane, positions, lipid, geometry, edge_samples, mut buffers): Self::Data<'_>,
     ) -> Result<(), SimError> {
-        self.terms.extend(buffers.take_pending_terms());
-        self.timings.resize(self.terms.len(), Duration::ZERO);
-        if let Some(state) = self.restored.take() {
-            crate::engine::persisted::restore_named(
-                &mut self.terms,
-                |_, t| t.name().to_string(),
-                |t, v| t.restore_state(v),
-                state,
-            )
-            .map_err(|e| SimError::Checkpoint(format!("force term {e}")))?;
+        let (terms, ev) = buffers.terms_and_evaluation();
+        self.timings.resize(terms.len(), Duration::ZERO);
+        if self.names.len() != terms.len() {
+            self.names = terms.iter().map(|t| t.name().to_string()).collect();
         }
         let ctx = ForceContext {
             world: &membrane.world,
@@ -82,11 +74,9 @@ impl System for ForceTermsSystem {
         };
         // Term work scales with the faces.
         let faces = membrane.cached_topology().faces.len();
-        let concurrent = self.terms.len() > 1 && crate::util::parallel::splits(faces);
-        let ev = &mut buffers.evaluation;
+        let concurrent = terms.len() > 1 && crate::util::parallel::splits(faces);
         // One job per term: the term, its buffer, energy and time.
-        let jobs: Vec<Job<'_>> = self
-            .terms
+        let jobs: Vec<Job<'_>> = terms
             .iter_mut()
             .zip(ev.term_forces.iter_mut())
             .zip(ev.energies.iter_mut().zip(self.timings.iter_mut()))
@@ -114,24 +104,11 @@ impl System for ForceTermsSystem {
         Ok(())
     }
 
-    fn save_state(&self) -> Option<serde_json::Value> {
-        crate::engine::persisted::save_named(
-            self.terms
-                .iter()
-                .map(|t| (t.name().to_string(), t.save_state())),
-        )
-    }
-
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
-        self.restored = Some(state);
-        Ok(())
-    }
-
     fn sub_timings(&self) -> Vec<(String, Duration)> {
-        self.terms
+        self.names
             .iter()
             .zip(&self.timings)
-            .map(|(t, d)| (t.name().to_string(), *d))
+            .map(|(n, d)| (n.clone(), *d))
             .collect()
     }
 }

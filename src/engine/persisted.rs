@@ -21,6 +21,9 @@ type Restore = fn(&Resources, serde_json::Value) -> Result<(), String>;
 #[derive(Default)]
 pub struct PersistedResources {
     entries: Vec<(&'static str, Save, Restore)>,
+    /// Entries saved only when they hold a state (not `null`), and restored
+    /// only when the checkpoint holds one.
+    optional: Vec<(&'static str, Save, Restore)>,
 }
 
 fn save<T: Resource + Serialize>(r: &Resources) -> Result<serde_json::Value, String> {
@@ -46,19 +49,33 @@ impl PersistedResources {
         }
     }
 
+    /// Declares a part of a resource's state saved and restored by `save`
+    /// and `restore` under `name` (once), present in a checkpoint only when
+    /// `save` returns a value other than `null`: the force terms' own
+    /// states ([`crate::engine::force::ForceBuffers`]).
+    pub fn add_optional(&mut self, name: &'static str, save: Save, restore: Restore) {
+        if self.optional.iter().all(|(n, ..)| *n != name) {
+            self.optional.push((name, save, restore));
+        }
+    }
+
     /// Every persisted resource's value, by name.
     pub fn save(
         &self,
         resources: &Resources,
     ) -> Result<BTreeMap<String, serde_json::Value>, String> {
-        self.entries
-            .iter()
-            .map(|(name, save, _)| {
-                save(resources)
-                    .map(|v| (name.to_string(), v))
-                    .map_err(|e| format!("resource `{name}`: {e}"))
-            })
-            .collect()
+        let mut saved = BTreeMap::new();
+        for (name, save, _) in &self.entries {
+            let value = save(resources).map_err(|e| format!("resource `{name}`: {e}"))?;
+            saved.insert(name.to_string(), value);
+        }
+        for (name, save, _) in &self.optional {
+            let value = save(resources).map_err(|e| format!("`{name}`: {e}"))?;
+            if !value.is_null() {
+                saved.insert(name.to_string(), value);
+            }
+        }
+        Ok(saved)
     }
 
     /// Sets every persisted resource from `saved`, which must hold exactly
@@ -74,10 +91,17 @@ impl PersistedResources {
                 .ok_or_else(|| format!("resource `{name}` is not in the checkpoint"))?;
             restore(resources, value.clone()).map_err(|e| format!("resource `{name}`: {e}"))?;
         }
-        if let Some(extra) = saved
-            .keys()
-            .find(|k| self.entries.iter().all(|(n, ..)| n != k))
-        {
+        for (name, _, restore) in &self.optional {
+            if let Some(value) = saved.get(*name) {
+                restore(resources, value.clone()).map_err(|e| format!("`{name}`: {e}"))?;
+            }
+        }
+        if let Some(extra) = saved.keys().find(|k| {
+            self.entries
+                .iter()
+                .chain(&self.optional)
+                .all(|(n, ..)| n != k)
+        }) {
             return Err(format!(
                 "resource `{extra}` is in the checkpoint but not in the scene"
             ));

@@ -7,7 +7,7 @@ pub use crate::engine::core_resources::{
     CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed, StopRequest,
 };
 pub use crate::engine::error::{BuildError, SimError};
-use crate::engine::force::{ForceBuffers, ForceTerm, TermInfo};
+use crate::engine::force::{ForceBuffers, ForceTerm};
 use crate::engine::persisted::PersistedResources;
 use crate::engine::resources::{Res, Resource, Resources};
 use crate::engine::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
@@ -148,12 +148,17 @@ fn register_force_term(
             resource: "ForceBuffers",
             plugin: "the core plugin",
         })?;
-    let index = buffers.register(TermInfo {
-        name,
-        kind: term.kind(),
-        uses_face_geometry: term.uses_face_geometry(),
-    })?;
-    buffers.push_pending_term(Box::new(term));
+    let index = buffers.register(Box::new(term))?;
+    if !resources.contains::<PersistedResources>() {
+        resources.insert(PersistedResources::default());
+    }
+    if let Some(p) = resources.value_mut::<PersistedResources>() {
+        p.add_optional(
+            "force terms",
+            ForceBuffers::save_term_states,
+            ForceBuffers::restore_term_states,
+        );
+    }
     Ok(index)
 }
 

@@ -11,6 +11,7 @@ pub mod cell_list;
 pub mod components;
 mod docking;
 pub mod edit;
+pub mod flip;
 pub mod geometry;
 mod icosphere;
 pub mod invariants;

@@ -249,20 +249,8 @@ impl Scene {
                 .map_err(build_err)?;
         }
         if let Some(flips) = self.edge_flips {
-            let mut terms = crate::remesh::flip::FlipTerms::default();
-            for term in &self.energy {
-                match term {
-                    EnergyTerm::Vin(p) if !geometric => terms.vin = Some(p.form),
-                    EnergyTerm::Bending(p) => terms.bending = Some(*p),
-                    EnergyTerm::Volume(p) => terms.volume = Some(*p),
-                    EnergyTerm::Area(p) => terms.area = Some(*p),
-                    EnergyTerm::Tension(p) => terms.tension = Some(*p),
-                    EnergyTerm::Springs(_) => terms.springs = true,
-                    _ => {}
-                }
-            }
             builder
-                .add_plugin(plugins::edge_flips(flips, terms, self.valence))
+                .add_plugin(plugins::edge_flips(flips, self.valence))
                 .map_err(|e| invalid_at("edge_flips".into(), e))?;
         }
         if let Some(d) = &self.diffusion {

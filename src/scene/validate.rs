@@ -160,7 +160,7 @@ impl Scene {
         Ok(())
     }
 
-    /// The energy list: not empty, no term twice, what each term needs, and what the energy-based flips can price.
+    /// The energy list: not empty, no term twice, what each term needs, and the flips' edge range.
     fn validate_energy_terms(&self, path: &Path) -> Result<(), SceneError> {
         let invalid = |field: &str, reason: String| invalid_field(path, field, reason);
         let has = |kind| self.has_term(kind);
@@ -193,42 +193,6 @@ impl Scene {
                     format!("need 0 < min < max, both finite (got ({lo}, {hi}))"),
                 ));
             }
-        }
-        if self.edge_flips.is_some()
-            && let Some((i, term)) = self.energy.iter().enumerate().find(|(_, t)| {
-                !matches!(
-                    t,
-                    EnergyTerm::Vin(_)
-                        | EnergyTerm::Bending(_)
-                        | EnergyTerm::Volume(_)
-                        | EnergyTerm::Area(_)
-                        | EnergyTerm::Tension(_)
-                        | EnergyTerm::Springs(_)
-                )
-            })
-        {
-            return Err(invalid(
-                "edge_flips",
-                format!(
-                    "a flip's energy change is known for Vin, Bending, Volume, Area, \
-                         Tension and Springs only, and energy[{i}] is {}",
-                    label(term)
-                ),
-            ));
-        }
-        if self.edge_flips.is_some()
-            && let Some(i) = self.energy.iter().position(|t| {
-                matches!(t, EnergyTerm::Bending(p)
-                    if p.discretisation == crate::params::BendingDiscretisation::Dihedral)
-            })
-        {
-            return Err(invalid(
-                &format!("energy[{i}].Bending.discretisation"),
-                "the energy-based flips (`edge_flips`) know the Cotangent bending energy's \
-                 change only; use Cotangent with them, or the fluid model's Delaunay flips \
-                 (`model: Fluid(flips: ...)`)"
-                    .into(),
-            ));
         }
         Ok(())
     }

@@ -7,7 +7,9 @@
 //!   spontaneous curvature is set locally by the proteins (C_p at full
 //!   coverage; h_i the signed cotangent mean curvature |K_i| of the
 //!   built-in bending term, 2/R on a sphere of radius R), with its analytic
-//!   force ([`BarDomainForces`]); it replaces the scene's `Bending` term;
+//!   force ([`BarDomainForces`]); it replaces the scene's `Bending` term,
+//!   and prices Metropolis edge flips from the four vertices a flip
+//!   touches;
 //! - protein diffusion on the mesh ([`ProteinDiffusion`], a Diffuse-stage
 //!   system);
 //! - a recorder writing φ as point data and the patch's height and mean
@@ -21,7 +23,7 @@
 use glam::DVec3;
 use hecs::Entity;
 use remembrane::energy::bending::{BendingScratch, bending_varying, signed_curvatures};
-use remembrane::engine::force::{FaceGeometry, ForceContext, ForceTerm};
+use remembrane::engine::force::{FaceGeometry, FlipProposal, ForceContext, ForceTerm};
 use remembrane::engine::recorder::{FrameData, Recorder, read_error};
 use remembrane::engine::resources::{Access, CheckedResources, Res, ResMut};
 use remembrane::engine::schedule::{Stage, System};
@@ -207,6 +209,24 @@ impl ForceTerm for BarDomainForces {
     }
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         self.evaluate(ctx, Some(force))
+    }
+    /// A flip changes the rings of its four vertices only, so ΔE is the
+    /// change of their four vertex energies, each with its own C0 = φ C_p
+    /// (read from the four vertices' [`Coverage`]). Without this the flip
+    /// system would price the term by two whole evaluations per proposal.
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let ctx = &proposal.before;
+        let c0 = |v: u32| {
+            let entity = ctx.topology.vertex_entities[v as usize];
+            ctx.world.get::<&Coverage>(entity).map_or(0.0, |c| c.0) * self.curvature
+        };
+        Some(remembrane::energy::bending::flip_energy_change(
+            ctx.positions,
+            ctx.topology,
+            &proposal.flip,
+            self.kappa,
+            c0,
+        ))
     }
 }
 
