@@ -111,9 +111,20 @@ pub fn fill_vec<T: Send + Default + Clone>(
 ) {
     if out.len() != len {
         out.clear();
+        reserve_for(out, len);
         out.resize(len, T::default());
     }
     fill(out, f);
+}
+
+/// Makes room in `out` for `len` elements, with 1/32 of headroom when it
+/// has to grow: a mesh that grows by remeshing reallocates its buffers once
+/// per few per cent of growth, instead of doubling them (a 40962-vertex
+/// run held 11 MB of face geometry it never used).
+pub fn reserve_for<T>(out: &mut Vec<T>, len: usize) {
+    if len > out.capacity() {
+        out.reserve_exact(len + len / 32 - out.len());
+    }
 }
 
 /// Sets `out[i] = f(i)` for every index.

@@ -74,7 +74,6 @@ impl FrameSchedule {
 /// [`StopRequest`] (a run asked to stop writes its final state) and
 /// whatever the recorders declare. Writes: [`RunOutput`].
 pub struct FrameWriter {
-    pub(super) title: String,
     pub(super) schedule: FrameSchedule,
     pub(super) recorders: Vec<Box<dyn Recorder>>,
     pub(super) access: Access,
@@ -87,9 +86,8 @@ pub struct FrameWriter {
 pub const FRAMES: &str = "frames";
 
 impl FrameWriter {
-    /// A writer of frames titled `title`, due by `schedule`, with
-    /// `recorders` (in order).
-    pub fn new(title: &str, schedule: FrameSchedule, recorders: Vec<Box<dyn Recorder>>) -> Self {
+    /// A writer of frames due by `schedule`, with `recorders` (in order).
+    pub fn new(schedule: FrameSchedule, recorders: Vec<Box<dyn Recorder>>) -> Self {
         let mut access = Access::default()
             .read::<Clock>()
             .read::<Membrane>()
@@ -100,7 +98,6 @@ impl FrameWriter {
             access.merge(&r.access());
         }
         Self {
-            title: title.to_string(),
             schedule,
             recorders,
             access,
@@ -180,7 +177,6 @@ impl DynamicSystem for FrameWriter {
         let positions = s.get::<DensePositions>().map_err(err)?;
         let mut out = s.get_mut::<RunOutput>().map_err(err)?;
         out.write_frame(
-            &self.title,
             &positions.0,
             &membrane.cached_topology().faces,
             clock,

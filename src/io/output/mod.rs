@@ -21,13 +21,11 @@ use crate::mesh::membrane::Membrane;
 use std::path::{Path, PathBuf};
 
 mod frames;
+pub mod vtk_xml;
 mod vtp;
 
 pub use frames::*;
-use vtkio::model::{
-    Attribute, Attributes, ByteOrder, DataSet, IOBuffer, Piece, PolyDataPiece, Version,
-    VertexNumbers, Vtk,
-};
+use vtk_xml::{Cells, DataArray, Values, write_poly_data};
 pub use vtp::*;
 
 /// An output problem (names the path).
@@ -202,7 +200,6 @@ impl RunOutput {
     /// columns are the header).
     pub fn write_frame(
         &mut self,
-        title: &str,
         positions: &[glam::DVec3],
         faces: &[[u32; 3]],
         clock: Clock,
@@ -211,7 +208,7 @@ impl RunOutput {
         let file = format!("frames/frame_{:06}.vtp", clock.iteration);
         let path = self.staging.join(&file);
         crate::atomic_write_with(&path, |w| {
-            write_frame_vtp(w, title, positions, faces, &data.point_data)
+            write_frame_vtp(w, positions, faces, &data.point_data)
         })
         .map_err(|e| write_err(&path, e))?;
         self.frames.push(FrameRecord {
@@ -242,42 +239,25 @@ impl RunOutput {
             csv += &format!("{},{kind},{x:e},{y:e},{z:e}\n", e.iteration);
         }
         self.write("events.csv", csv.as_bytes())?;
-        let n = events.len() as u64;
-        let vtk = Vtk {
-            version: Version::new_xml(1, 0),
-            title: "remesh events".to_string(),
-            byte_order: ByteOrder::LittleEndian,
-            file_path: None,
-            data: DataSet::PolyData {
-                meta: None,
-                pieces: vec![Piece::Inline(Box::new(PolyDataPiece {
-                    points: IOBuffer::F64(events.iter().flat_map(|e| e.position).collect()),
-                    verts: Some(VertexNumbers::XML {
-                        connectivity: (0..n).collect(),
-                        offsets: (1..=n).collect(),
-                    }),
-                    lines: None,
-                    polys: None,
-                    strips: None,
-                    data: Attributes {
-                        point: vec![
-                            Attribute::scalars("split", 1).with_data(
-                                events
-                                    .iter()
-                                    .map(|e| u8::from(e.op == crate::remesh::EdgeOp::Split))
-                                    .collect::<Vec<u8>>(),
-                            ),
-                            Attribute::scalars("iteration", 1).with_data(
-                                events.iter().map(|e| e.iteration).collect::<Vec<u64>>(),
-                            ),
-                        ],
-                        cell: Vec::new(),
-                    },
-                }))],
+        let points: Vec<glam::DVec3> = events.iter().map(|e| e.position.into()).collect();
+        let split: Vec<u8> = events
+            .iter()
+            .map(|e| u8::from(e.op == crate::remesh::EdgeOp::Split))
+            .collect();
+        let iteration: Vec<u64> = events.iter().map(|e| e.iteration).collect();
+        let arrays = [
+            DataArray {
+                name: "split",
+                values: Values::U8(&split),
             },
-        };
+            DataArray {
+                name: "iteration",
+                values: Values::U64(&iteration),
+            },
+        ];
         let mut out = Vec::new();
-        write_vtk_xml(vtk, &mut out).map_err(|e| write_err(&self.staging.join("events.vtp"), e))?;
+        write_poly_data(&mut out, &points, Cells::PointVertices, &arrays)
+            .map_err(|e| write_err(&self.staging.join("events.vtp"), e))?;
         self.write("events.vtp", &out)
     }
 
@@ -390,13 +370,10 @@ mod tests {
         }
     }
 
-    /// A frame of a 2562-vertex sphere, about 200 kB: far more than vtkio's
-    /// 8 KiB buffer, so vtkio hands it to the sink in a few large `write`
-    /// calls (quick-xml builds each element's content in memory first).
-    fn frame(writer: impl Write) -> Result<(), vtkio::Error> {
-        let mesh = crate::mesh::icosphere_unit(4);
+    /// The point data of a frame of `mesh`: a force and a curvature.
+    fn frame_data(mesh: &SurfaceMesh) -> Vec<PointArray> {
         let n = mesh.positions.len();
-        let point_data = vec![
+        vec![
             PointArray::Vectors {
                 name: "force".into(),
                 values: mesh.positions.iter().map(|p| -2.0 * *p).collect(),
@@ -405,8 +382,141 @@ mod tests {
                 name: "mean_curvature".into(),
                 values: (0..n).map(|i| i as f64 / n as f64).collect(),
             },
-        ];
-        write_frame_vtp(writer, "trickle", &mesh.positions, &mesh.faces, &point_data)
+        ]
+    }
+
+    /// A frame of a 2562-vertex sphere, about 200 kB.
+    fn frame(writer: impl Write) -> std::io::Result<()> {
+        let mesh = crate::mesh::icosphere_unit(4);
+        write_frame_vtp(writer, &mesh.positions, &mesh.faces, &frame_data(&mesh))
+    }
+
+    /// The same frame as vtkio 0.7 writes it from its whole-document model
+    /// (what the frames were before the streaming writer).
+    fn vtkio_frame(mesh: &SurfaceMesh, point_data: &[PointArray]) -> Vec<u8> {
+        use vtkio::model::*;
+        let point = point_data
+            .iter()
+            .map(|a| match a {
+                PointArray::Vectors { name, values } => Attribute::vectors(name.as_str())
+                    .with_data(
+                        values
+                            .iter()
+                            .flat_map(|f| f.to_array())
+                            .collect::<Vec<f64>>(),
+                    ),
+                PointArray::Scalars { name, values } => {
+                    Attribute::scalars(name.as_str(), 1).with_data(values.clone())
+                }
+            })
+            .collect();
+        let faces = &mesh.faces;
+        let vtk = Vtk {
+            version: Version::new_xml(1, 0),
+            title: String::new(),
+            byte_order: ByteOrder::LittleEndian,
+            file_path: None,
+            data: DataSet::PolyData {
+                meta: None,
+                pieces: vec![Piece::Inline(Box::new(PolyDataPiece {
+                    points: IOBuffer::F64(
+                        mesh.positions.iter().flat_map(|p| p.to_array()).collect(),
+                    ),
+                    polys: Some(VertexNumbers::XML {
+                        connectivity: faces.iter().flat_map(|f| f.map(u64::from)).collect(),
+                        offsets: (1..=faces.len() as u64).map(|i| 3 * i).collect(),
+                    }),
+                    data: Attributes {
+                        point,
+                        cell: Vec::new(),
+                    },
+                    ..Default::default()
+                }))],
+            },
+        };
+        let mut out = Vec::new();
+        vtk.write_xml(&mut out).unwrap();
+        out
+    }
+
+    /// Remesh events as vtkio 0.7 writes them.
+    fn vtkio_events(points: &[glam::DVec3], split: &[u8], iteration: &[u64]) -> Vec<u8> {
+        use vtkio::model::*;
+        let n = points.len() as u64;
+        let vtk = Vtk {
+            version: Version::new_xml(1, 0),
+            title: String::new(),
+            byte_order: ByteOrder::LittleEndian,
+            file_path: None,
+            data: DataSet::PolyData {
+                meta: None,
+                pieces: vec![Piece::Inline(Box::new(PolyDataPiece {
+                    points: IOBuffer::F64(points.iter().flat_map(|p| p.to_array()).collect()),
+                    verts: Some(VertexNumbers::XML {
+                        connectivity: (0..n).collect(),
+                        offsets: (1..=n).collect(),
+                    }),
+                    data: Attributes {
+                        point: vec![
+                            Attribute::scalars("split", 1).with_data(split.to_vec()),
+                            Attribute::scalars("iteration", 1).with_data(iteration.to_vec()),
+                        ],
+                        cell: Vec::new(),
+                    },
+                    ..Default::default()
+                }))],
+            },
+        };
+        let mut out = Vec::new();
+        vtk.write_xml(&mut out).unwrap();
+        out
+    }
+
+    /// The streamed frames are byte for byte what vtkio writes for the same
+    /// data, on a unit sphere and on a jittered 40-unit one (ranges of other
+    /// magnitudes), and so are the remesh events, none and some.
+    #[test]
+    fn the_streamed_vtk_xml_is_byte_for_byte_vtkios() {
+        let mut big = crate::mesh::icosphere(3, 40.0);
+        big.jitter(0.3, 5);
+        for mesh in [crate::mesh::icosphere_unit(2), big] {
+            let data = frame_data(&mesh);
+            let mut ours = Vec::new();
+            write_frame_vtp(&mut ours, &mesh.positions, &mesh.faces, &data).unwrap();
+            let theirs = vtkio_frame(&mesh, &data);
+            assert!(
+                ours == theirs,
+                "frames differ:\n{}\n{}",
+                String::from_utf8_lossy(&ours[..300.min(ours.len())]),
+                String::from_utf8_lossy(&theirs[..300.min(theirs.len())])
+            );
+        }
+        for n in [0u64, 5] {
+            let points: Vec<glam::DVec3> = (0..n)
+                .map(|i| glam::DVec3::new(i as f64, -0.5, 2.0))
+                .collect();
+            let split: Vec<u8> = (0..n).map(|i| (i % 2) as u8).collect();
+            let iteration: Vec<u64> = (0..n).map(|i| 100 * i).collect();
+            let mut ours = Vec::new();
+            let arrays = [
+                DataArray {
+                    name: "split",
+                    values: Values::U8(&split),
+                },
+                DataArray {
+                    name: "iteration",
+                    values: Values::U64(&iteration),
+                },
+            ];
+            write_poly_data(&mut ours, &points, Cells::PointVertices, &arrays).unwrap();
+            let theirs = vtkio_events(&points, &split, &iteration);
+            assert!(
+                ours == theirs,
+                "{n} events differ:\n{}\n{}",
+                String::from_utf8_lossy(&ours),
+                String::from_utf8_lossy(&theirs)
+            );
+        }
     }
 
     #[test]
@@ -430,7 +540,7 @@ mod tests {
         assert!(trickle.calls >= whole.len() / 3, "{} calls", trickle.calls);
         // And it is a complete VTK file: it parses back, every point there.
         let vtk = vtkio::Vtk::parse_xml(trickle.bytes.as_slice()).unwrap();
-        let DataSet::PolyData { pieces, .. } = vtk.data else {
+        let vtkio::model::DataSet::PolyData { pieces, .. } = vtk.data else {
             panic!("not PolyData")
         };
         let piece = pieces[0].load_piece_data(None).unwrap();

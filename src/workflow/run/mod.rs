@@ -322,7 +322,7 @@ pub fn drive_run(
         .remove_resource::<Recorders>()
         .map(|r| r.0)
         .unwrap_or_default();
-    sim.add_dynamic_system(Stage::Observe, FrameWriter::new(name, frames, recorders))?;
+    sim.add_dynamic_system(Stage::Observe, FrameWriter::new(frames, recorders))?;
     let earlier_wall = resume.as_ref().map_or(0.0, |c| c.wall_time_s);
     open_output(sim, options, resume.as_deref())?;
     let source = checkpoint_source(scene_path, options, resume.as_deref());
@@ -528,6 +528,7 @@ fn finish_run(
     let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), wall());
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;
+    release_tick_scratch(sim);
     let mesh = sim.membrane_mut().to_mesh()?;
     let lipid = sim.resource::<DenseLipid>().0.clone();
     if let Ok(stats) = sim.resources().get::<RemeshStats>() {
@@ -564,6 +565,25 @@ fn progress_bar(progress: Progress, iterations: u64) -> Option<indicatif::Progre
     .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
     bar.set_style(style);
     Some(bar)
+}
+
+/// Frees the per-face geometry and the V_in edge samples, which the Gather
+/// stage recomputes every tick, so that the final mesh, state and events
+/// are not written on top of them (on the 40962-vertex RBC they are about
+/// 21 MB, and the end of a run was its peak of memory).
+fn release_tick_scratch(sim: &mut Simulation) {
+    if let Ok(mut g) = sim
+        .resources()
+        .get_mut::<crate::engine::force::FaceGeometry>()
+    {
+        g.0 = Vec::new();
+    }
+    if let Ok(mut s) = sim
+        .resources()
+        .get_mut::<crate::energy::vin::VinEdgeSamples>()
+    {
+        s.0 = Vec::new();
+    }
 }
 
 /// Re-gathers the dense mirror from the world (the last good state after a
