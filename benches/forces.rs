@@ -17,7 +17,13 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
+use remembrane::energy::springs::SpringForces;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
+use remembrane::energy::{
+    area::AreaForces, bending::BendingForces, local_tension::LocalTensionForces,
+    self_avoidance::SelfAvoidanceForces, tension::TensionForces, vin::VinForces,
+    volume::VolumeForces,
+};
 use remembrane::engine::force::{ForceContext, ForceTerm};
 use remembrane::engine::simulation::{InitialState, SimBuilder};
 use remembrane::mesh::components::ControlPoint;
@@ -25,7 +31,6 @@ use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::BendingParams;
 use remembrane::systems::plugins;
-use remembrane::systems::*;
 use std::hint::black_box;
 use std::sync::Arc;
 use std::time::Duration;

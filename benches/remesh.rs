@@ -76,9 +76,12 @@ fn flippable_edge(m: &Membrane) -> remembrane::remesh::flip::Flip {
 }
 
 fn edge_flips(c: &mut Criterion) {
+    use remembrane::energy::area::AreaForces;
+    use remembrane::energy::bending::BendingForces;
+    use remembrane::energy::vin::VinForces;
+    use remembrane::energy::volume::VolumeForces;
     use remembrane::engine::force::{FlipProposal, ForceContext, ForceTerm};
     use remembrane::remesh::flip::{FlipPricer, FlipTotals};
-    use remembrane::systems::{AreaForces, BendingForces, VinForces, VolumeForces};
     use std::sync::Arc;
     let mesh = icosphere(3, 1.0);
     let m = membrane(3);

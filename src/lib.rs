@@ -120,7 +120,7 @@
 //! [`Seed`]: engine::core_resources::Seed
 //! [`CheckInvariants`]: engine::core_resources::CheckInvariants
 //! [`VinEdgeSamples`]: energy::vin::VinEdgeSamples
-//! [`VinSegmentation`]: systems::vin_forces::VinSegmentation
+//! [`VinSegmentation`]: energy::vin::VinSegmentation
 //! [`RunOutput`]: io::output::RunOutput
 //! [`TimeStepChoice`]: timestep::TimeStepChoice
 //! [`MinimiserStatus`]: minimise::MinimiserStatus

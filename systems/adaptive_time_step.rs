@@ -9,21 +9,16 @@
 //! the [`crate::params::MembraneModel`] when inserted. Writes:
 //! [`TimeStepChoice`]. Units: s.
 
+use crate::energy::bending::BendingRigidity;
 use crate::energy::vin::VinEdgeSamples;
+use crate::energy::vin::VinSegmentation;
 use crate::engine::force::ForceBuffers;
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
 use crate::engine::simulation::{Clock, DensePositions, SimError};
 use crate::mesh::membrane::Membrane;
 use crate::params::DynamicsParams;
-use crate::systems::vin_forces::VinSegmentation;
 use crate::timestep::{Limiter, TimeStepChoice, bending_step_limit, choose_time_step};
-
-/// The bending rigidity κ (Ē) that bounds the explicit step where no V_in
-/// does (inserted by the bending plugin; the largest κ if several terms
-/// insert one).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BendingRigidity(pub f64);
 
 /// The adaptive time-step system.
 pub struct AdaptiveTimeStep;

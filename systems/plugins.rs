@@ -1,4 +1,5 @@
-//! The built-in plugins. Each is a function returning a [`Plugin`] that
+//! The built-in plugins other than the energy terms' (each term's plugin is
+//! in its own file under [`crate::energy`]). Each is a function returning a [`Plugin`] that
 //! registers its resources and systems on a [`SimBuilder`], through the same
 //! calls a user's crate makes (`insert_resource`, `add_system`,
 //! `add_force_term`). A scene's build is the list of these plugins.
@@ -7,7 +8,7 @@
 //! |---|---|---|
 //! | [`core`](fn@core) | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
 //! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
-//! | [`bending`], [`volume`], [`area`], [`local_tension`], [`springs`], [`self_avoidance`] | — | their term (Forces) |
+//! | each term's `plugin` in [`crate::energy`] (bending, volume, area, tension, local tension, springs, self-avoidance) | — | their term (Forces) |
 //! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `fluid_projection` (Forces) |
 //! | [`constraints`] | `Constraints` | `constraint_reactions` (Forces), `constraint_projection` (Integrate) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
@@ -15,28 +16,20 @@
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
 //! | [`recorders`] | `Recorders` | — (the run's `frames` system, Observe, calls them) |
 
-use crate::energy::vin::{Segmentation, VinParams};
+use crate::energy::vin::{Segmentation, VinForces, VinParams, VinSegmentation};
 use crate::engine::force::{FaceGeometry, ForceBuffers};
 use crate::engine::schedule::Stage;
 use crate::engine::simulation::{
-    BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Plugin, Seed,
-    SimBuilder,
+    BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, Plugin, Seed, SimBuilder,
 };
 use crate::mesh::ValenceRange;
 use crate::mesh::components::ControlPoint;
 use crate::mesh::membrane::Membrane;
-use crate::params::{
-    AreaParams, BendingParams, DiffusionParams, DynamicsParams, LocalTensionParams, RemeshParams,
-    SpringCoupling, VolumeParams,
-};
+use crate::params::{DiffusionParams, DynamicsParams, RemeshParams};
 use crate::remesh::RemeshStats;
 use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
 use crate::systems::control_point_schedule::{ControlPointSchedule, ScheduledChange};
 use crate::systems::remesh::{Remesh, RemeshTriggered};
-use crate::systems::vin_forces::VinSegmentation;
-use crate::systems::{
-    AreaForces, BendingForces, LocalTensionForces, SpringForces, VinForces, VolumeForces,
-};
 use crate::timestep::TimeStepChoice;
 use std::sync::Arc;
 
@@ -105,17 +98,6 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
     }
 }
 
-fn initial(b: &SimBuilder, what: &str) -> Result<InitialState, BuildError> {
-    b.resources()
-        .get::<InitialState>()
-        .map(|i| *i)
-        .map_err(|_| BuildError::Requires {
-            what: what.to_string(),
-            resource: "InitialState",
-            plugin: "SimBuilder::new",
-        })
-}
-
 /// The double-barrier edge potential V_in: inserts its segmentation (used by
 /// the time step and remeshing) and, with `exerts_force`, its force term.
 /// The geometric remeshing baseline uses V_in without its global force.
@@ -136,40 +118,6 @@ pub fn vin(params: VinParams, exerts_force: bool) -> impl Plugin {
     }
 }
 
-/// Helfrich bending.
-pub fn bending(params: BendingParams) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        b.add_force_term(BendingForces::new(params))?;
-        // The stiffest bending term bounds the explicit step (without V_in).
-        let kappa = b
-            .resources()
-            .get::<crate::systems::adaptive_time_step::BendingRigidity>()
-            .map_or(0.0, |k| k.0);
-        b.insert_resource(crate::systems::adaptive_time_step::BendingRigidity(
-            kappa.max(params.kappa),
-        ));
-        Ok(())
-    }
-}
-
-/// The volume penalty, its target resolved against the initial volume.
-pub fn volume(params: VolumeParams) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        let target = params.target.resolve(initial(b, "Volume")?.volume);
-        b.add_force_term(VolumeForces::new(params.k, target))?;
-        Ok(())
-    }
-}
-
-/// The area penalty, its target resolved against the initial area.
-pub fn area(params: AreaParams) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        let target = params.target.resolve(initial(b, "Area")?.area);
-        b.add_force_term(AreaForces::new(params.k, target))?;
-        Ok(())
-    }
-}
-
 /// Exact area and volume constraints (targets resolved against the
 /// initial mesh): the reactions are removed from the total force after
 /// `force_total`, and the positions are projected back onto the
@@ -178,7 +126,7 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
         use crate::systems::constraint_projection::ConstraintProjection;
         use crate::systems::constraint_reactions::ConstraintReactions;
-        let init = initial(b, "constraints")?;
+        let init = b.initial_state("constraints")?;
         let (area, volume) = params.targets(init.area, init.volume);
         b.insert_resource(crate::constraint::Constraints {
             targets: crate::constraint::ConstraintTargets { area, volume },
@@ -233,44 +181,6 @@ pub fn maintenance_flips(
             .insert_resource(MaintenanceFlipStats::default())
             .persist_resource::<MaintenanceFlipStats>();
         b.add_system(Stage::Remesh, MaintenanceFlips::new(params));
-        Ok(())
-    }
-}
-
-/// Constant surface tension σA.
-pub fn tension(params: crate::params::TensionParams) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        b.add_force_term(crate::systems::TensionForces::new(params.sigma))?;
-        Ok(())
-    }
-}
-
-/// Density-dependent local tension with a0 = A_t / Σρ: A_t / N_initial for a
-/// fresh mesh (ρ = 1), and the same lipid unit after remeshing or when
-/// starting from a saved state (Σρ is conserved).
-pub fn local_tension(params: LocalTensionParams) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        let init = initial(b, "LocalTension")?;
-        let a0 = params.target_area.resolve(init.area) / init.lipid_total;
-        b.add_force_term(LocalTensionForces::new(params.k, a0))?;
-        Ok(())
-    }
-}
-
-/// Self-avoidance between non-neighbouring vertices.
-pub fn self_avoidance(params: crate::params::SelfAvoidanceParams) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        b.add_force_term(crate::systems::SelfAvoidanceForces::new(params))?;
-        Ok(())
-    }
-}
-
-/// Control-point springs with `coupling` (the points come from
-/// [`control_points`]).
-pub fn springs(coupling: SpringCoupling) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        b.insert_resource(coupling);
-        b.add_force_term(SpringForces::new(coupling))?;
         Ok(())
     }
 }

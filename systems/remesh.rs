@@ -19,6 +19,7 @@
 //! fluid model every move is tangential, and with direct edits
 //! ([`crate::params::FluidEdits::Direct`]) the pre-relaxation is skipped.
 
+use crate::energy::vin::VinSegmentation;
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
 use crate::engine::simulation::{
@@ -31,7 +32,6 @@ use crate::params::{DynamicsParams, RemeshParams};
 use crate::remesh::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
 use crate::remesh::{EdgeOp, RemeshStats};
 use crate::systems::barrier_check::AbnormalEdges;
-use crate::systems::vin_forces::VinSegmentation;
 use crate::util::rng::stream_seed;
 use glam::DVec3;
 use hecs::Entity;

@@ -7,11 +7,11 @@
 //! [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
 
 use crate::energy::vin::VinEdgeSamples;
+use crate::energy::vin::VinSegmentation;
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
 use crate::engine::simulation::{DensePositions, SimError};
 use crate::mesh::membrane::Membrane;
-use crate::systems::vin_forces::VinSegmentation;
 
 /// The edge-sampling system.
 pub struct VinEdgeSampling;

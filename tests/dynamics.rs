@@ -627,7 +627,7 @@ fn measured_edge_samples_change_no_bit_of_the_vin_force_or_the_time_step() {
     samples.measure(&seg, &t.edges, &mesh.positions);
     let mut geometry = Vec::new();
     let in_place = ForceContext::new(&m.world, &t, &mesh.positions, &[], &mut geometry, false);
-    let mut vin = remembrane::systems::VinForces::new(
+    let mut vin = remembrane::energy::vin::VinForces::new(
         seg.clone(),
         remembrane::energy::vin::VinForm::PiecewiseLinear,
     );

@@ -6,11 +6,15 @@ mod common;
 
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
+use remembrane::energy::{
+    area::AreaForces, bending::BendingForces, local_tension::LocalTensionForces,
+    self_avoidance::SelfAvoidanceForces, tension::TensionForces, vin::VinForces,
+    volume::VolumeForces,
+};
 use remembrane::engine::force::{ForceContext, ForceTerm};
 use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::{BendingDiscretisation, BendingParams, SelfAvoidanceParams};
-use remembrane::systems::*;
 use std::sync::Arc;
 
 /// A term with the energy of `inner` and no local flip formula, so the flip

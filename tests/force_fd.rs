@@ -5,13 +5,17 @@
 
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};
+use remembrane::energy::{
+    area::AreaForces, bending::BendingForces, local_tension::LocalTensionForces,
+    self_avoidance::SelfAvoidanceForces, springs::SpringForces, tension::TensionForces,
+    vin::VinForces, volume::VolumeForces,
+};
 use remembrane::engine::force::ForceTerm;
 use remembrane::fd::{FdOptions, Stencil, check_force_term};
 use remembrane::mesh::SurfaceMesh;
 use remembrane::mesh::components::ControlPoint;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::{BendingDiscretisation, BendingParams, SpringCoupling};
-use remembrane::systems::*;
 use std::sync::Arc;
 
 /// Relative tolerance on the per-vertex force vector.

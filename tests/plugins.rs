@@ -140,7 +140,7 @@ fn a_plugin_registering_a_force_term_on_the_builder_moves_the_centroid_by_mu_f_t
             remesh: Default::default(),
         }))
         .unwrap()
-        .add_plugin(plugins::bending(Default::default()))
+        .add_plugin(remembrane::energy::bending::plugin(Default::default()))
         .unwrap()
         .add_plugin(field)
         .unwrap();

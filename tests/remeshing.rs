@@ -3,6 +3,7 @@
 //! valences stay in range and Σρ is conserved.
 
 use rand::SeedableRng;
+use remembrane::energy::vin::VinSegmentation;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::engine::force::ForceBuffers;
 use remembrane::mesh::components::LipidDensity;
@@ -12,7 +13,6 @@ use remembrane::remesh::relax::{
 };
 use remembrane::scene::Scene;
 use remembrane::systems::barrier_check::AbnormalEdges;
-use remembrane::systems::vin_forces::VinSegmentation;
 use std::f64::consts::PI;
 use std::path::Path;
 

@@ -3,10 +3,23 @@
 //! force k (x_c − x_j); energy ½k|x_c − x_j|² summed over all pulled vertices
 //! (the as-run coupling), or ties the centroid of that patch to c
 //! ([`SpringCoupling::Centroid`]).
+//!
+//! ## The force term
+//!
+//! External spring forces from fixed control points.
+//!
+//! Stage: Forces. Reads: positions, topology (1-rings), [`ControlPoint`]
+//! entities. Writes: force accumulator. Units: k_ex in Ē/l̄². Each control
+//! point pulls its nearest vertex (re-chosen on every evaluation) and that
+//! vertex's 1-ring: each toward the point itself (as run) or, with the
+//! centroid coupling, the patch's centroid toward the point.
 
+use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
+use crate::engine::simulation::{Plugin, SimBuilder};
+use crate::mesh::cell_list::CellList;
 use crate::mesh::components::ControlPoint;
-use crate::params::SpringCoupling;
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
 
 /// Index of the vertex nearest to `point` (ties: lowest index).
 pub fn nearest_vertex(positions: &[DVec3], point: DVec3) -> usize {
@@ -210,5 +223,142 @@ mod tests {
             let r = 3.0 * a * k as f64 / 300.0;
             assert!(gaussian_weight(r * r, 1.0 / (a * a)).0 >= 0.0, "r = {r}");
         }
+    }
+}
+
+/// External springs from control points to their nearest vertex and 1-ring.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SpringParams {
+    /// k_ex, spring constant of control points that give none (Ē/l̄²;
+    /// default 4 as run; 5 in the tether scenes).
+    #[serde(deserialize_with = "crate::util::validate::non_negative")]
+    pub stiffness: f64,
+    /// How a control point's pull is shared over the attached patch.
+    pub coupling: SpringCoupling,
+}
+
+impl Default for SpringParams {
+    fn default() -> Self {
+        Self {
+            stiffness: 4.0,
+            coupling: SpringCoupling::OneRing,
+        }
+    }
+}
+
+/// How a control point c pulls the membrane: the patch P = {i} ∪ 1-ring(i)
+/// of its nearest vertex i (n = |P| vertices, centroid x̄), or a smooth
+/// patch of physical radius.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum SpringCoupling {
+    /// As run (SPEC §2): every patch vertex j is pulled toward c itself,
+    /// F_j = k (c − x_j), E = ½k Σ_j |c − x_j|². By the parallel-axis
+    /// theorem E = ½k n |c − x̄|² + ½k Σ_j |x_j − x̄|²: besides the net pull
+    /// it squeezes the patch toward its centroid, ½k·(1 l̄)² = 2 Ē per ring
+    /// vertex at k = 4 Ē/l̄², 20× the V_in barrier (0.1 Ē), and keeps
+    /// merging the ring edges around every holder.
+    #[default]
+    OneRing,
+    /// The same net force on the patch without the squeeze: the centroid is
+    /// tied to c, E = ½k n |c − x̄|², F_j = k (c − x̄) for every j in P.
+    Centroid,
+    /// A smooth patch of physical size (the fluid model's coupling): the
+    /// weighted centroid x̄ = Σ g_j x_j / Σ g_j of the vertices within 3a of
+    /// c, with g_j = exp(−r_j²/2a²) − exp(−9/2)·(11/2 − r_j²/2a²) (r_j =
+    /// |x_j − c|: the Gaussian less its tangent in r² at the cut-off, so
+    /// weight and gradient both vanish there), is tied to c: E = ½k|c − x̄|², k the point's whole
+    /// stiffness (not per vertex). The weights follow the vertices, so a
+    /// remesh event near c changes the pull continuously, and the force is
+    /// the exact gradient (weights included). With no vertex within 3a the
+    /// nearest vertex alone is tied to c. In the fluid model only the
+    /// forces' components along the vertex normals act: a fluid membrane
+    /// at uniform tension holds no tangential point load.
+    Gaussian {
+        /// Patch radius a (l̄; 1-1.5 mean edge lengths resolve it).
+        #[serde(deserialize_with = "crate::util::validate::positive")]
+        radius: f64,
+    },
+}
+
+/// Cell size of the nearest-vertex grid (l̄): two mean edge lengths, a few
+/// vertices per cell on the surface.
+const NEAREST_CELL_SIZE: f64 = 2.0;
+
+/// The control-point spring system. Control points are read from the world
+/// on each evaluation (a handful of entities, not a per-edge loop).
+#[derive(Default)]
+pub struct SpringForces {
+    coupling: SpringCoupling,
+    points: Vec<ControlPoint>,
+    /// Each point's nearest vertex, kept as the next search's first guess.
+    nearest: Vec<usize>,
+    cells: CellList,
+}
+
+impl SpringForces {
+    /// Springs with the given coupling.
+    pub fn new(coupling: SpringCoupling) -> Self {
+        Self {
+            coupling,
+            ..Default::default()
+        }
+    }
+
+    /// Gathers the control points, returns the spring energy and, with
+    /// `force`, adds the spring forces.
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        self.points.clear();
+        self.points
+            .extend(ctx.world.query::<&ControlPoint>().iter().copied());
+        let p = ctx.positions;
+        // Nearest vertices through a cell list (exactly the brute-force
+        // answer): O(N) to build plus a few cells per point, instead of
+        // O(N) per point.
+        self.cells.build(p, NEAREST_CELL_SIZE);
+        self.nearest.resize(self.points.len(), 0);
+        for (cp, guess) in self.points.iter().zip(self.nearest.iter_mut()) {
+            let start = if *guess < p.len() { *guess } else { 0 };
+            *guess = self.cells.nearest(p, cp.position, start);
+        }
+        let (t, points, nearest) = (ctx.topology, &self.points, &self.nearest);
+        control_point_springs(p, t, points, nearest, self.coupling, force)
+    }
+}
+
+impl ForceTerm for SpringForces {
+    fn name(&self) -> &str {
+        "springs"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::External
+    }
+
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        self.evaluate(ctx, None)
+    }
+
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        self.evaluate(ctx, Some(force))
+    }
+
+    /// Zero: the springs act on each point's nearest vertex and its 1-ring,
+    /// and a flip changes the 1-rings of its four vertices only, so the
+    /// flip system, while springs act, never flips at a point's nearest
+    /// vertex (nearest vertices depend on positions alone, so the rule is
+    /// the same both ways).
+    fn flip_energy_change(&mut self, _: &FlipProposal<'_>) -> Option<f64> {
+        Some(0.0)
+    }
+}
+
+/// Control-point springs with `coupling` (the points come from
+/// the `control_points` plugin).
+pub fn plugin(coupling: SpringCoupling) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        b.insert_resource(coupling);
+        b.add_force_term(SpringForces::new(coupling))?;
+        Ok(())
     }
 }

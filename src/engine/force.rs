@@ -34,7 +34,7 @@ pub struct ForceContext<'a> {
     /// order, when the vin plugin measured them this tick
     /// ([`crate::energy::vin::VinEdgeSamples`]); empty otherwise (a term
     /// then measures what it needs itself).
-    pub edge_samples: &'a [crate::energy::vin::EdgeSample],
+    pub edge_samples: &'a [crate::mesh::geometry::EdgeSample],
 }
 
 impl<'a> ForceContext<'a> {

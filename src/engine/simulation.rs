@@ -77,6 +77,20 @@ impl SimBuilder {
         self
     }
 
+    /// The initial mesh's area, volume and lipid total, for a plugin that
+    /// resolves a target against them; `what` names the plugin in the
+    /// error when [`SimBuilder::new`] did not insert them.
+    pub fn initial_state(&self, what: &str) -> Result<InitialState, BuildError> {
+        self.resources
+            .get::<InitialState>()
+            .map(|i| *i)
+            .map_err(|_| BuildError::Requires {
+                what: what.to_string(),
+                resource: "InitialState",
+                plugin: "SimBuilder::new",
+            })
+    }
+
     /// The resources so far.
     pub fn resources(&self) -> &Resources {
         &self.resources

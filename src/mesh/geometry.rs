@@ -291,3 +291,17 @@ pub fn curvature_vectors(positions: &[DVec3], faces: &[[u32; 3]]) -> Vec<DVec3> 
     accumulate_curvature_terms(faces, corners_of, &mut a, &mut l, None, positions.len());
     l.iter().zip(&a).map(|(l, a)| *l / (2.0 * a)).collect()
 }
+
+/// One edge at the tick's positions: its vector d = r_b − r_a (l̄), its
+/// length |d| (l̄) and the segment of a piecewise edge potential that the
+/// length falls in (V_in's, [`crate::energy::vin::VinEdgeSamples`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EdgeSample {
+    /// r_b − r_a for the edge [a, b] (l̄).
+    pub d: DVec3,
+    /// |d| (l̄).
+    pub length: f64,
+    /// The potential's segment of the length
+    /// ([`crate::energy::vin::Segmentation::segment_of`]).
+    pub segment: u32,
+}

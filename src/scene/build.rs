@@ -203,16 +203,20 @@ impl Scene {
                 // The geometric baseline: V_in sets Δt and drives the local
                 // relaxation but exerts no global force.
                 EnergyTerm::Vin(p) => builder.add_plugin(plugins::vin(*p, !geometric)),
-                EnergyTerm::Bending(p) => builder.add_plugin(plugins::bending(*p)),
-                EnergyTerm::Volume(p) => builder.add_plugin(plugins::volume(*p)),
-                EnergyTerm::Area(p) => builder.add_plugin(plugins::area(*p)),
-                EnergyTerm::LocalTension(p) => builder.add_plugin(plugins::local_tension(*p)),
-                EnergyTerm::Tension(p) => builder.add_plugin(plugins::tension(*p)),
+                EnergyTerm::Bending(p) => builder.add_plugin(crate::energy::bending::plugin(*p)),
+                EnergyTerm::Volume(p) => builder.add_plugin(crate::energy::volume::plugin(*p)),
+                EnergyTerm::Area(p) => builder.add_plugin(crate::energy::area::plugin(*p)),
+                EnergyTerm::LocalTension(p) => {
+                    builder.add_plugin(crate::energy::local_tension::plugin(*p))
+                }
+                EnergyTerm::Tension(p) => builder.add_plugin(crate::energy::tension::plugin(*p)),
                 EnergyTerm::Springs(p) => {
                     spring_stiffness = p.stiffness;
-                    builder.add_plugin(plugins::springs(p.coupling))
+                    builder.add_plugin(crate::energy::springs::plugin(p.coupling))
                 }
-                EnergyTerm::SelfAvoidance(p) => builder.add_plugin(plugins::self_avoidance(*p)),
+                EnergyTerm::SelfAvoidance(p) => {
+                    builder.add_plugin(crate::energy::self_avoidance::plugin(*p))
+                }
                 EnergyTerm::Custom(c) => add_declared(&c.0, &mut builder),
             };
             added.map_err(|e| invalid_at(format!("energy[{i}]"), e))?;

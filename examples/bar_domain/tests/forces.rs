@@ -4,13 +4,13 @@
 
 use bar_domain::{BarDomainForces, Coverage};
 use glam::DVec3;
+use remembrane::energy::bending::BendingForces;
 use remembrane::engine::force::{ForceContext, ForceTerm};
 use remembrane::fd::{FdOptions, check_force_term};
 use remembrane::mesh::SurfaceMesh;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::vertex_field::TransferPolicy;
 use remembrane::params::BendingParams;
-use remembrane::systems::BendingForces;
 
 /// Relative tolerance on the per-vertex force vector, as for the built-ins.
 const REL_TOL: f64 = 1e-6;

@@ -69,7 +69,7 @@ pub(super) fn summarize(
 /// positions; in the fluid model also the residuals of the last force
 /// evaluation.
 pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
-    use crate::systems::vin_forces::VinSegmentation;
+    use crate::energy::vin::VinSegmentation;
     let model = sim.resources().get::<crate::params::MembraneModel>().ok();
     let fluid = model.is_some_and(|m| m.is_fluid());
     let membrane = sim.membrane();
@@ -94,7 +94,7 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
         });
     let kappa = sim
         .resources()
-        .get::<crate::systems::adaptive_time_step::BendingRigidity>()
+        .get::<crate::energy::bending::BendingRigidity>()
         .ok()
         .map(|k| k.0)
         .filter(|k| *k > 0.0);

@@ -6,7 +6,28 @@
 
 use crate::energy::penalty::area_penalty;
 use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
+use crate::engine::simulation::{Plugin, SimBuilder};
+use crate::params::Target;
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// Area penalty E_A = k (A − A_t)² / A_t (global tension).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AreaParams {
+    /// k_A, penalty strength (Ē/l̄²; default 8).
+    #[serde(
+        default = "default_k_area",
+        deserialize_with = "crate::util::validate::non_negative"
+    )]
+    pub k: f64,
+    /// A_t, target area (l̄² or fraction of the initial area).
+    pub target: Target,
+}
+
+pub(super) fn default_k_area() -> f64 {
+    8.0
+}
 
 /// The area-penalty force system with a resolved target area.
 pub struct AreaForces {
@@ -67,5 +88,14 @@ impl ForceTerm for AreaForces {
         let (x, dx) = (proposal.totals.area, proposal.change.area);
         let target = self.target;
         Some(self.k * ((x + dx - target).powi(2) - (x - target).powi(2)) / target)
+    }
+}
+
+/// The area penalty, its target resolved against the initial area.
+pub fn plugin(params: AreaParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let target = params.target.resolve(b.initial_state("Area")?.area);
+        b.add_force_term(AreaForces::new(params.k, target))?;
+        Ok(())
     }
 }

@@ -6,7 +6,28 @@
 
 use crate::energy::penalty::volume_penalty;
 use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
+use crate::engine::simulation::{Plugin, SimBuilder};
+use crate::params::Target;
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// Volume penalty E_V = k (V − V_t)² / V_t (osmotic pressure).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolumeParams {
+    /// k_V, penalty strength (Ē/l̄³; default 4).
+    #[serde(
+        default = "default_k_volume",
+        deserialize_with = "crate::util::validate::non_negative"
+    )]
+    pub k: f64,
+    /// V_t, target volume (l̄³ or fraction of the initial volume).
+    pub target: Target,
+}
+
+pub(super) fn default_k_volume() -> f64 {
+    4.0
+}
 
 /// The volume-penalty force system with a resolved target volume.
 pub struct VolumeForces {
@@ -63,5 +84,14 @@ impl ForceTerm for VolumeForces {
         let (x, dx) = (proposal.totals.volume, proposal.change.volume);
         let target = self.target;
         Some(self.k * ((x + dx - target).powi(2) - (x - target).powi(2)) / target)
+    }
+}
+
+/// The volume penalty, its target resolved against the initial volume.
+pub fn plugin(params: VolumeParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let target = params.target.resolve(b.initial_state("Volume")?.volume);
+        b.add_force_term(VolumeForces::new(params.k, target))?;
+        Ok(())
     }
 }

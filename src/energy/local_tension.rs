@@ -6,7 +6,30 @@
 
 use crate::energy::penalty::{LocalTensionScratch, local_tension};
 use crate::engine::force::{ForceContext, ForceKind, ForceTerm};
+use crate::engine::simulation::{Plugin, SimBuilder};
+use crate::params::Target;
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+/// Density-dependent local tension E_a = k Σ_i (A_i/ρ_i − a0)² / a0 with
+/// a0 = A_t / N_initial. Requires lipid density.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LocalTensionParams {
+    /// k_a, strength (Ē/l̄²; default 12).
+    #[serde(
+        default = "default_k_local",
+        deserialize_with = "crate::util::validate::non_negative"
+    )]
+    pub k: f64,
+    /// A_t, total target area from which a0 = A_t / N_initial (l̄² or
+    /// fraction of the initial area; the reservoir condition uses 733).
+    pub target_area: Target,
+}
+
+pub(super) fn default_k_local() -> f64 {
+    12.0
+}
 
 /// The local-tension force system.
 pub struct LocalTensionForces {
@@ -63,5 +86,17 @@ impl ForceTerm for LocalTensionForces {
             &mut self.scratch,
             Some(force),
         )
+    }
+}
+
+/// Density-dependent local tension with a0 = A_t / Σρ: A_t / N_initial for a
+/// fresh mesh (ρ = 1), and the same lipid unit after remeshing or when
+/// starting from a saved state (Σρ is conserved).
+pub fn plugin(params: LocalTensionParams) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let init = b.initial_state("LocalTension")?;
+        let a0 = params.target_area.resolve(init.area) / init.lipid_total;
+        b.add_force_term(LocalTensionForces::new(params.k, a0))?;
+        Ok(())
     }
 }
