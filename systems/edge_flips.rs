@@ -67,6 +67,54 @@ impl EdgeFlips {
     }
 }
 
+/// Why a proposal was turned down before its energy was priced.
+enum Screened {
+    /// No flip, a pinned vertex, a valence out of range or c–d already an edge.
+    Topology,
+    /// An edge outside `edge_range`, or a fold.
+    Geometry,
+}
+
+impl EdgeFlips {
+    /// The flip of `edge` if it passes the rules that need no energy (each
+    /// holds both ways, so the reverse flip passes exactly when this one
+    /// does).
+    fn screen(
+        &self,
+        t: &crate::mesh::topology::Topology,
+        edge: u32,
+        positions: &[glam::DVec3],
+        pinned: &[u32],
+        valence: ValenceRange,
+    ) -> Result<Flip, Screened> {
+        let flip = Flip::of(t, edge).ok_or(Screened::Topology)?;
+        let degree = |v: u32| t.valence(v as usize) as u32;
+        if [flip.a, flip.b, flip.c, flip.d]
+            .iter()
+            .any(|v| pinned.contains(v))
+            || degree(flip.a) <= valence.min
+            || degree(flip.b) <= valence.min
+            || degree(flip.c) >= valence.max
+            || degree(flip.d) >= valence.max
+            || t.edge_between(flip.c, flip.d).is_some()
+        {
+            return Err(Screened::Topology);
+        }
+        let (lo, hi) = self.params.edge_range;
+        let in_range = |u: u32, v: u32| {
+            let l = positions[u as usize].distance(positions[v as usize]);
+            l >= lo && l <= hi
+        };
+        if !in_range(flip.a, flip.b)
+            || !in_range(flip.c, flip.d)
+            || !keeps_surface_unfolded(&flip, positions)
+        {
+            return Err(Screened::Geometry);
+        }
+        Ok(flip)
+    }
+}
+
 impl System for EdgeFlips {
     type Data<'a> = (
         (
@@ -125,36 +173,17 @@ impl System for EdgeFlips {
             let t = membrane.cached_topology();
             stats.proposed += 1;
             let edge = rng.random_range(0..t.edges.len()) as u32;
-            let Some(flip) = Flip::of(t, edge) else {
-                stats.rejected_topology += 1;
-                continue;
+            let flip = match self.screen(t, edge, positions, &pinned, *valence) {
+                Ok(flip) => flip,
+                Err(Screened::Topology) => {
+                    stats.rejected_topology += 1;
+                    continue;
+                }
+                Err(Screened::Geometry) => {
+                    stats.rejected_geometry += 1;
+                    continue;
+                }
             };
-            let degree = |v: u32| t.valence(v as usize) as u32;
-            if [flip.a, flip.b, flip.c, flip.d]
-                .iter()
-                .any(|v| pinned.contains(v))
-                || degree(flip.a) <= valence.min
-                || degree(flip.b) <= valence.min
-                || degree(flip.c) >= valence.max
-                || degree(flip.d) >= valence.max
-                || t.edge_between(flip.c, flip.d).is_some()
-            {
-                stats.rejected_topology += 1;
-                continue;
-            }
-            let (lo, hi) = self.params.edge_range;
-            let in_range = |u: u32, v: u32| {
-                let l = positions[u as usize].distance(positions[v as usize]);
-                l >= lo && l <= hi
-            };
-            if !in_range(flip.a, flip.b) || !in_range(flip.c, flip.d) {
-                stats.rejected_geometry += 1;
-                continue;
-            }
-            if !keeps_surface_unfolded(&flip, positions) {
-                stats.rejected_geometry += 1;
-                continue;
-            }
             let proposal = FlipProposal {
                 flip,
                 before: ForceContext {

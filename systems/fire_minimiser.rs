@@ -117,32 +117,7 @@ impl System for FireMinimiser {
             }
         };
         // Convergence of the state the forces were evaluated at.
-        let residual = ev.largest_force();
-        let energy = ev.total_energy();
-        s.energies.push_back(energy);
-        while s.energies.len() > p.energy_window as usize + 1 {
-            s.energies.pop_front();
-        }
-        let change = (s.energies.len() == p.energy_window as usize + 1).then(|| {
-            let first = s.energies.front().copied().unwrap_or(energy);
-            (energy - first).abs() / energy.abs().max(f64::MIN_POSITIVE)
-        });
-        let violation = ev.constraint.map_or(0.0, |c| c.violation());
-        status.force_residual = residual;
-        status.energy = energy;
-        status.energy_change = change;
-        status.constraint_violation = violation;
-        let held = violation <= p.constraint_tolerance;
-        let reason = if held && residual <= p.force_tolerance {
-            Some(StopReason::ForceResidual)
-        } else if held
-            && p.energy_tolerance > 0.0
-            && change.is_some_and(|c| c <= p.energy_tolerance)
-        {
-            Some(StopReason::EnergyChange)
-        } else {
-            None
-        };
+        let reason = convergence(&mut s.energies, p, ev, &mut status);
         if let Some(reason) = reason {
             status.stopped_by = Some(reason);
             stop.0 = Some(format!("minimiser converged ({})", reason.name()));
@@ -198,5 +173,39 @@ impl System for FireMinimiser {
     fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
         self.state = serde_json::from_value(state).map_err(|e| e.to_string())?;
         Ok(())
+    }
+}
+
+/// Records the residual, energy, energy change and constraint violation of
+/// the evaluated state in `status` (the energy also in the window
+/// `energies`) and says which criterion, if any, it meets.
+fn convergence(
+    energies: &mut std::collections::VecDeque<f64>,
+    p: &crate::params::MinimiserParams,
+    ev: &crate::engine::force::ForceEvaluation,
+    status: &mut MinimiserStatus,
+) -> Option<StopReason> {
+    let residual = ev.largest_force();
+    let energy = ev.total_energy();
+    energies.push_back(energy);
+    while energies.len() > p.energy_window as usize + 1 {
+        energies.pop_front();
+    }
+    let change = (energies.len() == p.energy_window as usize + 1).then(|| {
+        let first = energies.front().copied().unwrap_or(energy);
+        (energy - first).abs() / energy.abs().max(f64::MIN_POSITIVE)
+    });
+    let violation = ev.constraint.map_or(0.0, |c| c.violation());
+    status.force_residual = residual;
+    status.energy = energy;
+    status.energy_change = change;
+    status.constraint_violation = violation;
+    let held = violation <= p.constraint_tolerance;
+    if held && residual <= p.force_tolerance {
+        Some(StopReason::ForceResidual)
+    } else if held && p.energy_tolerance > 0.0 && change.is_some_and(|c| c <= p.energy_tolerance) {
+        Some(StopReason::EnergyChange)
+    } else {
+        None
     }
 }

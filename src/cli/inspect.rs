@@ -155,6 +155,15 @@ pub(super) fn check(path: &Path) -> Result<(), String> {
                 "Fluid (V_in acts in the tangent planes only: no shear modulus)",
         }
     );
+    say_resolution(&scene, mesh_mean_edge);
+    say_constraints_and_dynamics(&scene, &initial);
+    say!("  control points {}", scene.control_points.len());
+    Ok(())
+}
+
+/// The resolution line of `check`: the rescaled V_in well, triggers and
+/// mobility, when the scene asks for a resolution other than 1.
+fn say_resolution(scene: &crate::scene::Scene, mesh_mean_edge: f64) {
     let h = scene.resolution.edge_length(mesh_mean_edge);
     if h != 1.0 {
         let r = scene.at_resolution(h);
@@ -176,6 +185,13 @@ pub(super) fn check(path: &Path) -> Result<(), String> {
             r.dynamics.mobility
         );
     }
+}
+
+/// The constraints and dynamics lines of `check`.
+fn say_constraints_and_dynamics(
+    scene: &crate::scene::Scene,
+    initial: &crate::engine::simulation::InitialState,
+) {
     if let Some(c) = &scene.constraints {
         let (area, volume) = c.targets(initial.area, initial.volume);
         let show = |x: Option<f64>| x.map_or("free".to_string(), |x| format!("{x:.4}"));
@@ -205,8 +221,6 @@ pub(super) fn check(path: &Path) -> Result<(), String> {
             m.energy_window
         ),
     }
-    say!("  control points {}", scene.control_points.len());
-    Ok(())
 }
 
 pub(super) fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {

@@ -200,71 +200,7 @@ impl WorldSnapshot {
                     handle.id()
                 )));
             }
-            match saved {
-                SavedEntity::Vertex {
-                    entity: e,
-                    position,
-                    force,
-                    fields: values,
-                } => {
-                    if values.len() != fields.len() {
-                        return Err(SnapshotError::Mismatch(format!(
-                            "vertex {e} has {} field values for {} fields",
-                            values.len(),
-                            fields.len()
-                        )));
-                    }
-                    let e = entity(*e)?;
-                    let mut b = EntityBuilder::new();
-                    b.add(Position(glam::DVec3::from_array(*position)))
-                        .add(Force(glam::DVec3::from_array(*force)));
-                    for field in &fields {
-                        field.add_to(&mut b);
-                    }
-                    world.spawn_at(e, b.build());
-                    for (field, &v) in fields.iter().zip(values) {
-                        field.set(&mut world, e, v);
-                    }
-                }
-                SavedEntity::Edge {
-                    entity: e,
-                    vertices,
-                    faces,
-                } => {
-                    let edge = Edge {
-                        vertices: [entity(vertices[0])?, entity(vertices[1])?],
-                        faces: [entity(faces[0])?, entity(faces[1])?],
-                    };
-                    world.spawn_at(entity(*e)?, (edge,));
-                }
-                SavedEntity::Face {
-                    entity: e,
-                    vertices,
-                    edges,
-                } => {
-                    let face = Face {
-                        vertices: [
-                            entity(vertices[0])?,
-                            entity(vertices[1])?,
-                            entity(vertices[2])?,
-                        ],
-                        edges: [entity(edges[0])?, entity(edges[1])?, entity(edges[2])?],
-                    };
-                    world.spawn_at(entity(*e)?, (face,));
-                }
-                SavedEntity::ControlPoint {
-                    entity: e,
-                    position,
-                    stiffness,
-                    index,
-                } => {
-                    let point = ControlPoint {
-                        position: glam::DVec3::from_array(*position),
-                        stiffness: *stiffness,
-                    };
-                    world.spawn_at(entity(*e)?, (point, ControlPointIndex(*index)));
-                }
-            }
+            spawn_saved(&mut world, saved, &fields)?;
         }
         let freelist = self
             .freelist
@@ -289,4 +225,79 @@ impl WorldSnapshot {
             .map_err(|e| SnapshotError::Mismatch(format!("the saved mesh is not valid: {e}")))?;
         Ok(())
     }
+}
+
+/// Spawns one saved entity into `world` at its saved id, with the scene's
+/// per-vertex `fields` on a vertex.
+fn spawn_saved(
+    world: &mut World,
+    saved: &SavedEntity,
+    fields: &[std::sync::Arc<dyn crate::mesh::vertex_field::FieldTransfer>],
+) -> Result<(), SnapshotError> {
+    match saved {
+        SavedEntity::Vertex {
+            entity: e,
+            position,
+            force,
+            fields: values,
+        } => {
+            if values.len() != fields.len() {
+                return Err(SnapshotError::Mismatch(format!(
+                    "vertex {e} has {} field values for {} fields",
+                    values.len(),
+                    fields.len()
+                )));
+            }
+            let e = entity(*e)?;
+            let mut b = EntityBuilder::new();
+            b.add(Position(glam::DVec3::from_array(*position)))
+                .add(Force(glam::DVec3::from_array(*force)));
+            for field in fields {
+                field.add_to(&mut b);
+            }
+            world.spawn_at(e, b.build());
+            for (field, &v) in fields.iter().zip(values) {
+                field.set(world, e, v);
+            }
+        }
+        SavedEntity::Edge {
+            entity: e,
+            vertices,
+            faces,
+        } => {
+            let edge = Edge {
+                vertices: [entity(vertices[0])?, entity(vertices[1])?],
+                faces: [entity(faces[0])?, entity(faces[1])?],
+            };
+            world.spawn_at(entity(*e)?, (edge,));
+        }
+        SavedEntity::Face {
+            entity: e,
+            vertices,
+            edges,
+        } => {
+            let face = Face {
+                vertices: [
+                    entity(vertices[0])?,
+                    entity(vertices[1])?,
+                    entity(vertices[2])?,
+                ],
+                edges: [entity(edges[0])?, entity(edges[1])?, entity(edges[2])?],
+            };
+            world.spawn_at(entity(*e)?, (face,));
+        }
+        SavedEntity::ControlPoint {
+            entity: e,
+            position,
+            stiffness,
+            index,
+        } => {
+            let point = ControlPoint {
+                position: glam::DVec3::from_array(*position),
+                stiffness: *stiffness,
+            };
+            world.spawn_at(entity(*e)?, (point, ControlPointIndex(*index)));
+        }
+    }
+    Ok(())
 }

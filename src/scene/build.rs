@@ -45,29 +45,13 @@ impl Scene {
                 reduced_volume,
                 area,
                 mean_edge_length,
-            } => {
-                let invalid = |field: &str, reason: String| SceneError::Invalid {
-                    path: scene_path.to_owned(),
-                    field: field.to_string(),
-                    reason,
-                };
-                let shape =
-                    crate::study::axisymmetric::solve_on_branch(*reduced_volume, 200, *branch)
-                        .map_err(|e| {
-                            invalid(
-                                "membrane.reduced_volume",
-                                format!("no {branch} shape at v = {reduced_volume}: {e}"),
-                            )
-                        })?;
-                let r0 = (area / (4.0 * std::f64::consts::PI)).sqrt();
-                let profile: Vec<(f64, f64)> = shape
-                    .profile
-                    .iter()
-                    .map(|&(r, z)| (r0 * r, r0 * z))
-                    .collect();
-                crate::mesh::revolution(&profile, *mean_edge_length)
-                    .map_err(|e| invalid("membrane", e.to_string()))?
-            }
+            } => axisymmetric_mesh(
+                scene_path,
+                *branch,
+                *reduced_volume,
+                *area,
+                *mean_edge_length,
+            )?,
             MembraneSource::DockedPair { level } => docked_pair(*level),
             MembraneSource::File { path, scale } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));
@@ -79,21 +63,8 @@ impl Scene {
                 m
             }
             MembraneSource::State { path, refine } => {
-                let base = scene_path.parent().unwrap_or(Path::new("."));
-                let state = crate::io::state::SavedState::read(&base.join(path)).map_err(|e| {
-                    SceneError::Invalid {
-                        path: scene_path.to_owned(),
-                        field: "membrane".into(),
-                        reason: format!("state file {e}"),
-                    }
-                })?;
-                let mut mesh = state.mesh();
-                if *refine == 0 {
-                    lipid = state.lipid_density.clone();
-                }
-                for _ in 0..*refine {
-                    mesh = mesh.subdivided();
-                }
+                let (mesh, saved) = state_mesh(scene_path, path, *refine)?;
+                lipid = saved;
                 mesh
             }
             MembraneSource::Mesh { positions, faces } => SurfaceMesh {
@@ -196,6 +167,42 @@ impl Scene {
                     .collect(),
             ))
             .map_err(build_err)?;
+        let spring_stiffness = self.add_energy_terms(&mut builder, scene_path)?;
+        let points = self
+            .control_points
+            .iter()
+            .map(|cp| {
+                let (x, y, z) = cp.position;
+                ControlPoint {
+                    position: DVec3::new(x, y, z),
+                    stiffness: cp.stiffness.unwrap_or(spring_stiffness),
+                }
+            })
+            .collect();
+        builder
+            .add_plugin(plugins::control_points(
+                points,
+                self.control_point_schedule.clone(),
+            ))
+            .map_err(build_err)?;
+        self.add_remeshing_and_systems(&mut builder, scene_path)?;
+        let sim = builder.build();
+        Ok(sim)
+    }
+
+    /// Adds the energy terms' plugins in declaration order; returns the
+    /// `Springs` term's stiffness (the control points' default).
+    fn add_energy_terms(
+        &self,
+        builder: &mut SimBuilder,
+        scene_path: &Path,
+    ) -> Result<f64, SceneError> {
+        use crate::systems::plugins;
+        let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field,
+            reason: e.to_string(),
+        };
         let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
         let mut spring_stiffness = SpringParams::default().stiffness;
         for (i, term) in self.energy.iter().enumerate() {
@@ -217,27 +224,27 @@ impl Scene {
                 EnergyTerm::SelfAvoidance(p) => {
                     builder.add_plugin(crate::energy::self_avoidance::plugin(*p))
                 }
-                EnergyTerm::Custom(c) => add_declared(&c.0, &mut builder),
+                EnergyTerm::Custom(c) => add_declared(&c.0, builder),
             };
             added.map_err(|e| invalid_at(format!("energy[{i}]"), e))?;
         }
-        let points = self
-            .control_points
-            .iter()
-            .map(|cp| {
-                let (x, y, z) = cp.position;
-                ControlPoint {
-                    position: DVec3::new(x, y, z),
-                    stiffness: cp.stiffness.unwrap_or(spring_stiffness),
-                }
-            })
-            .collect();
-        builder
-            .add_plugin(plugins::control_points(
-                points,
-                self.control_point_schedule.clone(),
-            ))
-            .map_err(build_err)?;
+        Ok(spring_stiffness)
+    }
+
+    /// Adds the maintenance flips, remeshing, Metropolis flips and lipid
+    /// diffusion the scene declares, then its declared systems.
+    fn add_remeshing_and_systems(
+        &self,
+        builder: &mut SimBuilder,
+        scene_path: &Path,
+    ) -> Result<(), SceneError> {
+        use crate::systems::plugins;
+        let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field,
+            reason: e.to_string(),
+        };
+        let build_err = |e: BuildError| invalid_at("membrane".into(), e);
         if let crate::params::MembraneModel::Fluid(crate::params::FluidParams {
             flips: Some(flips),
             ..
@@ -263,10 +270,9 @@ impl Scene {
                 .map_err(build_err)?;
         }
         for (i, SystemDecl::Custom(c)) in self.systems.iter().enumerate() {
-            add_declared(&c.0, &mut builder).map_err(|e| invalid_at(format!("systems[{i}]"), e))?;
+            add_declared(&c.0, builder).map_err(|e| invalid_at(format!("systems[{i}]"), e))?;
         }
-        let sim = builder.build();
-        Ok(sim)
+        Ok(())
     }
 }
 
@@ -281,4 +287,58 @@ fn add_declared<'b>(
     })?;
     entry.build(&decl.params, decl.stage, builder)?;
     Ok(builder)
+}
+
+/// The mesh of a scene's `Axisymmetric` membrane: the solver's shape on
+/// `branch` at reduced volume `v`, scaled to `area` and revolved at
+/// `edge_length`.
+fn axisymmetric_mesh(
+    scene_path: &Path,
+    branch: crate::study::axisymmetric::Branch,
+    reduced_volume: f64,
+    area: f64,
+    mean_edge_length: f64,
+) -> Result<SurfaceMesh, SceneError> {
+    let invalid = |field: &str, reason: String| SceneError::Invalid {
+        path: scene_path.to_owned(),
+        field: field.to_string(),
+        reason,
+    };
+    let shape =
+        crate::study::axisymmetric::solve_on_branch(reduced_volume, 200, branch).map_err(|e| {
+            invalid(
+                "membrane.reduced_volume",
+                format!("no {branch} shape at v = {reduced_volume}: {e}"),
+            )
+        })?;
+    let r0 = (area / (4.0 * std::f64::consts::PI)).sqrt();
+    let profile: Vec<(f64, f64)> = shape
+        .profile
+        .iter()
+        .map(|&(r, z)| (r0 * r, r0 * z))
+        .collect();
+    crate::mesh::revolution(&profile, mean_edge_length)
+        .map_err(|e| invalid("membrane", e.to_string()))
+}
+
+/// The mesh of a scene's `State` membrane, refined `refine` times, and its
+/// lipid densities when it is not refined.
+fn state_mesh(
+    scene_path: &Path,
+    path: &Path,
+    refine: u32,
+) -> Result<(SurfaceMesh, Option<Vec<f64>>), SceneError> {
+    let base = scene_path.parent().unwrap_or(Path::new("."));
+    let state =
+        crate::io::state::SavedState::read(&base.join(path)).map_err(|e| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field: "membrane".into(),
+            reason: format!("state file {e}"),
+        })?;
+    let mut mesh = state.mesh();
+    let lipid = (refine == 0).then(|| state.lipid_density.clone()).flatten();
+    for _ in 0..refine {
+        mesh = mesh.subdivided();
+    }
+    Ok((mesh, lipid))
 }

@@ -235,47 +235,11 @@ fn write_outputs(
             reason: format!("cannot write: {e}"),
         })
     };
-    let axes = index.axes.join(",");
-    let sep = if axes.is_empty() { "" } else { "," };
-    let mut runs_csv = format!(
-        "condition{sep}{axes},repeat,seed,status,frames,{x}_last,{y}_last,{y}_fit_last,dir\n",
-        x = options.x,
-        y = options.y
-    );
-    for r in &report.runs {
-        let labels: Vec<&str> = r.spec.point.iter().map(|(_, v)| v.as_str()).collect();
-        let last = r.points.last().copied().unwrap_or((f64::NAN, f64::NAN));
-        runs_csv += &format!(
-            "{}{sep}{},{},{},{},{},{:.6},{:.6},{:.6},{}\n",
-            r.spec.condition,
-            labels.join(","),
-            r.spec.repeat,
-            r.spec.seed,
-            r.status,
-            r.points.len(),
-            last.0,
-            last.1,
-            r.metric.unwrap_or(f64::NAN),
-            r.spec.dir.display()
-        );
-    }
-    write("collect_runs.csv", runs_csv.as_bytes())?;
-    let mut groups_csv = format!(
-        "condition{sep}{axes},runs,{y}_fit_last_mean,{y}_fit_last_sd\n",
-        y = options.y
-    );
-    for g in &report.groups {
-        let labels: Vec<&str> = g.point.iter().map(|(_, v)| v.as_str()).collect();
-        groups_csv += &format!(
-            "{}{sep}{},{},{:.6},{:.6}\n",
-            g.condition,
-            labels.join(","),
-            g.n,
-            g.mean,
-            g.sd
-        );
-    }
-    write("collect.csv", groups_csv.as_bytes())?;
+    write(
+        "collect_runs.csv",
+        runs_csv(index, report, options).as_bytes(),
+    )?;
+    write("collect.csv", groups_csv(index, report, options).as_bytes())?;
 
     // Fig 5F: metric against the first axis, one series per condition.
     let mut conditions: Vec<String> = Vec::new();
@@ -324,46 +288,7 @@ fn write_outputs(
         }
     }
     for point in points {
-        let mut series = Vec::new();
-        for (k, c) in conditions.iter().enumerate() {
-            let mut named = false;
-            for r in report
-                .runs
-                .iter()
-                .filter(|r| &r.spec.condition == c && r.spec.point == point)
-            {
-                let Some(fit) = &r.fit else { continue };
-                let (lo, hi) = r
-                    .points
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-                        (a.min(p.0), b.max(p.0))
-                    });
-                let curve = (0..=40)
-                    .map(|i| {
-                        let x = hi + (lo - hi) * i as f64 / 40.0;
-                        (x, polyval(fit, x))
-                    })
-                    .collect();
-                series.push(Series {
-                    name: if named { String::new() } else { c.clone() },
-                    points: curve,
-                    lines: true,
-                    color: k,
-                    ..Default::default()
-                });
-                series.push(Series {
-                    points: r
-                        .metric
-                        .map(|m| vec![(r.points.last().map_or(f64::NAN, |p| p.0), m)])
-                        .unwrap_or_default(),
-                    markers: true,
-                    color: k,
-                    ..Default::default()
-                });
-                named = true;
-            }
-        }
+        let series = fitted_curves(report, &conditions, &point);
         let label: Vec<String> = point.iter().map(|(a, v)| format!("{a}={v}")).collect();
         let suffix = if label.is_empty() {
             "all".to_string()
@@ -381,4 +306,106 @@ fn write_outputs(
         )?;
     }
     Ok(())
+}
+
+/// `collect_runs.csv`: one row per run, its last point and fitted metric.
+fn runs_csv(index: &SweepIndex, report: &CollectReport, options: &CollectOptions) -> String {
+    let axes = index.axes.join(",");
+    let sep = if axes.is_empty() { "" } else { "," };
+    let mut runs_csv = format!(
+        "condition{sep}{axes},repeat,seed,status,frames,{x}_last,{y}_last,{y}_fit_last,dir\n",
+        x = options.x,
+        y = options.y
+    );
+    for r in &report.runs {
+        let labels: Vec<&str> = r.spec.point.iter().map(|(_, v)| v.as_str()).collect();
+        let last = r.points.last().copied().unwrap_or((f64::NAN, f64::NAN));
+        runs_csv += &format!(
+            "{}{sep}{},{},{},{},{},{:.6},{:.6},{:.6},{}\n",
+            r.spec.condition,
+            labels.join(","),
+            r.spec.repeat,
+            r.spec.seed,
+            r.status,
+            r.points.len(),
+            last.0,
+            last.1,
+            r.metric.unwrap_or(f64::NAN),
+            r.spec.dir.display()
+        );
+    }
+    runs_csv
+}
+
+/// `collect.csv`: one row per condition and grid point, the mean and
+/// spread of the fitted metric.
+fn groups_csv(index: &SweepIndex, report: &CollectReport, options: &CollectOptions) -> String {
+    let axes = index.axes.join(",");
+    let sep = if axes.is_empty() { "" } else { "," };
+    let mut groups_csv = format!(
+        "condition{sep}{axes},runs,{y}_fit_last_mean,{y}_fit_last_sd\n",
+        y = options.y
+    );
+    for g in &report.groups {
+        let labels: Vec<&str> = g.point.iter().map(|(_, v)| v.as_str()).collect();
+        groups_csv += &format!(
+            "{}{sep}{},{},{:.6},{:.6}\n",
+            g.condition,
+            labels.join(","),
+            g.n,
+            g.mean,
+            g.sd
+        );
+    }
+    groups_csv
+}
+
+/// Fig 5E's series at one grid point: each run's fitted curve over its
+/// range (named once per condition) and its fitted end value.
+fn fitted_curves(
+    report: &CollectReport,
+    conditions: &[String],
+    point: &[(String, String)],
+) -> Vec<Series> {
+    let mut series = Vec::new();
+    for (k, c) in conditions.iter().enumerate() {
+        let mut named = false;
+        for r in report
+            .runs
+            .iter()
+            .filter(|r| &r.spec.condition == c && r.spec.point == point)
+        {
+            let Some(fit) = &r.fit else { continue };
+            let (lo, hi) = r
+                .points
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                    (a.min(p.0), b.max(p.0))
+                });
+            let curve = (0..=40)
+                .map(|i| {
+                    let x = hi + (lo - hi) * i as f64 / 40.0;
+                    (x, polyval(fit, x))
+                })
+                .collect();
+            series.push(Series {
+                name: if named { String::new() } else { c.clone() },
+                points: curve,
+                lines: true,
+                color: k,
+                ..Default::default()
+            });
+            series.push(Series {
+                points: r
+                    .metric
+                    .map(|m| vec![(r.points.last().map_or(f64::NAN, |p| p.0), m)])
+                    .unwrap_or_default(),
+                markers: true,
+                color: k,
+                ..Default::default()
+            });
+            named = true;
+        }
+    }
+    series
 }

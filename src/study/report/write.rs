@@ -23,132 +23,151 @@ pub fn markdown(report: &StudyReport) -> String {
             .find(|c| !c.measurements.is_empty())
             .map(|c| c.measurements.iter().map(|m| m.quantity.clone()).collect())
             .unwrap_or_default();
-        s += "| engine | rung | N | h | iterations | wall (s) | cost (s) |";
-        for q in &quantities {
-            s += &format!(" {q} | error |");
-        }
-        s += " status |\n|---|---|---:|---:|---:|---:|---:|";
-        for _ in &quantities {
-            s += "---:|---:|";
-        }
-        s += "---|\n";
-        for c in p.cases.iter().chain(&p.peers) {
-            s += &format!(
-                "| {} | {} | {} | {} | {} | {} | {} |",
-                c.engine,
-                c.rung,
-                c.vertices,
-                sig(c.h),
-                c.iterations,
-                if c.wall_s.is_finite() {
-                    format!("{:.3}", c.wall_s)
-                } else {
-                    "–".into()
-                },
-                sig(c.cost_s)
-            );
-            for k in 0..quantities.len() {
-                match c.measurements.get(k) {
-                    Some(m) if c.is_reference => {
-                        s += &format!(" {:.6} | (reference) |", m.measured)
-                    }
-                    Some(m) => s += &format!(" {:.6} | {} |", m.measured, sig(m.error)),
-                    None => s += " – | – |",
-                }
-            }
-            s += &format!(" {} |\n", c.status);
-        }
-        for q in &p.quoted {
-            s += &format!(
-                "| {} | {} | {} | – | {} | {:.0} | – |{} quoted: {} |\n",
-                q.engine,
-                q.rung,
-                q.vertices,
-                q.iterations,
-                q.wall_s,
-                " – | – |".repeat(quantities.len()),
-                q.source
-            );
-        }
-        let reference_line = |c: &CaseResult| {
-            c.measurements
-                .iter()
-                .map(|m| {
-                    if m.reference_error > 0.0 {
-                        format!(
-                            "{} = {:.6} ± {:.1e}",
-                            m.quantity, m.reference, m.reference_error
-                        )
-                    } else {
-                        format!("{} = {:.6}", m.quantity, m.reference)
-                    }
-                })
-                .collect::<Vec<String>>()
-                .join(", ")
-        };
-        let measured: Vec<&CaseResult> = p
-            .cases
-            .iter()
-            .filter(|c| !c.measurements.is_empty())
-            .collect();
-        let lines: Vec<String> = measured.iter().map(|c| reference_line(c)).collect();
-        let noted = measured.iter().any(|c| !c.note.is_empty());
-        if !noted && lines.windows(2).all(|w| w[0] == w[1]) {
-            if let Some(line) = lines.first() {
-                s += &format!("\nReference: {line}.\n");
-            }
-        } else {
-            s += "\nReference per case (each at the case's own state):\n";
-            for (c, line) in measured.iter().zip(&lines) {
-                let note = if c.note.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({})", c.note)
-                };
-                s += &format!("- `{}`: {line}{note}\n", c.rung);
-            }
-        }
-        let mut noted = std::collections::BTreeSet::new();
-        for c in &p.peers {
-            if !c.note.is_empty() && noted.insert((c.engine.clone(), c.note.clone())) {
-                s += &format!("- {} `{}`: {}\n", c.engine, c.rung, c.note);
-            }
-        }
-        match p.order {
-            Some(o) if o.std_error.is_finite() => {
-                s += &format!(
-                    "Observed order of the {} error: p = {:.2} ± {:.2} ({} points; error ∝ h^p, {}).\n",
-                    quantities.first().map_or("", String::as_str),
-                    o.p,
-                    o.std_error,
-                    o.points,
-                    p.h_label
-                )
-            }
-            Some(o) => {
-                s += &format!(
-                    "Observed order: p = {:.2} (2 points; {}).\n",
-                    o.p, p.h_label
-                )
-            }
-            None => {
-                s += "Observed order: not fitted (turned off, or fewer than two measured cases).\n"
-            }
-        }
-        for c in &p.cheapest {
-            match &c.rung {
-                Some((rung, cost)) => {
-                    s += &format!(
-                        "- every error ≤ {:.0e}: `{rung}`, {} ({})\n",
-                        c.target,
-                        sig(*cost),
-                        p.cost_label
-                    )
-                }
-                None => s += &format!("- every error ≤ {:.0e}: not reached\n", c.target),
-            }
-        }
+        s += &case_table(p, &quantities);
+        s += &reference_lines(p);
+        s += &order_and_cheapest(p, &quantities);
         s += "\n";
+    }
+    s
+}
+
+/// The table of a problem's cases, peers and quoted results.
+fn case_table(p: &ProblemResult, quantities: &[String]) -> String {
+    let mut s = String::new();
+    s += "| engine | rung | N | h | iterations | wall (s) | cost (s) |";
+    for q in quantities {
+        s += &format!(" {q} | error |");
+    }
+    s += " status |\n|---|---|---:|---:|---:|---:|---:|";
+    for _ in quantities {
+        s += "---:|---:|";
+    }
+    s += "---|\n";
+    for c in p.cases.iter().chain(&p.peers) {
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            c.engine,
+            c.rung,
+            c.vertices,
+            sig(c.h),
+            c.iterations,
+            if c.wall_s.is_finite() {
+                format!("{:.3}", c.wall_s)
+            } else {
+                "–".into()
+            },
+            sig(c.cost_s)
+        );
+        for k in 0..quantities.len() {
+            match c.measurements.get(k) {
+                Some(m) if c.is_reference => s += &format!(" {:.6} | (reference) |", m.measured),
+                Some(m) => s += &format!(" {:.6} | {} |", m.measured, sig(m.error)),
+                None => s += " – | – |",
+            }
+        }
+        s += &format!(" {} |\n", c.status);
+    }
+    for q in &p.quoted {
+        s += &format!(
+            "| {} | {} | {} | – | {} | {:.0} | – |{} quoted: {} |\n",
+            q.engine,
+            q.rung,
+            q.vertices,
+            q.iterations,
+            q.wall_s,
+            " – | – |".repeat(quantities.len()),
+            q.source
+        );
+    }
+    s
+}
+
+/// The reference values: one line when every case shares them, else one
+/// per case; then the peers' notes.
+fn reference_lines(p: &ProblemResult) -> String {
+    let mut s = String::new();
+    let reference_line = |c: &CaseResult| {
+        c.measurements
+            .iter()
+            .map(|m| {
+                if m.reference_error > 0.0 {
+                    format!(
+                        "{} = {:.6} ± {:.1e}",
+                        m.quantity, m.reference, m.reference_error
+                    )
+                } else {
+                    format!("{} = {:.6}", m.quantity, m.reference)
+                }
+            })
+            .collect::<Vec<String>>()
+            .join(", ")
+    };
+    let measured: Vec<&CaseResult> = p
+        .cases
+        .iter()
+        .filter(|c| !c.measurements.is_empty())
+        .collect();
+    let lines: Vec<String> = measured.iter().map(|c| reference_line(c)).collect();
+    let noted = measured.iter().any(|c| !c.note.is_empty());
+    if !noted && lines.windows(2).all(|w| w[0] == w[1]) {
+        if let Some(line) = lines.first() {
+            s += &format!("\nReference: {line}.\n");
+        }
+    } else {
+        s += "\nReference per case (each at the case's own state):\n";
+        for (c, line) in measured.iter().zip(&lines) {
+            let note = if c.note.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", c.note)
+            };
+            s += &format!("- `{}`: {line}{note}\n", c.rung);
+        }
+    }
+    let mut noted = std::collections::BTreeSet::new();
+    for c in &p.peers {
+        if !c.note.is_empty() && noted.insert((c.engine.clone(), c.note.clone())) {
+            s += &format!("- {} `{}`: {}\n", c.engine, c.rung, c.note);
+        }
+    }
+    s
+}
+
+/// The observed order of the error and the cheapest rung reaching each
+/// target.
+fn order_and_cheapest(p: &ProblemResult, quantities: &[String]) -> String {
+    let mut s = String::new();
+    match p.order {
+        Some(o) if o.std_error.is_finite() => {
+            s += &format!(
+                "Observed order of the {} error: p = {:.2} ± {:.2} ({} points; error ∝ h^p, {}).\n",
+                quantities.first().map_or("", String::as_str),
+                o.p,
+                o.std_error,
+                o.points,
+                p.h_label
+            )
+        }
+        Some(o) => {
+            s += &format!(
+                "Observed order: p = {:.2} (2 points; {}).\n",
+                o.p, p.h_label
+            )
+        }
+        None => s += "Observed order: not fitted (turned off, or fewer than two measured cases).\n",
+    }
+    for c in &p.cheapest {
+        match &c.rung {
+            Some((rung, cost)) => {
+                s += &format!(
+                    "- every error ≤ {:.0e}: `{rung}`, {} ({})\n",
+                    c.target,
+                    sig(*cost),
+                    p.cost_label
+                )
+            }
+            None => s += &format!("- every error ≤ {:.0e}: not reached\n", c.target),
+        }
     }
     s
 }
