@@ -30,7 +30,7 @@ use remembrane::mesh::components::ControlPoint;
 use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::BendingParams;
-use remembrane::systems::plugins;
+use remembrane::scene::plugins;
 use std::hint::black_box;
 use std::sync::Arc;
 use std::time::Duration;

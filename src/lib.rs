@@ -28,7 +28,7 @@
 //!   view that fails any undeclared borrow.
 //! - **Force terms** implement [`engine::force::ForceTerm`] (name, energy, *add* −∇E into a buffer).
 //!   [`SimBuilder::add_force_term`] (or [`Simulation::add_force_term`] before the first tick) registers
-//!   the term's buffer in [`ForceBuffers`]; the core `force_terms` system ([`force_term_system`](engine::force_term_system))
+//!   the term's buffer in [`ForceBuffers`]; the `force_terms` system ([`force_terms`](systems::force_terms))
 //!   evaluates every registered
 //!   term, so every term is finite-checked, timed (under its own name), summed, used by the time
 //!   step and reported alike. Terms are independent, so on a large mesh with more than one thread
@@ -62,8 +62,9 @@
 //!   flat: `constraint`, `fd`, `fluid`, `minimise`, `timestep`.
 //! - **Layers.** The core ([`resources`](engine::resources), [`schedule`](engine::schedule), [`simulation`](engine::simulation), [`force`](engine::force), [`membrane`](mesh::membrane),
 //!   [`topology`](mesh::topology), [`energy`], [`remesh`], [`edit`](mesh::edit), [`recorder`](engine::recorder), [`vertex_field`](mesh::vertex_field)) never imports
-//!   `systems/`; `systems/` ([`systems`], mounted with `#[path]`, one system per file, plugins in
-//!   [`systems::plugins`]) uses only the public API; [`scene`], [`workflow`], [`output`](io::output) and [`cli`] sit
+//!   `systems/`; `systems/` ([`systems`], mounted with `#[path]`, systems only, one per file)
+//!   uses only the public API; the built-in plugins ([`scene::plugins`]) and recorders
+//!   ([`io::recorders`]) are assembled by the scene build; [`scene`], [`workflow`], [`output`](io::output) and [`cli`] sit
 //!   on top.
 //!
 //! One tick, in stage order ([`Stage`]; what each stage's built-in systems read → write):
@@ -83,11 +84,11 @@
 //!
 //! The plugins and the resources they insert:
 //!
-//! | plugin ([`systems::plugins`]) | resources | systems |
+//! | plugin ([`scene::plugins`]) | resources | systems |
 //! |---|---|---|
 //! | `core` | [`Clock`], [`DensePositions`], [`DenseLipid`], [`ForceBuffers`], [`FaceGeometry`], [`TimeStepChoice`], [`DynamicsParams`], [`RemeshParams`], [`AbnormalEdges`], [`Seed`], [`CheckInvariants`] | gather, face geometry, force total, time step, integration, barrier check |
 //! | `vin` | [`VinSegmentation`], [`VinEdgeSamples`] | `vin_edge_samples`, term `vin` (unless the geometric baseline) |
-//! | `bending`, `volume`, `area`, `local_tension`, `springs`, `self_avoidance` | — | their term |
+//! | each term's `plugin` in [`energy`] (`bending`, `volume`, `area`, `tension`, `local_tension`, `springs`, `self_avoidance`) | — | their term |
 //! | `constraints` | [`Constraints`] | `constraint_reactions`, `constraint_projection` |
 //! | `control_points` | control-point entities | `control_point_schedule` |
 //! | `remesh` | [`ValenceRange`], [`RemeshStats`], [`RemeshTriggered`] | `remesh` |

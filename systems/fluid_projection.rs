@@ -14,13 +14,13 @@
 //! converging). The per-term forces reported are then the ones that act.
 
 use crate::engine::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
-use crate::engine::force_term_system::FORCE_TERMS;
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
 use crate::engine::simulation::DensePositions;
 use crate::engine::simulation::SimError;
 use crate::fluid::{keep_normal, keep_tangential, remove_net_force_and_torque};
 use crate::params::PhysicalForces;
+use crate::systems::force_terms::FORCE_TERMS;
 use crate::systems::vertex_normals::VertexNormals;
 
 /// Its name in the schedule.

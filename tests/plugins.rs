@@ -109,7 +109,7 @@ fn a_force_term_added_after_the_scene_is_built_moves_the_centroid_by_mu_f_t() {
 
 #[test]
 fn a_plugin_registering_a_force_term_on_the_builder_moves_the_centroid_by_mu_f_t() {
-    use remembrane::systems::plugins;
+    use remembrane::scene::plugins;
     let mesh = remembrane::mesh::icosphere(2, 1.0);
     let membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
     let initial = remembrane::engine::simulation::InitialState {

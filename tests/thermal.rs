@@ -12,7 +12,7 @@ use remembrane::engine::simulation::{DensePositions, InitialState, SimBuilder, S
 use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::DynamicsParams;
-use remembrane::systems::plugins;
+use remembrane::scene::plugins;
 use remembrane::timestep::TimeStepChoice;
 
 /// Allowed deviation in standard errors (a false alarm every ~10^4 runs at

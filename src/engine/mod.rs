@@ -6,7 +6,6 @@
 pub mod core_resources;
 pub mod error;
 pub mod force;
-pub mod force_term_system;
 pub mod persisted;
 pub mod recorder;
 pub mod resources;

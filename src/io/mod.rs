@@ -5,6 +5,7 @@
 pub mod checkpoint;
 pub mod output;
 pub mod plot;
+pub mod recorders;
 pub mod render;
 pub mod report;
 pub mod run_dir;

@@ -131,7 +131,7 @@ impl Scene {
             membrane.topology().map_err(|e| invalid(e.to_string()))?;
             membrane.scatter_lipid(rho);
         }
-        use crate::systems::plugins;
+        use crate::scene::plugins;
         let mut builder = SimBuilder::new(membrane, initial);
         let build_err = |e: BuildError| invalid(e.to_string());
         let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
@@ -197,7 +197,7 @@ impl Scene {
         builder: &mut SimBuilder,
         scene_path: &Path,
     ) -> Result<f64, SceneError> {
-        use crate::systems::plugins;
+        use crate::scene::plugins;
         let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
             path: scene_path.to_owned(),
             field,
@@ -238,7 +238,7 @@ impl Scene {
         builder: &mut SimBuilder,
         scene_path: &Path,
     ) -> Result<(), SceneError> {
-        use crate::systems::plugins;
+        use crate::scene::plugins;
         let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
             path: scene_path.to_owned(),
             field,

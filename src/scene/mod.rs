@@ -8,6 +8,7 @@
 mod build;
 pub mod overrides;
 pub mod plugin_decl;
+pub mod plugins;
 pub mod registry;
 pub mod resolution;
 pub mod setting;

@@ -72,7 +72,7 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             .after("gather_state");
         b.add_system(
             Stage::Forces,
-            crate::engine::force_term_system::ForceTermsSystem::default(),
+            crate::systems::force_terms::ForceTermsSystem::default(),
         )
         .before(crate::engine::force::FORCE_TOTAL);
         b.add_system(Stage::Forces, force_total::ForceTotal);
@@ -244,7 +244,7 @@ pub fn recorders(
     named_points: Vec<(String, u32)>,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::systems::recorders::*;
+        use crate::io::recorders::*;
         b.add_recorder(StateColumns)
             .add_recorder(ForceField)
             .add_recorder(MeanCurvatureField)
