@@ -188,6 +188,38 @@ pub fn check_mesh(
     faces: &[[u32; 3]],
     valence: Option<ValenceRange>,
 ) -> Result<MeshReport, MeshError> {
+    check_indices(positions, faces)?;
+    let n = positions.len();
+    check_degenerate_faces(positions, faces)?;
+    check_duplicate_faces(faces)?;
+    let edge_keys = check_edges(faces)?;
+    let valences = check_vertex_links(n, faces)?;
+    let components = check_components(positions, faces, &edge_keys)?;
+    if let Some(range) = valence {
+        for (vertex, &valence) in valences.iter().enumerate() {
+            if valence < range.min || valence > range.max {
+                return Err(MeshError::ValenceOutOfRange {
+                    vertex,
+                    valence,
+                    min: range.min,
+                    max: range.max,
+                });
+            }
+        }
+    }
+
+    Ok(MeshReport {
+        vertices: n,
+        edges: edge_keys.len(),
+        faces: faces.len(),
+        components,
+        valences,
+    })
+}
+
+/// Non-empty, finite positions, indices in range, three distinct corners.
+fn check_indices(positions: &[DVec3], faces: &[[u32; 3]]) -> Result<(), MeshError> {
+    let n = positions.len();
     if faces.is_empty() {
         return Err(MeshError::Empty);
     }
@@ -199,7 +231,6 @@ pub fn check_mesh(
             });
         }
     }
-    let n = positions.len();
     for (face, f) in faces.iter().enumerate() {
         if let Some(&index) = f.iter().find(|&&v| v as usize >= n) {
             return Err(MeshError::FaceIndexOutOfRange {
@@ -213,6 +244,12 @@ pub fn check_mesh(
         }
     }
 
+    Ok(())
+}
+
+/// No face with an area below [`DEGENERATE_AREA_RATIO`] of the squared mean
+/// edge length.
+fn check_degenerate_faces(positions: &[DVec3], faces: &[[u32; 3]]) -> Result<(), MeshError> {
     // Degenerate faces, relative to the mean edge length.
     let mut edge_sum = 0.0;
     for f in faces {
@@ -234,6 +271,11 @@ pub fn check_mesh(
         }
     }
 
+    Ok(())
+}
+
+/// No two faces on the same three vertices.
+fn check_duplicate_faces(faces: &[[u32; 3]]) -> Result<(), MeshError> {
     // Duplicate faces (same vertex set in any order).
     let mut seen: HashMap<[u32; 3], usize> =
         HashMap::with_capacity_and_hasher(faces.len(), Default::default());
@@ -250,6 +292,12 @@ pub fn check_mesh(
         seen.insert(key, face);
     }
 
+    Ok(())
+}
+
+/// Every edge in exactly two faces, traversed once each way; returns the
+/// edges as sorted (low, high) pairs.
+fn check_edges(faces: &[[u32; 3]]) -> Result<Vec<(u32, u32)>, MeshError> {
     // Edge incidence and orientation.
     let mut undirected: HashMap<(u32, u32), Vec<(usize, bool)>> =
         HashMap::with_capacity_and_hasher(faces.len() * 3 / 2, Default::default());
@@ -289,6 +337,11 @@ pub fn check_mesh(
         }
     }
 
+    Ok(edge_keys)
+}
+
+/// Every vertex in a face, its faces one closed fan; returns the valences.
+fn check_vertex_links(n: usize, faces: &[[u32; 3]]) -> Result<Vec<u32>, MeshError> {
     // Vertex manifoldness: the link of every vertex is a single cycle.
     // link[v] holds (a, b) for each face (v, a, b) in counter-clockwise order.
     let mut link: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
@@ -328,6 +381,17 @@ pub fn check_mesh(
         valences[vertex] = l.len() as u32;
     }
 
+    Ok(valences)
+}
+
+/// Every connected component a sphere (χ = 2) enclosing a positive volume;
+/// returns how many components there are.
+fn check_components(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    edge_keys: &[(u32, u32)],
+) -> Result<usize, MeshError> {
+    let n = positions.len();
     // Connected components (union-find over vertices through faces).
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut x: u32) -> u32 {
@@ -363,7 +427,7 @@ pub fn check_mesh(
     for v in 0..n {
         chi[comp[v]] += 1;
     }
-    for &(a, _) in &edge_keys {
+    for &(a, _) in edge_keys {
         chi[comp[a as usize]] -= 1;
     }
     for f in faces {
@@ -392,24 +456,5 @@ pub fn check_mesh(
         }
     }
 
-    if let Some(range) = valence {
-        for (vertex, &valence) in valences.iter().enumerate() {
-            if valence < range.min || valence > range.max {
-                return Err(MeshError::ValenceOutOfRange {
-                    vertex,
-                    valence,
-                    min: range.min,
-                    max: range.max,
-                });
-            }
-        }
-    }
-
-    Ok(MeshReport {
-        vertices: n,
-        edges: edge_keys.len(),
-        faces: faces.len(),
-        components,
-        valences,
-    })
+    Ok(components)
 }
