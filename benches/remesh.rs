@@ -80,7 +80,7 @@ fn edge_flips(c: &mut Criterion) {
     use remembrane::energy::bending::BendingForces;
     use remembrane::energy::vin::VinForces;
     use remembrane::energy::volume::VolumeForces;
-    use remembrane::engine::force::{FlipProposal, ForceContext, ForceTerm};
+    use remembrane::engine::force::{FlipProposal, ForceTerm};
     use remembrane::remesh::flip::{FlipPricer, FlipTotals};
     use std::sync::Arc;
     let mesh = icosphere(3, 1.0);
@@ -100,19 +100,7 @@ fn edge_flips(c: &mut Criterion) {
         Box::new(VolumeForces::new(1.0, totals.volume)),
         Box::new(AreaForces::new(20.0, totals.area)),
     ];
-    let proposal = FlipProposal {
-        flip,
-        before: ForceContext {
-            world: &m.world,
-            topology: t,
-            positions: &mesh.positions,
-            lipid: &[],
-            face_geometry: &[],
-            edge_samples: &[],
-        },
-        totals,
-        change: flip.totals_change(&mesh.positions),
-    };
+    let proposal = FlipProposal::new(flip, &m.world, t, &mesh.positions, &[], totals);
     let mut pricer = FlipPricer::default();
     c.bench_function("flip_energy_change/642", |b| {
         b.iter(|| black_box(pricer.change(&mut terms, black_box(&proposal))))

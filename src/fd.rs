@@ -221,19 +221,8 @@ pub fn check_flip_energy_change(
         }
         let before = whole_energy(term, membrane, positions, lipid, &mut geometry);
         let t = membrane.cached_topology();
-        let proposal = FlipProposal {
-            flip,
-            before: ForceContext {
-                world: &membrane.world,
-                topology: t,
-                positions,
-                lipid,
-                face_geometry: &[],
-                edge_samples: &[],
-            },
-            totals: FlipTotals::of(positions, &t.faces),
-            change: flip.totals_change(positions),
-        };
+        let totals = FlipTotals::of(positions, &t.faces);
+        let proposal = FlipProposal::new(flip, &membrane.world, t, positions, lipid, totals);
         pricer.invalidate();
         let priced = pricer.change(std::slice::from_mut(term), &proposal);
         let edit = flip.edit(t);

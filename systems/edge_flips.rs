@@ -18,7 +18,7 @@
 //! exactly when this one is); otherwise it is accepted with probability
 //! min(1, exp(−ΔE/k_BT)), ΔE summed over every registered term.
 
-use crate::engine::force::{FlipProposal, ForceBuffers, ForceContext};
+use crate::engine::force::{FlipProposal, ForceBuffers};
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
 use crate::engine::simulation::{
@@ -184,19 +184,7 @@ impl System for EdgeFlips {
                     continue;
                 }
             };
-            let proposal = FlipProposal {
-                flip,
-                before: ForceContext {
-                    world: &membrane.world,
-                    topology: t,
-                    positions,
-                    lipid: &lipid.0,
-                    face_geometry: &[],
-                    edge_samples: &[],
-                },
-                totals,
-                change: flip.totals_change(positions),
-            };
+            let proposal = FlipProposal::new(flip, &membrane.world, t, positions, &lipid.0, totals);
             let energy = self.pricer.change(terms, &proposal);
             let change = proposal.change;
             let accept =

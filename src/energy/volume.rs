@@ -49,6 +49,21 @@ impl VolumeForces {
     }
 }
 
+impl VolumeForces {
+    /// The energy (Ē), and with `force` its negative gradient added to it
+    /// (Ē/l̄).
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        volume_penalty(
+            ctx.positions,
+            &ctx.topology.faces,
+            self.k,
+            self.target,
+            &mut self.gradient,
+            force,
+        )
+    }
+}
+
 impl ForceTerm for VolumeForces {
     fn name(&self) -> &str {
         "volume"
@@ -59,25 +74,11 @@ impl ForceTerm for VolumeForces {
     }
 
     fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        volume_penalty(
-            ctx.positions,
-            &ctx.topology.faces,
-            self.k,
-            self.target,
-            &mut self.gradient,
-            None,
-        )
+        self.evaluate(ctx, None)
     }
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        volume_penalty(
-            ctx.positions,
-            &ctx.topology.faces,
-            self.k,
-            self.target,
-            &mut self.gradient,
-            Some(force),
-        )
+        self.evaluate(ctx, Some(force))
     }
 
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {

@@ -80,6 +80,33 @@ pub struct FlipProposal<'a> {
     pub change: FlipTotals,
 }
 
+impl<'a> FlipProposal<'a> {
+    /// The proposal of `flip` at `positions` on `topology` (the flip's own
+    /// change of area and volume measured here), with the totals before it.
+    pub fn new(
+        flip: Flip,
+        world: &'a World,
+        topology: &'a Topology,
+        positions: &'a [DVec3],
+        lipid: &'a [f64],
+        totals: FlipTotals,
+    ) -> Self {
+        Self {
+            flip,
+            before: ForceContext {
+                world,
+                topology,
+                positions,
+                lipid,
+                face_geometry: &[],
+                edge_samples: &[],
+            },
+            totals,
+            change: flip.totals_change(positions),
+        }
+    }
+}
+
 /// How the force stage treats a term's force.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ForceKind {
