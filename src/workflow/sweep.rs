@@ -430,6 +430,69 @@ pub fn run_sweep(sweep_path: &Path, options: &SweepOptions) -> Result<SweepRepor
     run_sweep_with(sweep_path, options, &|| false)
 }
 
+/// Runs the sweep's phases (a whole sweep, or the phases job of a
+/// campaign), or, in a shard of a campaign, checks that the phases its
+/// conditions start from have run.
+fn sweep_phases(
+    sweep: &Sweep,
+    sweep_path: &Path,
+    options: &SweepOptions,
+) -> Result<Vec<crate::workflow::protocol::PhaseRecord>, SweepError> {
+    let out = &options.out;
+    if !sweep.phases.is_empty() {
+        let dir = phases_dir(out);
+        if options.phases_only || options.shard.is_none() {
+            let scenes =
+                crate::workflow::protocol::check_phases(&sweep.phases, sweep_path, "phases")
+                    .map_err(phase_error)?;
+            let phase_options = crate::workflow::protocol::PhaseRunOptions {
+                progress: if options.quiet {
+                    crate::workflow::run::Progress::Quiet
+                } else {
+                    crate::workflow::run::Progress::Lines
+                },
+                iterations: options.iterations,
+                frames: None,
+                check_invariants: false,
+                skip_completed: true,
+                checkpoint_every: None,
+                resume: false,
+            };
+            let base_dir = sweep_path.parent().unwrap_or(Path::new("."));
+            return crate::workflow::protocol::run_phases(
+                &sweep.phases,
+                &scenes,
+                base_dir,
+                &dir,
+                &phase_options,
+            )
+            .map_err(|f| SweepError::Phase {
+                phase: sweep.phases[f.index].name.clone(),
+                reason: f.error.to_string(),
+            });
+        } else {
+            // A shard of a campaign: the phases job has run them.
+            for c in sweep.conditions() {
+                if let Some(phase) = &c.from_phase
+                    && !dir.join(phase).join("state.json").is_file()
+                {
+                    return Err(SweepError::Phase {
+                        phase: phase.clone(),
+                        reason: format!(
+                            "has not run (no {}): run `remembrane sweep {} --out {} --phases-only` first \
+                             (the campaign that --emit-slurm prints does)",
+                            dir.join(phase).join("state.json").display(),
+                            sweep_path.display(),
+                            out.display()
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    Ok(Vec::new())
+}
+
 /// [`run_sweep`], stopped when `cancel` returns true (Ctrl-C in the Python
 /// package): no new run starts, and the runs in progress stop as
 /// interrupted runs do (their directories stay `.incomplete`).
@@ -455,58 +518,7 @@ pub fn run_sweep_with(
     // Every shard writes the same index; the write is atomic.
     let json = serde_json::to_string_pretty(&index).expect("the index serialises");
     crate::atomic_write(&out.join("sweep.json"), json.as_bytes()).map_err(io)?;
-    let mut phase_records = Vec::new();
-    if !sweep.phases.is_empty() {
-        let dir = phases_dir(out);
-        if options.phases_only || options.shard.is_none() {
-            let scenes =
-                crate::workflow::protocol::check_phases(&sweep.phases, sweep_path, "phases")
-                    .map_err(phase_error)?;
-            let phase_options = crate::workflow::protocol::PhaseRunOptions {
-                progress: if options.quiet {
-                    crate::workflow::run::Progress::Quiet
-                } else {
-                    crate::workflow::run::Progress::Lines
-                },
-                iterations: options.iterations,
-                frames: None,
-                check_invariants: false,
-                skip_completed: true,
-                checkpoint_every: None,
-                resume: false,
-            };
-            let base_dir = sweep_path.parent().unwrap_or(Path::new("."));
-            phase_records = crate::workflow::protocol::run_phases(
-                &sweep.phases,
-                &scenes,
-                base_dir,
-                &dir,
-                &phase_options,
-            )
-            .map_err(|f| SweepError::Phase {
-                phase: sweep.phases[f.index].name.clone(),
-                reason: f.error.to_string(),
-            })?;
-        } else {
-            // A shard of a campaign: the phases job has run them.
-            for c in sweep.conditions() {
-                if let Some(phase) = &c.from_phase
-                    && !dir.join(phase).join("state.json").is_file()
-                {
-                    return Err(SweepError::Phase {
-                        phase: phase.clone(),
-                        reason: format!(
-                            "has not run (no {}): run `remembrane sweep {} --out {} --phases-only` first \
-                             (the campaign that --emit-slurm prints does)",
-                            dir.join(phase).join("state.json").display(),
-                            sweep_path.display(),
-                            out.display()
-                        ),
-                    });
-                }
-            }
-        }
-    }
+    let phase_records = sweep_phases(&sweep, sweep_path, options)?;
     if options.phases_only {
         return Ok(SweepReport {
             total: runs.len(),
