@@ -404,6 +404,71 @@ pub struct PhaseFailure {
     pub records: Vec<PhaseRecord>,
 }
 
+/// What a phase's result depends on: a completed phase is kept only if it
+/// was run from exactly this.
+fn phase_fingerprint(
+    scene: &Scene,
+    options: &PhaseRunOptions,
+    from: Option<&Path>,
+    refine: u32,
+) -> String {
+    serde_json::json!({
+        "scene": scene.to_ron_string().unwrap_or_default(),
+        "iterations": options.iterations,
+        "frames": options.frames,
+        "from": from,
+        "refine": refine,
+    })
+    .to_string()
+}
+
+/// The run options of a phase run into `out` from `from`.
+fn phase_run_options(
+    scene: &Scene,
+    out: &Path,
+    from: Option<PathBuf>,
+    options: &PhaseRunOptions,
+) -> RunOptions {
+    let checkpoint =
+        options
+            .checkpoint_every
+            .map(|every| crate::workflow::run::CheckpointSettings {
+                every,
+                // The phase's scene with its changes: RON writes floats in
+                // their shortest round-trip form.
+                scene_text: scene.to_ron_string().unwrap_or_default(),
+            });
+    RunOptions {
+        out: out.to_path_buf(),
+        overwrite: true,
+        seed: None,
+        iterations: options.iterations,
+        frames: options.frames,
+        from,
+        progress: options.progress,
+        check_invariants: options.check_invariants,
+        checkpoint,
+    }
+}
+
+/// A phase's record with `status` and no iterations run (yet).
+fn phase_record(
+    phase: &Phase,
+    scene_path: &Path,
+    from: Option<PathBuf>,
+    status: &str,
+) -> PhaseRecord {
+    PhaseRecord {
+        name: phase.name.clone(),
+        scene: scene_path.to_path_buf(),
+        from,
+        status: status.into(),
+        iterations: 0,
+        simulated_time: 0.0,
+        wall_time_s: 0.0,
+    }
+}
+
 /// Runs `phases` (checked, with their `scenes`) in order into
 /// `dir/<phase>`; relative start states resolve from `base`. Returns the
 /// records, or the failed phase with the records so far.
@@ -428,14 +493,7 @@ pub fn run_phases(
         });
         // What the phase's result depends on: a completed phase is kept
         // only if it was run from exactly this.
-        let fingerprint = serde_json::json!({
-            "scene": scene.to_ron_string().unwrap_or_default(),
-            "iterations": options.iterations,
-            "frames": options.frames,
-            "from": from_record,
-            "refine": phase.refine,
-        })
-        .to_string();
+        let fingerprint = phase_fingerprint(scene, options, from_record.as_deref(), phase.refine);
         let fingerprint_file = out.join(PHASE_FINGERPRINT);
         if (options.skip_completed || options.resume)
             && !ran_one
@@ -470,26 +528,7 @@ pub fn run_phases(
                 .join(crate::io::checkpoint::CHECKPOINT_FILE)
                 .exists();
         ran_one = true;
-        let checkpoint =
-            options
-                .checkpoint_every
-                .map(|every| crate::workflow::run::CheckpointSettings {
-                    every,
-                    // The phase's scene with its changes: RON writes floats
-                    // in their shortest round-trip form.
-                    scene_text: scene.to_ron_string().unwrap_or_default(),
-                });
-        let run_options = RunOptions {
-            out: out.clone(),
-            overwrite: true,
-            seed: None,
-            iterations: options.iterations,
-            frames: options.frames,
-            from: from.clone(),
-            progress: options.progress,
-            check_invariants: options.check_invariants,
-            checkpoint,
-        };
+        let run_options = phase_run_options(scene, &out, from.clone(), options);
         if options.progress != Progress::Quiet {
             let resumed = if resume_phase { " (resumed)" } else { "" };
             eprintln!(
@@ -509,29 +548,18 @@ pub fn run_phases(
                 // Not fatal: without it the phase just runs again next time.
                 let _ = crate::atomic_write(&fingerprint_file, fingerprint.as_bytes());
                 records.push(PhaseRecord {
-                    name: phase.name.clone(),
-                    scene: scene_path.clone(),
-                    from: from_record,
-                    status: "completed".into(),
                     iterations: s.iterations,
                     simulated_time: s.simulated_time,
                     wall_time_s: s.wall_time_s,
+                    ..phase_record(phase, scene_path, from_record, "completed")
                 })
             }
             Err(e) => {
-                records.push(PhaseRecord {
-                    name: phase.name.clone(),
-                    scene: scene_path.clone(),
-                    from: from_record,
-                    status: match e {
-                        RunError::Stopped { .. } => "blew_up",
-                        _ => "failed",
-                    }
-                    .into(),
-                    iterations: 0,
-                    simulated_time: 0.0,
-                    wall_time_s: 0.0,
-                });
+                let status = match e {
+                    RunError::Stopped { .. } => "blew_up",
+                    _ => "failed",
+                };
+                records.push(phase_record(phase, scene_path, from_record, status));
                 return Err(Box::new(PhaseFailure {
                     index: i,
                     error: e,
