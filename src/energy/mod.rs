@@ -5,8 +5,9 @@
 //! (the BAR-domain example). V_in's plugin, which also adds the Gather
 //! system that measures its edges, is [`crate::scene::plugins::vin`]. Shared kernels: the penalty machinery
 //! ([`penalty`]: volume, area and local-tension kernels, 1-ring
-//! smoothing), the dihedral form of bending ([`bending_dihedral`]) and V_in's
-//! elastic fallback ([`vin_elasticity`]).
+//! smoothing), the dihedral form of bending ([`bending_dihedral`]); and the in-plane
+//! elasticity V_in gives a fixed mesh ([`vin_elasticity`], a measurement,
+//! not a term).
 
 pub mod area;
 pub mod bending;
