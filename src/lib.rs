@@ -50,22 +50,22 @@
 //! - **Scenes** name plugins: `Custom(name: "...", params: (...))` in `energy`, and `systems:
 //!   [Custom(name, stage, params)]`, resolved through a [`scene::registry::PluginRegistry`] while the scene
 //!   is parsed. [`cli::main_with`]`(registry)` gives a user's binary the whole CLI.
-//! - **Folders.** [`util`] (parallel loops, random streams, validators) → [`mesh`] (meshes,
+//! - **Three crates, one API.** The engine core is the crate `remembrane_core` (`src/core/`):
+//!   [`util`] (parallel loops, random streams, validators, atomic writes) → [`mesh`] (meshes,
 //!   the world's components, topology, edits, geometry) → [`engine`] (resources, schedule,
-//!   simulation, the force-term interface, recorders) → [`energy`] (the terms' kernels) →
-//!   [`remesh`] (split/merge events, relaxation, flips) → [`io`] (run directories, frames,
-//!   state, checkpoints, reports) → [`analysis`] (measuring a run) → [`scene`] (the file format,
-//!   overrides, the plugin registry) → [`workflow`] (runs, protocols, sweeps, collection,
-//!   comparison, the shape diagram) → [`study`] (speed against error, the axisymmetric
-//!   reference solver) → [`cli`] (one file per group of commands). [`params`] holds the
-//!   scene's parameters by part (energy terms, dynamics, remeshing, diffusion, model). Still
-//!   flat: `constraint`, `fd`, `fluid`, `minimise`, `timestep`.
-//! - **Layers.** The core ([`resources`](engine::resources), [`schedule`](engine::schedule), [`simulation`](engine::simulation), [`force`](engine::force), [`membrane`](mesh::membrane),
-//!   [`topology`](mesh::topology), [`energy`], [`remesh`], [`edit`](mesh::edit), [`recorder`](engine::recorder), [`vertex_field`](mesh::vertex_field)) never imports
-//!   `systems/`; `systems/` ([`systems`], mounted with `#[path]`, systems only, one per file)
-//!   uses only the public API; the built-in plugins ([`scene::plugins`]) and recorders
-//!   ([`io::recorders`]) are assembled by the scene build; [`scene`], [`workflow`], [`output`](io::output) and [`cli`] sit
-//!   on top.
+//!   simulation, the force-term interface, recorders) → [`energy`] (one file per term) →
+//!   [`remesh`] (split/merge events, relaxation, flips), with [`params`] (the scene's
+//!   parameters by part), [`constraint`], [`fluid`], [`minimise`], [`timestep`] and [`fd`].
+//!   The built-in systems are the crate `remembrane_systems` (`systems/`, one system per
+//!   file), which depends on the core's public API only, as a user's plugin does; the core
+//!   never imports it. This crate (`src/`) sits on both: [`io`] (run directories, frames,
+//!   state, checkpoints, reports, the built-in recorders) → [`analysis`] (measuring a run) →
+//!   [`scene`] (the file format, overrides, the plugin registry, and the scene build, the one
+//!   place that assembles the built-in plugins, [`scene::plugins`]) → [`workflow`] (runs,
+//!   protocols, sweeps, collection, comparison, the shape diagram) → [`study`] (speed against
+//!   error, the axisymmetric reference solver) → [`cli`] (one file per group of commands).
+//!   It re-exports the core's modules and the systems under their names
+//!   (`remembrane::mesh`, …, [`systems`]), so one path names every public item.
 //!
 //! One tick, in stage order ([`Stage`]; what each stage's built-in systems read → write):
 //!
@@ -135,64 +135,21 @@
 //! [`ValenceRange`]: mesh::invariants::ValenceRange
 //! [`Recorders`]: engine::recorder::Recorders
 
-pub mod cli;
-pub mod constraint;
-pub mod energy;
-pub mod fluid;
-pub mod mesh;
-pub mod minimise;
-
-/// Writes `bytes` to `path` atomically: a temporary file in the same folder,
-/// then a rename, so readers never see a partial file.
-pub fn atomic_write(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
-    atomic_write_with(path, |w| std::io::Write::write_all(w, bytes))
-}
-
-/// Writes `path` atomically from `write`, which streams into a buffered
-/// temporary file in the same folder that is renamed to `path` once complete
-/// (and removed if `write` fails), so a large file is never held in memory
-/// whole and readers never see a partial one.
-pub fn atomic_write_with<E: From<std::io::Error>>(
-    path: &std::path::Path,
-    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<(), E>,
-) -> Result<(), E> {
-    use std::io::Write;
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let written = (|| {
-        let mut file = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        write(&mut file)?;
-        file.flush()?;
-        std::fs::rename(&tmp, path)?;
-        Ok(())
-    })();
-    if written.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    written
-}
-
-pub mod fd;
-pub mod params;
-
 pub mod analysis;
-pub mod engine;
+pub mod cli;
 pub mod io;
-pub mod remesh;
 pub mod scene;
 pub mod study;
-#[path = "../systems/mod.rs"]
-pub mod systems;
-pub mod timestep;
-pub mod util;
 pub mod workflow;
+
+// The engine core (`src/core`, crate `remembrane_core`) and the built-in
+// systems (`systems/`, crate `remembrane_systems`), re-exported so that one
+// path, `remembrane::…`, names every public item.
+pub use remembrane_core::{atomic_write, atomic_write_with};
+pub use remembrane_core::{
+    constraint, energy, engine, fd, fluid, mesh, minimise, params, remesh, timestep, util,
+};
+pub use remembrane_systems as systems;
 
 #[doc = include_str!("../README.md")]
 #[cfg(doctest)]

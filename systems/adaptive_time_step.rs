@@ -1,4 +1,4 @@
-//! Chooses the tick's time step (SPEC §3, [`crate::timestep`]).
+//! Chooses the tick's time step (SPEC §3, [`remembrane_core::timestep`]).
 //!
 //! Stage: TimeStep. Reads: [`Membrane`] (edges), [`DensePositions`], the
 //! total force in [`ForceBuffers`], [`DynamicsParams`] (mobility, dt_max,
@@ -6,19 +6,19 @@
 //! plugin inserted them, and the
 //! bending rigidity when a bending term did (for the explicit bending
 //! step's stability bound in scenes without V_in or in the fluid model),
-//! the [`crate::params::MembraneModel`] when inserted. Writes:
+//! the [`remembrane_core::params::MembraneModel`] when inserted. Writes:
 //! [`TimeStepChoice`]. Units: s.
 
-use crate::energy::bending::BendingRigidity;
-use crate::energy::vin::VinEdgeSamples;
-use crate::energy::vin::VinSegmentation;
-use crate::engine::force::ForceBuffers;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
-use crate::params::DynamicsParams;
-use crate::timestep::{Limiter, TimeStepChoice, bending_step_limit, choose_time_step};
+use remembrane_core::energy::bending::BendingRigidity;
+use remembrane_core::energy::vin::VinEdgeSamples;
+use remembrane_core::energy::vin::VinSegmentation;
+use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::DynamicsParams;
+use remembrane_core::timestep::{Limiter, TimeStepChoice, bending_step_limit, choose_time_step};
 
 /// The adaptive time-step system.
 pub struct AdaptiveTimeStep;
@@ -33,7 +33,7 @@ impl System for AdaptiveTimeStep {
         Option<Res<'a, VinSegmentation>>,
         Option<Res<'a, VinEdgeSamples>>,
         Option<Res<'a, BendingRigidity>>,
-        Option<Res<'a, crate::params::MembraneModel>>,
+        Option<Res<'a, remembrane_core::params::MembraneModel>>,
         ResMut<'a, TimeStepChoice>,
     );
 

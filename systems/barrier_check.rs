@@ -4,11 +4,11 @@
 //! the triggers in [`RemeshParams`]. Writes: [`AbnormalEdges`], consumed by
 //! remeshing.
 
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
-use crate::params::RemeshParams;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::RemeshParams;
 
 /// Edges (slots) outside [l_−, l_+] after the last integration (or, after
 /// remeshing, those it left abnormal).
@@ -38,8 +38,8 @@ impl System for BarrierCheck {
         let (short2, long2) = (short * short, long * long);
         let p = &positions.0;
         let edges = &membrane.cached_topology().edges;
-        if crate::util::parallel::splits(edges.len()) {
-            crate::util::parallel::filter_indices(edges.len(), &mut abnormal.0, |e| {
+        if remembrane_core::util::parallel::splits(edges.len()) {
+            remembrane_core::util::parallel::filter_indices(edges.len(), &mut abnormal.0, |e| {
                 let [a, b] = edges[e];
                 let l2 = p[a as usize].distance_squared(p[b as usize]);
                 !(short2..=long2).contains(&l2)

@@ -1,5 +1,5 @@
 //! Returns the positions to the exact constraints' surface after a step
-//! ([`crate::constraint::project`]): Gauss-Newton steps along ∇A and ∇V,
+//! ([`remembrane_core::constraint::project`]): Gauss-Newton steps along ∇A and ∇V,
 //! none moving a vertex by more than `max_correction`.
 //!
 //! Stage: Integrate (after the integrator). Reads: [`Constraints`], the
@@ -9,12 +9,12 @@
 //! [`Membrane`]). A non-finite position stops the run with a blow-up error
 //! naming the vertex.
 
-use crate::constraint::{Constraints, ProjectionScratch, project};
-use crate::engine::force::ForceBuffers;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
-use crate::mesh::membrane::Membrane;
+use remembrane_core::constraint::{Constraints, ProjectionScratch, project};
+use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// The constraint-projection system.
 #[derive(Default)]

@@ -1,5 +1,5 @@
 //! Removes the exact constraints' reactions from the total force
-//! ([`crate::constraint::remove_reactions`]): what is left moves the shape
+//! ([`remembrane_core::constraint::remove_reactions`]): what is left moves the shape
 //! without changing the held area and volume, and the multipliers are the
 //! tension σ and pressure Δp that hold them.
 //!
@@ -7,12 +7,12 @@
 //! [`DensePositions`], [`Constraints`]. Writes: the total force and
 //! `evaluation.constraint` in [`ForceBuffers`].
 
-use crate::constraint::{ConstraintState, Constraints, Gradients, remove_reactions};
-use crate::engine::force::ForceBuffers;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
+use remembrane_core::constraint::{ConstraintState, Constraints, Gradients, remove_reactions};
+use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// The constraint-reaction system.
 #[derive(Default)]

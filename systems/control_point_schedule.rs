@@ -8,12 +8,12 @@
 //! i.e. before iteration N + 1 is computed; `Every(interval: I, start: S)`
 //! applies at S, S + I, S + 2I, …
 
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, SimError};
-use crate::mesh::components::{ControlPoint, ControlPointIndex};
-use crate::mesh::membrane::Membrane;
 use glam::DVec3;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, SimError};
+use remembrane_core::mesh::components::{ControlPoint, ControlPointIndex};
+use remembrane_core::mesh::membrane::Membrane;
 use serde::{Deserialize, Serialize};
 
 /// When a scheduled change applies.

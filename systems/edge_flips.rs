@@ -1,4 +1,4 @@
-//! Edge flips as Metropolis moves ([`crate::remesh::flip`]).
+//! Edge flips as Metropolis moves ([`remembrane_core::remesh::flip`]).
 //!
 //! Stage: Remesh (after split/merge, if the scene remeshes). Reads:
 //! [`DensePositions`], [`DenseLipid`], [`DynamicsParams`] (k_BT),
@@ -7,7 +7,7 @@
 //! of [`Membrane`] (flips through the mesh-edit layer; no vertex moves or
 //! is added, so the dense vertex slots and positions stay valid),
 //! [`FlipStats`], and the force terms in [`ForceBuffers`] (each prices the
-//! flips, [`crate::engine::force::ForceTerm::flip_energy_change`]).
+//! flips, [`remembrane_core::engine::force::ForceTerm::flip_energy_change`]).
 //!
 //! Each tick proposes ⌊r·E⌋ flips (plus one with probability of the
 //! fraction) for r proposals per edge and E edges, each on an edge drawn
@@ -18,18 +18,18 @@
 //! exactly when this one is); otherwise it is accepted with probability
 //! min(1, exp(−ΔE/k_BT)), ΔE summed over every registered term.
 
-use crate::engine::force::{FlipProposal, ForceBuffers};
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{
+use rand::{RngExt, SeedableRng};
+use remembrane_core::engine::force::{FlipProposal, ForceBuffers};
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{
     CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
 };
-use crate::mesh::ValenceRange;
-use crate::mesh::membrane::Membrane;
-use crate::params::{DynamicsParams, EdgeFlipParams, SpringCoupling};
-use crate::remesh::flip::{Flip, FlipPricer, FlipTotals, keeps_surface_unfolded};
-use crate::util::rng::stream_seed;
-use rand::{RngExt, SeedableRng};
+use remembrane_core::mesh::ValenceRange;
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::{DynamicsParams, EdgeFlipParams, SpringCoupling};
+use remembrane_core::remesh::flip::{Flip, FlipPricer, FlipTotals, keeps_surface_unfolded};
+use remembrane_core::util::rng::stream_seed;
 
 /// Stream id of the flips' randomness (edges drawn, acceptance).
 const FLIP_STREAM: u64 = 0x666c_6970_0000_0001;
@@ -81,7 +81,7 @@ impl EdgeFlips {
     /// does).
     fn screen(
         &self,
-        t: &crate::mesh::topology::Topology,
+        t: &remembrane_core::mesh::topology::Topology,
         edge: u32,
         positions: &[glam::DVec3],
         pinned: &[u32],
@@ -164,7 +164,9 @@ impl System for EdgeFlips {
             membrane
                 .control_points()
                 .iter()
-                .map(|c| crate::mesh::cell_list::nearest_by_scan(positions, c.position) as u32)
+                .map(|c| {
+                    remembrane_core::mesh::cell_list::nearest_by_scan(positions, c.position) as u32
+                })
                 .collect()
         } else {
             Vec::new()
@@ -204,7 +206,9 @@ impl System for EdgeFlips {
             totals.area += change.area;
             if check.0 {
                 let t = membrane.cached_topology();
-                if let Err(e) = crate::mesh::check_mesh(positions, &t.faces, Some(*valence)) {
+                if let Err(e) =
+                    remembrane_core::mesh::check_mesh(positions, &t.faces, Some(*valence))
+                {
                     return Err(SimError::Output(format!(
                         "mesh invariant broken after an edge flip at iteration {}: {e}",
                         clock.iteration + 1

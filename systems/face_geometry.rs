@@ -5,11 +5,11 @@
 //! cotangents; computed only if a force term uses it), zeroed term buffers
 //! in [`ForceBuffers`].
 
-use crate::engine::force::{FaceGeometry, ForceBuffers};
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
+use remembrane_core::engine::force::{FaceGeometry, ForceBuffers};
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// The face-geometry system.
 pub struct FaceGeometrySystem;
@@ -33,7 +33,7 @@ impl System for FaceGeometrySystem {
         buffers.begin(positions.0.len());
         if buffers.needs_face_geometry() {
             let faces = &membrane.cached_topology().faces;
-            crate::mesh::geometry::face_geometry(&positions.0, faces, &mut geometry.0);
+            remembrane_core::mesh::geometry::face_geometry(&positions.0, faces, &mut geometry.0);
         } else {
             geometry.0.clear();
         }

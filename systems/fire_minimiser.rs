@@ -1,4 +1,4 @@
-//! The FIRE minimiser ([`crate::minimise`]), in place of the overdamped
+//! The FIRE minimiser ([`remembrane_core::minimise`]), in place of the overdamped
 //! integrator when a scene declares `dynamics: (method: Minimise(...))`.
 //!
 //! Stage: Integrate. Reads: the total force and energies in
@@ -16,18 +16,18 @@
 //! step is halved and FIRE restarts from rest. Below a millionth of the
 //! first step the run stops with [`SimError::MinimiserStuck`].
 
-use crate::engine::force::ForceBuffers;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
-use crate::mesh::membrane::Membrane;
-use crate::minimise::{Fire, MinimiserStatus, StopReason};
-use crate::params::MinimiserParams;
-use crate::remesh::RemeshStats;
-use crate::systems::edge_flips::FlipStats;
-use crate::systems::langevin_integration::check_step;
-use crate::systems::maintenance_flips::MaintenanceFlipStats;
-use crate::timestep::{Limiter, TimeStepChoice};
+use crate::edge_flips::FlipStats;
+use crate::langevin_integration::check_step;
+use crate::maintenance_flips::MaintenanceFlipStats;
+use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::minimise::{Fire, MinimiserStatus, StopReason};
+use remembrane_core::params::MinimiserParams;
+use remembrane_core::remesh::RemeshStats;
+use remembrane_core::timestep::{Limiter, TimeStepChoice};
 use std::collections::VecDeque;
 
 /// The smallest step tried after folds, as a fraction of the first.
@@ -181,8 +181,8 @@ impl System for FireMinimiser {
 /// `energies`) and says which criterion, if any, it meets.
 fn convergence(
     energies: &mut std::collections::VecDeque<f64>,
-    p: &crate::params::MinimiserParams,
-    ev: &crate::engine::force::ForceEvaluation,
+    p: &remembrane_core::params::MinimiserParams,
+    ev: &remembrane_core::engine::force::ForceEvaluation,
     status: &mut MinimiserStatus,
 ) -> Option<StopReason> {
     let residual = ev.largest_force();

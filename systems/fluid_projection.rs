@@ -1,4 +1,4 @@
-//! The fluid model's force stage ([`crate::fluid`]): mesh maintenance acts
+//! The fluid model's force stage ([`remembrane_core::fluid`]): mesh maintenance acts
 //! only in the tangent planes, external loads only along the normals.
 //!
 //! Stage: Forces (after `force_terms`, before `force_total`). Reads:
@@ -13,15 +13,15 @@
 //! on the stomatocyte: 0.54 Ē/l̄ left, a drift that kept the minimiser from
 //! converging). The per-term forces reported are then the ones that act.
 
-use crate::engine::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::DensePositions;
-use crate::engine::simulation::SimError;
-use crate::fluid::{keep_normal, keep_tangential, remove_net_force_and_torque};
-use crate::params::PhysicalForces;
-use crate::systems::force_terms::FORCE_TERMS;
-use crate::systems::vertex_normals::VertexNormals;
+use crate::force_terms::FORCE_TERMS;
+use crate::vertex_normals::VertexNormals;
+use remembrane_core::engine::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::DensePositions;
+use remembrane_core::engine::simulation::SimError;
+use remembrane_core::fluid::{keep_normal, keep_tangential, remove_net_force_and_torque};
+use remembrane_core::params::PhysicalForces;
 
 /// Its name in the schedule.
 pub const FLUID_PROJECTION: &str = "fluid_projection";

@@ -1,13 +1,13 @@
 //! The system that runs every registered force term (see
-//! [`crate::engine::simulation::SimBuilder::add_force_term`]).
+//! [`remembrane_core::engine::simulation::SimBuilder::add_force_term`]).
 
-use crate::energy::vin::VinEdgeSamples;
-use crate::engine::core_resources::{DenseLipid, DensePositions};
-use crate::engine::error::SimError;
-use crate::engine::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::mesh::membrane::Membrane;
+use remembrane_core::energy::vin::VinEdgeSamples;
+use remembrane_core::engine::core_resources::{DenseLipid, DensePositions};
+use remembrane_core::engine::error::SimError;
+use remembrane_core::engine::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::mesh::membrane::Membrane;
 use std::time::{Duration, Instant};
 
 /// Name of the system that evaluates the force terms.
@@ -74,7 +74,7 @@ impl System for ForceTermsSystem {
         };
         // Term work scales with the faces.
         let faces = membrane.cached_topology().faces.len();
-        let concurrent = terms.len() > 1 && crate::util::parallel::splits(faces);
+        let concurrent = terms.len() > 1 && remembrane_core::util::parallel::splits(faces);
         // One job per term: the term, its buffer, energy and time.
         let jobs: Vec<Job<'_>> = terms
             .iter_mut()

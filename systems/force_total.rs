@@ -8,11 +8,11 @@
 //! positions by the integrator). Fails with a blow-up error naming the term
 //! and vertex of the first non-finite force.
 
-use crate::engine::force::{FORCE_TOTAL, ForceBuffers};
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, SimError};
-use crate::mesh::membrane::Membrane;
+use remembrane_core::engine::force::{FORCE_TOTAL, ForceBuffers};
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, SimError};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// The force-total system.
 pub struct ForceTotal;

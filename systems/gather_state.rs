@@ -4,10 +4,10 @@
 //! entities). Writes: the topology cache in [`Membrane`] (rebuilt only when
 //! the structure epoch changed), [`DensePositions`], [`DenseLipid`].
 
-use crate::engine::resources::ResMut;
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DenseLipid, DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
+use remembrane_core::engine::resources::ResMut;
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DenseLipid, DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// The gather system.
 pub struct GatherState;

@@ -12,16 +12,16 @@
 //! ≤ 0) stops the run with `SimError::MeshFolded` / `InsideOut` and the
 //! last good positions kept.
 
-use crate::engine::force::ForceBuffers;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, DensePositions, Seed, SimError};
-use crate::mesh::membrane::Membrane;
-use crate::params::DynamicsParams;
-use crate::timestep::TimeStepChoice;
-use crate::util::rng::stream_seed;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
+use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, DensePositions, Seed, SimError};
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::DynamicsParams;
+use remembrane_core::timestep::TimeStepChoice;
+use remembrane_core::util::rng::stream_seed;
 
 /// Stream id of the integrator's noise (distinct from other random streams).
 const NOISE_STREAM: u64 = 0x6e6f_6973_6500_0001;
@@ -62,9 +62,10 @@ fn check_step_with(
         let n = (b - a).cross(c - a);
         (a.dot(n), (b0 - a0).cross(c0 - a0).dot(n) < 0.0)
     };
-    if crate::util::parallel::splits(faces.len()) {
-        crate::util::parallel::fill_vec(per_face, faces.len(), face_check);
-        let turned = crate::util::parallel::position_first(faces.len(), |k| per_face[k].1);
+    if remembrane_core::util::parallel::splits(faces.len()) {
+        remembrane_core::util::parallel::fill_vec(per_face, faces.len(), face_check);
+        let turned =
+            remembrane_core::util::parallel::position_first(faces.len(), |k| per_face[k].1);
         let mut six_volume = 0.0;
         for (v, _) in per_face.iter() {
             six_volume += v;
@@ -115,7 +116,7 @@ impl System for LangevinIntegration {
         // copy) and the drifted positions are written over the old buffer.
         std::mem::swap(&mut self.previous, positions);
         let previous = &self.previous;
-        crate::util::parallel::fill_vec(positions, previous.len(), |v| {
+        remembrane_core::util::parallel::fill_vec(positions, previous.len(), |v| {
             previous[v] + step * total[v]
         });
         let kbt = dynamics.temperature;
@@ -136,8 +137,10 @@ impl System for LangevinIntegration {
                 *p += amplitude * e;
             }
         }
-        let non_finite = if crate::util::parallel::splits(positions.len()) {
-            crate::util::parallel::position_first(positions.len(), |v| !positions[v].is_finite())
+        let non_finite = if remembrane_core::util::parallel::splits(positions.len()) {
+            remembrane_core::util::parallel::position_first(positions.len(), |v| {
+                !positions[v].is_finite()
+            })
         } else {
             positions.iter().position(|p| !p.is_finite())
         };
@@ -175,7 +178,7 @@ impl System for LangevinIntegration {
                 shortest_edge,
                 drift,
                 noise,
-                cause: crate::engine::error::FoldCause::of(drift, noise),
+                cause: remembrane_core::engine::error::FoldCause::of(drift, noise),
             });
         }
         // A point reflection (a penalty overshooting through zero size) keeps

@@ -8,13 +8,13 @@
 //! allowed edge (a, b) (v = valence), so Σρ is conserved; an edge touching a
 //! blocked vertex does not diffuse. `Instant` sets ρ = Σρ / N everywhere.
 
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DenseLipid, DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
-use crate::params::{BlockedRegion, DiffusionParams, DiffusionRate};
-use crate::systems::remesh::RemeshTriggered;
+use crate::remesh::RemeshTriggered;
 use glam::DVec3;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DenseLipid, DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::{BlockedRegion, DiffusionParams, DiffusionRate};
 
 /// The diffusion system.
 pub struct LipidDiffusion {

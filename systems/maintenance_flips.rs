@@ -29,14 +29,14 @@
 //! the point, not on the connectivity. Deterministic: the sweep order is
 //! the edge slots', and there is no randomness.
 
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{CheckInvariants, Clock, DensePositions, SimError};
-use crate::mesh::ValenceRange;
-use crate::mesh::membrane::Membrane;
-use crate::params::MaintenanceFlipParams;
-use crate::remesh::flip::{Flip, keeps_surface_unfolded};
 use glam::DVec3;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{CheckInvariants, Clock, DensePositions, SimError};
+use remembrane_core::mesh::ValenceRange;
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::MaintenanceFlipParams;
+use remembrane_core::remesh::flip::{Flip, keeps_surface_unfolded};
 
 /// Counts of the maintenance flips over a run (`summary.json`
 /// `maintenance_flips`).
@@ -152,7 +152,9 @@ impl System for MaintenanceFlips {
             stats.flipped += 1;
             if check.0 {
                 let t = membrane.cached_topology();
-                if let Err(e) = crate::mesh::check_mesh(positions, &t.faces, Some(*valence)) {
+                if let Err(e) =
+                    remembrane_core::mesh::check_mesh(positions, &t.faces, Some(*valence))
+                {
                     return Err(SimError::Output(format!(
                         "mesh invariant broken after a maintenance flip at iteration {}: {e}",
                         clock.iteration + 1

@@ -17,25 +17,27 @@
 //! back into range by moving its two ends. An edge still abnormal at the end
 //! of the tick is counted as unresolved (never dropped silently). In the
 //! fluid model every move is tangential, and with direct edits
-//! ([`crate::params::FluidEdits::Direct`]) the pre-relaxation is skipped.
+//! ([`remembrane_core::params::FluidEdits::Direct`]) the pre-relaxation is skipped.
 
-use crate::energy::vin::VinSegmentation;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{
-    CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
-};
-use crate::mesh::ValenceRange;
-use crate::mesh::components::Position;
-use crate::mesh::membrane::Membrane;
-use crate::params::{DynamicsParams, RemeshParams};
-use crate::remesh::relax::{Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings};
-use crate::remesh::{EdgeOp, RemeshStats};
-use crate::systems::barrier_check::AbnormalEdges;
-use crate::util::rng::stream_seed;
+use crate::barrier_check::AbnormalEdges;
 use glam::DVec3;
 use hecs::Entity;
 use rand::{RngExt, SeedableRng};
+use remembrane_core::energy::vin::VinSegmentation;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{
+    CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
+};
+use remembrane_core::mesh::ValenceRange;
+use remembrane_core::mesh::components::Position;
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::params::{DynamicsParams, RemeshParams};
+use remembrane_core::remesh::relax::{
+    Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings,
+};
+use remembrane_core::remesh::{EdgeOp, RemeshStats};
+use remembrane_core::util::rng::stream_seed;
 use std::collections::HashSet;
 
 /// Stream id of the remeshing randomness (edge order, kicks).
@@ -82,7 +84,7 @@ impl System for Remesh {
             Res<'a, Seed>,
             Res<'a, Clock>,
             Res<'a, CheckInvariants>,
-            Option<Res<'a, crate::params::MembraneModel>>,
+            Option<Res<'a, remembrane_core::params::MembraneModel>>,
         ),
         (
             ResMut<'a, Membrane>,
@@ -213,7 +215,9 @@ fn abnormal_edges(
 fn debug_check_invariants(state: &State<'_>) -> Result<(), SimError> {
     if state.check_invariants {
         let t = state.membrane.cached_topology();
-        if let Err(e) = crate::mesh::check_mesh(state.positions, &t.faces, Some(state.valence)) {
+        if let Err(e) =
+            remembrane_core::mesh::check_mesh(state.positions, &t.faces, Some(state.valence))
+        {
             return Err(SimError::Output(format!(
                 "mesh invariant broken after a remesh edit at iteration {}: {e}",
                 state.iteration + 1
@@ -251,7 +255,7 @@ fn process(
     state: &mut State<'_>,
     edge: u32,
     op: EdgeOp,
-    seg: &crate::energy::vin::Segmentation,
+    seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,
@@ -346,18 +350,21 @@ fn process(
 fn finish_edit(
     state: &mut State<'_>,
     op: EdgeOp,
-    out: &crate::remesh::RemeshOutcome,
-    seg: &crate::energy::vin::Segmentation,
+    out: &remembrane_core::remesh::RemeshOutcome,
+    seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,
 ) -> Result<(), SimError> {
     state.remesh_stats.counts_mut(op).success += 1;
-    state.remesh_stats.events.push(crate::remesh::RemeshEvent {
-        iteration: state.iteration,
-        op,
-        position: out.position.to_array(),
-    });
+    state
+        .remesh_stats
+        .events
+        .push(remembrane_core::remesh::RemeshEvent {
+            iteration: state.iteration,
+            op,
+            position: out.position.to_array(),
+        });
     refresh(state)?;
     debug_check_invariants(state)?;
     post_relax(state, out.vertex, seg, settings, kicks, rng);
@@ -369,7 +376,7 @@ fn finish_edit(
 fn post_relax(
     state: &mut State<'_>,
     vertex: Entity,
-    seg: &crate::energy::vin::Segmentation,
+    seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,
@@ -394,7 +401,7 @@ fn post_relax(
     }
 }
 
-/// The fluid model's direct edit ([`crate::params::FluidEdits::Direct`]):
+/// The fluid model's direct edit ([`remembrane_core::params::FluidEdits::Direct`]):
 /// the split or merge is applied at once (the new vertex at the edge's
 /// midpoint), then its 1-ring relaxes tangentially into the normal range.
 /// An edit the mesh cannot take (valence, a fold) is counted as impossible
@@ -403,7 +410,7 @@ fn direct_edit(
     state: &mut State<'_>,
     edge: u32,
     op: EdgeOp,
-    seg: &crate::energy::vin::Segmentation,
+    seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,
@@ -462,7 +469,7 @@ fn relax_around_edge(
     [a, b]: [u32; 2],
     attempts: &[(usize, RelaxSettings)],
     goal: Goal,
-    seg: &crate::energy::vin::Segmentation,
+    seg: &remembrane_core::energy::vin::Segmentation,
     kicks: &KickTable,
     rng: &mut impl RngExt,
 ) -> (RelaxOutcome, Patch, Vec<u32>, u64) {
@@ -494,7 +501,7 @@ fn push_back(
     state: &mut State<'_>,
     a: u32,
     b: u32,
-    seg: &crate::energy::vin::Segmentation,
+    seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
     rng: &mut impl RngExt,

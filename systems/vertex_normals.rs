@@ -1,16 +1,16 @@
-//! The area-weighted vertex normals of the tick ([`crate::fluid`]).
+//! The area-weighted vertex normals of the tick ([`remembrane_core::fluid`]).
 //!
 //! Stage: Gather (after `face_geometry`). Reads: [`Membrane`] (faces around
 //! each vertex), [`DensePositions`], [`FaceGeometry`] (its normals and areas
 //! when a force term had them computed). Writes: [`VertexNormals`].
 
-use crate::engine::force::FaceGeometry;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DensePositions, SimError};
-use crate::fluid::{vertex_normals, vertex_normals_from_faces};
-use crate::mesh::membrane::Membrane;
 use glam::DVec3;
+use remembrane_core::engine::force::FaceGeometry;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DensePositions, SimError};
+use remembrane_core::fluid::{vertex_normals, vertex_normals_from_faces};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// Unit area-weighted vertex normals, n_i ∝ Σ_{f∋i} A_f n̂_f ∝ ∇_i V, by
 /// dense slot (inserted by the fluid plugin).

@@ -6,12 +6,12 @@
 //! Stage: Gather (after `gather_state`). Reads: [`Membrane`] (edges),
 //! [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
 
-use crate::energy::vin::VinEdgeSamples;
-use crate::energy::vin::VinSegmentation;
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
+use remembrane_core::energy::vin::VinEdgeSamples;
+use remembrane_core::energy::vin::VinSegmentation;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
 
 /// The edge-sampling system.
 pub struct VinEdgeSampling;

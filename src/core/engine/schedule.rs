@@ -88,9 +88,9 @@ impl Stage {
 /// A system: one step of a tick, over the data its type declares.
 ///
 /// ```
-/// use remembrane::engine::resources::{Res, ResMut};
-/// use remembrane::engine::schedule::System;
-/// use remembrane::engine::simulation::{Clock, SimError};
+/// use remembrane_core::engine::resources::{Res, ResMut};
+/// use remembrane_core::engine::schedule::System;
+/// use remembrane_core::engine::simulation::{Clock, SimError};
 ///
 /// /// Counts ticks that reached a simulated time of one millisecond.
 /// struct LateTicks(u64);
@@ -114,9 +114,9 @@ impl Stage {
 /// gives no mutable access, and there is no other way to reach a resource.
 ///
 /// ```compile_fail,E0594
-/// use remembrane::engine::resources::Res;
-/// use remembrane::engine::schedule::System;
-/// use remembrane::engine::simulation::{Clock, SimError};
+/// use remembrane_core::engine::resources::Res;
+/// use remembrane_core::engine::schedule::System;
+/// use remembrane_core::engine::simulation::{Clock, SimError};
 ///
 /// struct Sneaky;
 ///

@@ -1,5 +1,5 @@
 //! Resources that carry a run's state from one tick to the next and so go
-//! into a checkpoint ([`crate::io::checkpoint`]).
+//! into a checkpoint (`remembrane::io::checkpoint`).
 //!
 //! Most resources are either set up by the scene (parameters, the V_in
 //! segmentation) or recomputed every tick (forces, face geometry, the dense

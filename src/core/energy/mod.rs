@@ -3,7 +3,7 @@
 //! added to it), its [`ForceTerm`](crate::engine::force::ForceTerm) with
 //! its flip pricing, and its plugin (`plugin`), shaped like a user's term
 //! (the BAR-domain example). V_in's plugin, which also adds the Gather
-//! system that measures its edges, is [`crate::scene::plugins::vin`]. Shared kernels: the penalty machinery
+//! system that measures its edges, is `remembrane::scene::plugins::vin`. Shared kernels: the penalty machinery
 //! ([`penalty`]: volume, area and local-tension kernels, 1-ring
 //! smoothing), the dihedral form of bending ([`bending_dihedral`]); and the in-plane
 //! elasticity V_in gives a fixed mesh ([`vin_elasticity`], a measurement,

@@ -4,7 +4,7 @@
 //! its own components in the world) from a [`ForceContext`] and *adds* −∇E
 //! into the force buffer it is given. Every term is evaluated into
 //! its own buffer (so forces can be reported and checked per term): the
-//! [`ForceTermsSystem`](crate::systems::force_terms::ForceTermsSystem) evaluates every registered term into its slot of
+//! `force_terms` system (`remembrane::systems::force_terms`) evaluates every registered term into its slot of
 //! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
 //! smoothing to penalty terms and sums the total.
 
