@@ -27,4 +27,3 @@ pub mod lipid_diffusion;
 pub mod maintenance_flips;
 pub mod remesh;
 pub mod vertex_normals;
-pub mod vin_edge_samples;

@@ -197,38 +197,23 @@ impl Scene {
         builder: &mut SimBuilder,
         scene_path: &Path,
     ) -> Result<f64, SceneError> {
-        use crate::scene::plugins;
         let invalid_at = |field: String, e: BuildError| SceneError::Invalid {
             path: scene_path.to_owned(),
             field,
             reason: e.to_string(),
         };
-        let geometric = self.remesh.mode == crate::params::RemeshMode::Geometric;
-        let mut spring_stiffness = SpringParams::default().stiffness;
+        let context = crate::energy::builtin::TermContext {
+            remesh_mode: self.remesh.mode,
+        };
         for (i, term) in self.energy.iter().enumerate() {
-            let added = match term {
-                // The geometric baseline: V_in sets Δt and drives the local
-                // relaxation but exerts no global force.
-                EnergyTerm::Vin(p) => builder.add_plugin(plugins::vin(*p, !geometric)),
-                EnergyTerm::Bending(p) => builder.add_plugin(crate::energy::bending::plugin(*p)),
-                EnergyTerm::Volume(p) => builder.add_plugin(crate::energy::volume::plugin(*p)),
-                EnergyTerm::Area(p) => builder.add_plugin(crate::energy::area::plugin(*p)),
-                EnergyTerm::LocalTension(p) => {
-                    builder.add_plugin(crate::energy::local_tension::plugin(*p))
-                }
-                EnergyTerm::Tension(p) => builder.add_plugin(crate::energy::tension::plugin(*p)),
-                EnergyTerm::Springs(p) => {
-                    spring_stiffness = p.stiffness;
-                    builder.add_plugin(crate::energy::springs::plugin(p.coupling))
-                }
-                EnergyTerm::SelfAvoidance(p) => {
-                    builder.add_plugin(crate::energy::self_avoidance::plugin(*p))
-                }
-                EnergyTerm::Custom(c) => add_declared(&c.0, builder),
-            };
-            added.map_err(|e| invalid_at(format!("energy[{i}]"), e))?;
+            term.add_to(builder, &context, |c, b| add_declared(&c.0, b).map(|_| ()))
+                .map_err(|e| invalid_at(format!("energy[{i}]"), e))?;
         }
-        Ok(spring_stiffness)
+        let spring_stiffness = self.energy.iter().rev().find_map(|t| match t {
+            EnergyTerm::Springs(p) => Some(p.stiffness),
+            _ => None,
+        });
+        Ok(spring_stiffness.unwrap_or(SpringParams::default().stiffness))
     }
 
     /// Adds the maintenance flips, remeshing, Metropolis flips and lipid

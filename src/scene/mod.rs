@@ -14,17 +14,13 @@ pub mod resolution;
 pub mod setting;
 mod validate;
 
-use crate::energy::vin::VinParams;
 use crate::engine::simulation::{BuildError, InitialState, SimBuilder, Simulation};
 use crate::mesh::components::ControlPoint;
 use crate::mesh::geometry::{enclosed_volume, total_area};
 use crate::mesh::io::{MeshIoError, read_mesh};
 use crate::mesh::membrane::Membrane;
 use crate::mesh::{MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere};
-use crate::params::{
-    AreaParams, BendingParams, DynamicsParams, LocalTensionParams, RemeshParams, SpringParams,
-    VolumeParams,
-};
+use crate::params::{DynamicsParams, RemeshParams, SpringParams};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -239,30 +235,10 @@ pub enum MembraneSource {
     },
 }
 
-/// One energy term and its parameters.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum EnergyTerm {
-    /// Double-barrier edge potential V_in.
-    #[serde(deserialize_with = "crate::util::validate::checked")]
-    Vin(VinParams),
-    /// Helfrich bending.
-    Bending(BendingParams),
-    /// Volume penalty.
-    Volume(VolumeParams),
-    /// Area penalty.
-    Area(AreaParams),
-    /// Density-dependent local tension (needs `lipid_density: true`).
-    LocalTension(LocalTensionParams),
-    /// Constant surface tension σA.
-    Tension(crate::params::TensionParams),
-    /// Springs from the control points.
-    Springs(SpringParams),
-    /// Repulsion between non-neighbouring vertices closer than a range.
-    SelfAvoidance(crate::params::SelfAvoidanceParams),
-    /// A plugin term from the registry: `Custom(name: "...", params: (...))`.
-    Custom(crate::scene::plugin_decl::TermPlugin),
-}
+/// One energy term and its parameters: a built-in term (the list in
+/// [`crate::energy`], which generates the enum) or a plugin term
+/// (`Custom(name: "...", params: (...))`).
+pub type EnergyTerm = crate::energy::EnergyTerm<crate::scene::plugin_decl::TermPlugin>;
 
 /// A system declared by a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -270,23 +246,6 @@ pub enum SystemDecl {
     /// A plugin system from the registry:
     /// `Custom(name: "...", stage: Observe, params: (...))`.
     Custom(crate::scene::plugin_decl::SystemPlugin),
-}
-
-impl EnergyTerm {
-    /// The variant's name as written in scenes.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            EnergyTerm::Vin(_) => "Vin",
-            EnergyTerm::Bending(_) => "Bending",
-            EnergyTerm::Volume(_) => "Volume",
-            EnergyTerm::Area(_) => "Area",
-            EnergyTerm::LocalTension(_) => "LocalTension",
-            EnergyTerm::Tension(_) => "Tension",
-            EnergyTerm::Springs(_) => "Springs",
-            EnergyTerm::SelfAvoidance(_) => "SelfAvoidance",
-            EnergyTerm::Custom(_) => "Custom",
-        }
-    }
 }
 
 /// A control point as written in a scene.

@@ -1,5 +1,5 @@
 //! The built-in plugins other than the energy terms' (each term's plugin is
-//! in its own file under [`crate::energy`]). Each is a function returning a [`Plugin`] that
+//! in its own file under [`crate::energy`], V_in's with its edge sampling). Each is a function returning a [`Plugin`] that
 //! registers its resources and systems on a [`SimBuilder`], through the same
 //! calls a user's crate makes (`insert_resource`, `add_system`,
 //! `add_force_term`). A scene's build is the list of these plugins.
@@ -7,8 +7,7 @@
 //! | plugin | resources it inserts | systems (stage) |
 //! |---|---|---|
 //! | [`core`](fn@core) | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
-//! | [`vin`] | `VinSegmentation`, `VinEdgeSamples` | `vin_edge_samples` (Gather), term `vin` (Forces) unless force-free |
-//! | each term's `plugin` in [`crate::energy`] (bending, volume, area, tension, local tension, springs, self-avoidance) | — | their term (Forces) |
+//! | each term's `plugin` in [`crate::energy`] (vin, bending, volume, area, tension, local tension, springs, self-avoidance) | V_in: `VinSegmentation`, `VinEdgeSamples` | their term (Forces); V_in also `vin_edge_samples` (Gather), and exerts no force in the geometric baseline |
 //! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `fluid_projection` (Forces) |
 //! | [`constraints`] | `Constraints` | `constraint_reactions` (Forces), `constraint_projection` (Integrate) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
@@ -16,7 +15,6 @@
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
 //! | [`recorders`] | `Recorders` | — (the run's `frames` system, Observe, calls them) |
 
-use crate::energy::vin::{Segmentation, VinForces, VinParams, VinSegmentation};
 use crate::engine::force::{FaceGeometry, ForceBuffers};
 use crate::engine::schedule::Stage;
 use crate::engine::simulation::{
@@ -31,7 +29,6 @@ use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
 use crate::systems::control_point_schedule::{ControlPointSchedule, ScheduledChange};
 use crate::systems::remesh::{Remesh, RemeshTriggered};
 use crate::timestep::TimeStepChoice;
-use std::sync::Arc;
 
 /// Settings of the core plugin.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,26 +91,6 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             }
         }
         b.add_system(Stage::BarrierCheck, BarrierCheck);
-        Ok(())
-    }
-}
-
-/// The double-barrier edge potential V_in: inserts its segmentation (used by
-/// the time step and remeshing) and, with `exerts_force`, its force term.
-/// The geometric remeshing baseline uses V_in without its global force.
-pub fn vin(params: VinParams, exerts_force: bool) -> impl Plugin {
-    move |b: &mut SimBuilder| {
-        let segmentation = Arc::new(Segmentation::new(params));
-        b.insert_resource(VinSegmentation(segmentation.clone()))
-            .insert_resource(crate::energy::vin::VinEdgeSamples::default());
-        b.add_system(
-            Stage::Gather,
-            crate::systems::vin_edge_samples::VinEdgeSampling,
-        )
-        .after("gather_state");
-        if exerts_force {
-            b.add_force_term(VinForces::new(segmentation, params.form))?;
-        }
         Ok(())
     }
 }
@@ -206,7 +183,7 @@ pub fn control_points(points: Vec<ControlPoint>, schedule: Vec<ScheduledChange>)
     }
 }
 
-/// Free-energy remeshing (needs [`core`](fn@core) and [`vin`]): keeps every vertex's
+/// Free-energy remeshing (needs [`core`](fn@core) and V_in ([`crate::energy::vin::plugin`])): keeps every vertex's
 /// valence inside `valence`.
 pub fn remesh(valence: ValenceRange) -> impl Plugin {
     move |b: &mut SimBuilder| {

@@ -25,8 +25,7 @@
 //! (benches/RESULTS.md, session 17). With h = 1 nothing changes: every existing scene builds
 //! exactly as before.
 
-use crate::params::SpringCoupling;
-use crate::scene::{EnergyTerm, Scene};
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
 /// The scene's resolution.
@@ -71,25 +70,7 @@ impl Scene {
             return s;
         }
         for term in &mut s.energy {
-            match term {
-                EnergyTerm::Vin(p) => {
-                    p.l_min *= h;
-                    p.l_max *= h;
-                    p.dl *= h;
-                    p.near_barrier = (p.near_barrier.0 * h, p.near_barrier.1 * h);
-                    p.far_barrier = (p.far_barrier.0 * h, p.far_barrier.1 * h);
-                    p.near_steepness = (p.near_steepness.0 / h, p.near_steepness.1 / h);
-                    p.far_steepness = (p.far_steepness.0 / h, p.far_steepness.1 / h);
-                    p.wall_steepness /= h;
-                }
-                EnergyTerm::SelfAvoidance(p) => p.distance *= h,
-                EnergyTerm::Springs(p) => {
-                    if let SpringCoupling::Gaussian { radius } = &mut p.coupling {
-                        *radius *= h;
-                    }
-                }
-                _ => {}
-            }
+            term.at_resolution(h);
         }
         let r = &mut s.remesh;
         r.shorter_than *= h;
@@ -132,7 +113,7 @@ mod tests {
             std::path::Path::new("s.ron"),
         )
         .unwrap();
-        let EnergyTerm::Vin(p) = scene.at_resolution(0.5).energy[0] else {
+        let crate::scene::EnergyTerm::Vin(p) = scene.at_resolution(0.5).energy[0] else {
             panic!()
         };
         let (half, unit) = (

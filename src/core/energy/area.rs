@@ -100,3 +100,14 @@ pub fn plugin(params: AreaParams) -> impl Plugin {
         Ok(())
     }
 }
+
+impl crate::energy::builtin::BuiltinTerm for AreaParams {
+    fn add_to(
+        &self,
+        builder: &mut SimBuilder,
+        _context: &crate::energy::builtin::TermContext,
+    ) -> Result<(), crate::engine::error::BuildError> {
+        builder.add_plugin(plugin(*self))?;
+        Ok(())
+    }
+}

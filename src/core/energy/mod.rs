@@ -2,21 +2,50 @@
 //! its kernel on dense arrays (the energy and, given a force buffer, −∇E
 //! added to it), its [`ForceTerm`](crate::engine::force::ForceTerm) with
 //! its flip pricing, and its plugin (`plugin`), shaped like a user's term
-//! (the BAR-domain example). V_in's plugin, which also adds the Gather
-//! system that measures its edges, is `remembrane::scene::plugins::vin`. Shared kernels: the penalty machinery
+//! (the BAR-domain example). V_in's plugin also adds the Gather system that
+//! measures its edges ([`vin_edge_samples`]). [`builtin`] says what makes a
+//! term built in, and the list below generates the scene's [`EnergyTerm`].
+//! Shared kernels: the penalty machinery
 //! ([`penalty`]: volume, area and local-tension kernels, 1-ring
 //! smoothing), the dihedral form of bending ([`bending_dihedral`]); and the in-plane
 //! elasticity V_in gives a fixed mesh ([`vin_elasticity`], a measurement,
 //! not a term).
 
+pub mod builtin;
+
+pub mod bending_dihedral;
+pub mod penalty;
+pub mod vin_edge_samples;
+pub mod vin_elasticity;
+
+// The built-in terms: each one's file, then its entry in the list below,
+// named as scenes write it. The list generates the scene's `EnergyTerm`
+// enum and its dispatch (`builtin::builtin_terms`).
 pub mod area;
 pub mod bending;
-pub mod bending_dihedral;
 pub mod local_tension;
-pub mod penalty;
 pub mod self_avoidance;
 pub mod springs;
 pub mod tension;
 pub mod vin;
-pub mod vin_elasticity;
 pub mod volume;
+
+builtin::builtin_terms! {
+    /// Double-barrier edge potential V_in.
+    #[serde(deserialize_with = "crate::util::validate::checked")]
+    Vin(vin::VinParams),
+    /// Helfrich bending.
+    Bending(bending::BendingParams),
+    /// Volume penalty.
+    Volume(volume::VolumeParams),
+    /// Area penalty.
+    Area(area::AreaParams),
+    /// Density-dependent local tension (needs `lipid_density: true`).
+    LocalTension(local_tension::LocalTensionParams),
+    /// Constant surface tension σA.
+    Tension(tension::TensionParams),
+    /// Springs from the control points.
+    Springs(springs::SpringParams),
+    /// Repulsion between non-neighbouring vertices closer than a range.
+    SelfAvoidance(self_avoidance::SelfAvoidanceParams),
+}

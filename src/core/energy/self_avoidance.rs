@@ -175,3 +175,18 @@ pub fn plugin(params: crate::params::SelfAvoidanceParams) -> impl Plugin {
         Ok(())
     }
 }
+
+impl crate::energy::builtin::BuiltinTerm for SelfAvoidanceParams {
+    fn add_to(
+        &self,
+        builder: &mut SimBuilder,
+        _context: &crate::energy::builtin::TermContext,
+    ) -> Result<(), crate::engine::error::BuildError> {
+        builder.add_plugin(plugin(*self))?;
+        Ok(())
+    }
+
+    fn at_resolution(&mut self, h: f64) {
+        self.distance *= h;
+    }
+}

@@ -362,3 +362,20 @@ pub fn plugin(coupling: SpringCoupling) -> impl Plugin {
         Ok(())
     }
 }
+
+impl crate::energy::builtin::BuiltinTerm for SpringParams {
+    fn add_to(
+        &self,
+        builder: &mut SimBuilder,
+        _context: &crate::energy::builtin::TermContext,
+    ) -> Result<(), crate::engine::error::BuildError> {
+        builder.add_plugin(plugin(self.coupling))?;
+        Ok(())
+    }
+
+    fn at_resolution(&mut self, h: f64) {
+        if let SpringCoupling::Gaussian { radius } = &mut self.coupling {
+            *radius *= h;
+        }
+    }
+}

@@ -99,3 +99,14 @@ pub fn plugin(params: crate::params::TensionParams) -> impl Plugin {
         Ok(())
     }
 }
+
+impl crate::energy::builtin::BuiltinTerm for TensionParams {
+    fn add_to(
+        &self,
+        builder: &mut SimBuilder,
+        _context: &crate::energy::builtin::TermContext,
+    ) -> Result<(), crate::engine::error::BuildError> {
+        builder.add_plugin(plugin(*self))?;
+        Ok(())
+    }
+}

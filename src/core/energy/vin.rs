@@ -15,7 +15,10 @@
 //! the force on an edge's end points is ∓V_in'(l) along the edge, with V_in'
 //! the chord slope of l's segment (piecewise-linear form) or the exact slope.
 
+use crate::energy::vin_edge_samples::VinEdgeSampling;
 use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
+use crate::engine::schedule::Stage;
+use crate::engine::simulation::{Plugin, SimBuilder};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -428,37 +431,7 @@ impl Segmentation {
     }
 }
 
-pub use crate::mesh::geometry::EdgeSample;
-
-/// Every edge's [`EdgeSample`], in edge order, measured once per tick in
-/// the Gather stage and shared by the V_in force and the time-step rule,
-/// which would otherwise both gather the end positions, take the square
-/// root and look up the segment (a resource of the vin plugin; empty until
-/// measured).
-#[derive(Clone, Debug, Default)]
-pub struct VinEdgeSamples(pub Vec<EdgeSample>);
-
-impl VinEdgeSamples {
-    /// Measures `edges` at `positions`.
-    pub fn measure(
-        &mut self,
-        segmentation: &Segmentation,
-        edges: &[[u32; 2]],
-        positions: &[DVec3],
-    ) {
-        self.0.resize(edges.len(), EdgeSample::default());
-        crate::util::parallel::fill(&mut self.0, |e| {
-            let [a, b] = edges[e];
-            let d = positions[b as usize] - positions[a as usize];
-            let length = d.length();
-            EdgeSample {
-                d,
-                length,
-                segment: segmentation.segment_of(length) as u32,
-            }
-        });
-    }
-}
+pub use crate::energy::vin_edge_samples::{EdgeSample, VinEdgeSamples};
 
 fn needs_split(y: &[f64], a: usize, b: usize, p: &VinParams, l_at: impl Fn(usize) -> f64) -> bool {
     let n = (b - a + 1) as f64;
@@ -635,5 +608,49 @@ impl ForceTerm for VinForces {
         let ab = p[flip.a as usize].distance(p[flip.b as usize]);
         let cd = p[flip.c as usize].distance(p[flip.d as usize]);
         Some(v(cd) - v(ab))
+    }
+}
+
+/// The double-barrier edge potential V_in: inserts its segmentation (used by
+/// the time step and remeshing), the per-tick edge samples and the Gather
+/// system that measures them ([`VinEdgeSampling`]), and, with
+/// `exerts_force`, its force term. The geometric remeshing baseline uses
+/// V_in without its global force.
+pub fn plugin(params: VinParams, exerts_force: bool) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        let segmentation = Arc::new(Segmentation::new(params));
+        b.insert_resource(VinSegmentation(segmentation.clone()))
+            .insert_resource(VinEdgeSamples::default());
+        b.add_system(Stage::Gather, VinEdgeSampling)
+            .after("gather_state");
+        if exerts_force {
+            b.add_force_term(VinForces::new(segmentation, params.form))?;
+        }
+        Ok(())
+    }
+}
+
+impl crate::energy::builtin::BuiltinTerm for VinParams {
+    /// V_in exerts its force except in the geometric remeshing baseline,
+    /// where it sets Δt and drives the local relaxation only.
+    fn add_to(
+        &self,
+        builder: &mut SimBuilder,
+        context: &crate::energy::builtin::TermContext,
+    ) -> Result<(), crate::engine::error::BuildError> {
+        let exerts_force = context.remesh_mode != crate::params::RemeshMode::Geometric;
+        builder.add_plugin(plugin(*self, exerts_force))?;
+        Ok(())
+    }
+
+    fn at_resolution(&mut self, h: f64) {
+        self.l_min *= h;
+        self.l_max *= h;
+        self.dl *= h;
+        self.near_barrier = (self.near_barrier.0 * h, self.near_barrier.1 * h);
+        self.far_barrier = (self.far_barrier.0 * h, self.far_barrier.1 * h);
+        self.near_steepness = (self.near_steepness.0 / h, self.near_steepness.1 / h);
+        self.far_steepness = (self.far_steepness.0 / h, self.far_steepness.1 / h);
+        self.wall_steepness /= h;
     }
 }

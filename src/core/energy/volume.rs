@@ -96,3 +96,14 @@ pub fn plugin(params: VolumeParams) -> impl Plugin {
         Ok(())
     }
 }
+
+impl crate::energy::builtin::BuiltinTerm for VolumeParams {
+    fn add_to(
+        &self,
+        builder: &mut SimBuilder,
+        _context: &crate::energy::builtin::TermContext,
+    ) -> Result<(), crate::engine::error::BuildError> {
+        builder.add_plugin(plugin(*self))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,88 @@
+//! What makes a term built in: the scene's entry for it ([`BuiltinTerm`]:
+//! its parameters as written, `Bending(kappa: 20.0)`) and the one list of
+//! built-in terms in [`super`], from which the macro `builtin_terms!` generates the
+//! scene's [`EnergyTerm`](super::EnergyTerm) enum and its dispatch.
+//!
+//! Adding a built-in term touches two files: the term's own (its parameters,
+//! kernel, `ForceTerm`, plugin and this trait) and the list in
+//! `energy/mod.rs` (its `mod` line and its entry).
+
+use crate::engine::error::BuildError;
+use crate::engine::simulation::SimBuilder;
+use crate::params::RemeshMode;
+
+/// What a term's plugin may need to know about the rest of the scene.
+#[derive(Clone, Copy, Debug)]
+pub struct TermContext {
+    /// The scene's remeshing mode (the geometric baseline keeps V_in for
+    /// the time step and the relaxation but drops its global force).
+    pub remesh_mode: RemeshMode,
+}
+
+/// A built-in term's parameters as a scene declares them.
+pub trait BuiltinTerm {
+    /// Adds the term (its resources, systems and force term) to `builder`.
+    fn add_to(&self, builder: &mut SimBuilder, context: &TermContext) -> Result<(), BuildError>;
+
+    /// Rescales every length in the parameters to a mesh whose edge length
+    /// is `h` times the scene's (see `Scene::at_resolution`): lengths are
+    /// multiplied by `h`, steepnesses (per length) divided by it. Default:
+    /// nothing depends on the edge length.
+    fn at_resolution(&mut self, h: f64) {
+        let _ = h;
+    }
+}
+
+/// Generates, from the list of built-in terms, the scene's `EnergyTerm`
+/// enum (one variant per term, named as in scenes, plus `Custom(C)` for
+/// plugin terms) with its name, resolution and build dispatch.
+macro_rules! builtin_terms {
+    ($( $(#[$meta:meta])* $variant:ident($params:ty), )*) => {
+        /// One energy term and its parameters, as a scene declares it: a
+        /// built-in term (`Bending(kappa: 20.0)`) or, with `Custom(C)`, a
+        /// plugin term (the scene format's `C` is
+        /// `remembrane::scene::plugin_decl::TermPlugin`).
+        #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub enum EnergyTerm<C> {
+            $( $(#[$meta])* $variant($params), )*
+            /// A plugin term from the registry: `Custom(name: "...", params: (...))`.
+            Custom(C),
+        }
+
+        impl<C> EnergyTerm<C> {
+            /// The variant's name as written in scenes.
+            pub fn kind(&self) -> &'static str {
+                match self {
+                    $( EnergyTerm::$variant(_) => stringify!($variant), )*
+                    EnergyTerm::Custom(_) => "Custom",
+                }
+            }
+
+            /// The built-in term's parameters at edge length `h`
+            /// ([`BuiltinTerm::at_resolution`](crate::energy::builtin::BuiltinTerm::at_resolution)); a plugin term is unchanged.
+            pub fn at_resolution(&mut self, h: f64) {
+                match self {
+                    $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::at_resolution(p, h), )*
+                    EnergyTerm::Custom(_) => {}
+                }
+            }
+
+            /// Adds the term to `builder`: a built-in term through its
+            /// [`BuiltinTerm::add_to`](crate::energy::builtin::BuiltinTerm::add_to), a plugin term through `custom`.
+            pub fn add_to(
+                &self,
+                builder: &mut $crate::engine::simulation::SimBuilder,
+                context: &$crate::energy::builtin::TermContext,
+                custom: impl FnOnce(&C, &mut $crate::engine::simulation::SimBuilder)
+                    -> Result<(), $crate::engine::error::BuildError>,
+            ) -> Result<(), $crate::engine::error::BuildError> {
+                match self {
+                    $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::add_to(p, builder, context), )*
+                    EnergyTerm::Custom(c) => custom(c, builder),
+                }
+            }
+        }
+    };
+}
+pub(crate) use builtin_terms;
