@@ -280,6 +280,16 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
         .collect()
 }
 
+/// A chart's drawing error as text.
+fn drawing_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> String {
+    e.to_string()
+}
+
+/// The chart `draw_series` draws on, with x and y axes `X` and `Y`.
+type Plot<'a, 'b, X, Y> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<X, Y>>;
+
+/// Draws `spec` on `root` with axes `x` and `y`: the axes, every series,
+/// and the legend if a series is named.
 fn draw_series<X, Y>(
     root: &DrawingArea<BitMapBackend<'_>, Shift>,
     spec: &Chart,
@@ -292,16 +302,32 @@ where
     X::CoordDescType: ValueFormatter<f64>,
     Y::CoordDescType: ValueFormatter<f64>,
 {
-    let err = |e: DrawingAreaErrorKind<_>| e.to_string();
-    let log_x = spec.x_scale == Scale::Log;
-    let log_y = spec.y_scale == Scale::Log;
     let mut chart = ChartBuilder::on(root)
         .caption(&spec.title, (FONT, 22))
         .margin(12)
         .x_label_area_size(48)
         .y_label_area_size(78)
         .build_cartesian_2d(x, y)
-        .map_err(err)?;
+        .map_err(drawing_error)?;
+    draw_axes(&mut chart, spec)?;
+    let mut named = false;
+    for s in &spec.series {
+        named |= draw_one_series(&mut chart, spec, s)?;
+    }
+    if named {
+        draw_legend(&mut chart, spec.legend)?;
+    }
+    Ok(())
+}
+
+/// Draws the axes of `spec`'s chart: their labels, ticks and grid.
+fn draw_axes<X, Y>(chart: &mut Plot<'_, '_, X, Y>, spec: &Chart) -> Result<(), String>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let log_x = spec.x_scale == Scale::Log;
+    let log_y = spec.y_scale == Scale::Log;
     chart
         .configure_mesh()
         .x_desc(spec.x_label.as_str())
@@ -321,84 +347,122 @@ where
         })
         .bold_line_style(RGBColor(210, 210, 210))
         .draw()
-        .map_err(err)?;
+        .map_err(drawing_error)
+}
+
+/// Draws one series of `spec`'s chart (its lines, error bars and markers,
+/// over the points its axes show); returns whether it got a legend entry.
+fn draw_one_series<X, Y>(
+    chart: &mut Plot<'_, '_, X, Y>,
+    spec: &Chart,
+    s: &Series,
+) -> Result<bool, String>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let log_x = spec.x_scale == Scale::Log;
+    let log_y = spec.y_scale == Scale::Log;
     let shown = |p: &(f64, f64)| {
         p.0.is_finite() && p.1.is_finite() && (!log_x || p.0 > 0.0) && (!log_y || p.1 > 0.0)
     };
-    let mut named = false;
-    for s in &spec.series {
-        let color = COLORS[s.color % COLORS.len()];
-        let points: Vec<(usize, (f64, f64))> = s
-            .points
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|(_, p)| shown(p))
-            .collect();
-        let legend_marker = |c: RGBColor| {
-            move |(x, y): (i32, i32)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled())
-        };
-        let mut labelled = false;
-        if s.lines {
-            let line = chart
-                .draw_series(LineSeries::new(
-                    points.iter().map(|&(_, p)| p),
-                    color.stroke_width(2),
-                ))
-                .map_err(err)?;
-            if !s.name.is_empty() {
-                line.label(s.name.as_str()).legend(legend_marker(color));
-                labelled = true;
-            }
+    let color = COLORS[s.color % COLORS.len()];
+    let points: Vec<(usize, (f64, f64))> = s
+        .points
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, p)| shown(p))
+        .collect();
+    let legend_marker = |c: RGBColor| {
+        move |(x, y): (i32, i32)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled())
+    };
+    let mut labelled = false;
+    if s.lines {
+        let line = chart
+            .draw_series(LineSeries::new(
+                points.iter().map(|&(_, p)| p),
+                color.stroke_width(2),
+            ))
+            .map_err(drawing_error)?;
+        if !s.name.is_empty() {
+            line.label(s.name.as_str()).legend(legend_marker(color));
+            labelled = true;
         }
-        for &(k, (px, py)) in &points {
-            let Some(&e) = s.errors.get(k).filter(|e| e.is_finite() && **e > 0.0) else {
-                continue;
-            };
-            let lo = if log_y && py - e <= 0.0 {
-                py / 10.0
-            } else {
-                py - e
-            };
-            chart
-                .draw_series(std::iter::once(PathElement::new(
-                    vec![(px, lo), (px, py + e)],
-                    color.stroke_width(2),
-                )))
-                .map_err(err)?;
-        }
-        if s.markers {
-            let coords = points.iter().map(|&(_, p)| p);
-            let drawn = match s.marker {
-                Marker::Circle => chart
-                    .draw_series(coords.map(|p| Circle::new(p, 4, color.filled())))
-                    .map_err(err)?,
-                Marker::Triangle => chart
-                    .draw_series(coords.map(|p| TriangleMarker::new(p, 6, color.filled())))
-                    .map_err(err)?,
-            };
-            if !labelled && !s.name.is_empty() {
-                drawn.label(s.name.as_str()).legend(legend_marker(color));
-                labelled = true;
-            }
-        }
-        named |= labelled;
     }
-    if named {
+    draw_error_bars(chart, s, &points, color, log_y)?;
+    if s.markers {
+        let coords = points.iter().map(|&(_, p)| p);
+        let drawn = match s.marker {
+            Marker::Circle => chart
+                .draw_series(coords.map(|p| Circle::new(p, 4, color.filled())))
+                .map_err(drawing_error)?,
+            Marker::Triangle => chart
+                .draw_series(coords.map(|p| TriangleMarker::new(p, 6, color.filled())))
+                .map_err(drawing_error)?,
+        };
+        if !labelled && !s.name.is_empty() {
+            drawn.label(s.name.as_str()).legend(legend_marker(color));
+            labelled = true;
+        }
+    }
+    Ok(labelled)
+}
+
+/// Draws the error bars of series `s` at its shown `points` (index into
+/// `s.points`, point); on a log y axis a bar reaching zero stops at a
+/// tenth of the point.
+fn draw_error_bars<X, Y>(
+    chart: &mut Plot<'_, '_, X, Y>,
+    s: &Series,
+    points: &[(usize, (f64, f64))],
+    color: RGBColor,
+    log_y: bool,
+) -> Result<(), String>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    for &(k, (px, py)) in points {
+        let Some(&e) = s.errors.get(k).filter(|e| e.is_finite() && **e > 0.0) else {
+            continue;
+        };
+        let lo = if log_y && py - e <= 0.0 {
+            py / 10.0
+        } else {
+            py - e
+        };
         chart
-            .configure_series_labels()
-            .position(match spec.legend {
-                Legend::UpperRight => SeriesLabelPosition::UpperRight,
-                Legend::LowerRight => SeriesLabelPosition::LowerRight,
-                Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
-            })
-            .label_font((FONT, 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(px, lo), (px, py + e)],
+                color.stroke_width(2),
+            )))
+            .map_err(drawing_error)?;
     }
     Ok(())
+}
+
+/// Draws the legend of the named series at `legend`.
+fn draw_legend<'a, 'b: 'a, X, Y>(
+    chart: &mut Plot<'a, 'b, X, Y>,
+    legend: Legend,
+) -> Result<(), String>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    chart
+        .configure_series_labels()
+        .position(match legend {
+            Legend::UpperRight => SeriesLabelPosition::UpperRight,
+            Legend::LowerRight => SeriesLabelPosition::LowerRight,
+            Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+        })
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(drawing_error)
 }
 
 /// PNG bytes of bar panels side by side: one bar per label, its value

@@ -20,6 +20,8 @@
 //! and the world is unchanged. A successful edit updates the topology
 //! cache for its patch only ([`crate::mesh::topology_update`]).
 
+mod check;
+
 use crate::mesh::ValenceRange;
 use crate::mesh::components::{Edge, Face, Force, Position};
 use crate::mesh::membrane::Membrane;
@@ -95,19 +97,6 @@ pub enum EditError {
 /// A face entity with its vertex entities.
 type FaceRef = (Entity, [Entity; 3]);
 
-/// The faces of a patch before and after an edit.
-struct PatchFans {
-    /// The vertex triples of the faces to remove, in `remove_faces` order.
-    removed_triples: Vec<[Entity; 3]>,
-    /// Every vertex of a removed or added face, in first-seen order.
-    affected: Vec<Entity>,
-    /// Faces around the affected vertices after the edit:
-    /// `after[fans[i].0..fans[i].1]` are `affected[i]`'s.
-    after: Vec<[Entity; 3]>,
-    /// Ranges into `after`, one per affected vertex.
-    fans: Vec<(usize, usize)>,
-}
-
 /// Result of a successful edit.
 #[derive(Clone, Debug, Default)]
 pub struct EditOutcome {
@@ -123,53 +112,6 @@ impl Membrane {
     /// Reserves an entity for a vertex that a [`PatchEdit`] will add.
     pub fn reserve_vertex(&self) -> Entity {
         self.world.reserve_entity()
-    }
-
-    /// Checks `edit` against the current topology and geometry; the world is
-    /// not changed. Returns the valence of every affected vertex after the
-    /// edit.
-    pub fn check_patch(
-        &self,
-        edit: &PatchEdit,
-        valence: ValenceRange,
-    ) -> Result<HashMap<Entity, usize>, EditError> {
-        self.collect_valences(edit, valence, true)
-    }
-
-    /// [`Membrane::check_patch`] without the geometric checks (degenerate or
-    /// folded faces): whether the edit is valid as a triangulation with
-    /// valences in range, wherever the vertices are. Positions of added or
-    /// moved vertices are ignored.
-    pub fn check_patch_topology(
-        &self,
-        edit: &PatchEdit,
-        valence: ValenceRange,
-    ) -> Result<HashMap<Entity, usize>, EditError> {
-        self.collect_valences(edit, valence, false)
-    }
-
-    /// The checks of [`Membrane::check_patch`] (with `geometry`) or
-    /// [`Membrane::check_patch_topology`], without collecting the valences.
-    pub(crate) fn validate_patch(
-        &self,
-        edit: &PatchEdit,
-        valence: ValenceRange,
-        geometry: bool,
-    ) -> Result<(), EditError> {
-        self.check_patch_with(edit, valence, geometry, |_, _| {})
-    }
-
-    fn collect_valences(
-        &self,
-        edit: &PatchEdit,
-        valence: ValenceRange,
-        geometry: bool,
-    ) -> Result<HashMap<Entity, usize>, EditError> {
-        let mut valences = HashMap::default();
-        self.check_patch_with(edit, valence, geometry, |v, n| {
-            valences.insert(v, n);
-        })?;
-        Ok(valences)
     }
 
     /// The valence of every affected vertex after `edit`, without checking
@@ -189,212 +131,6 @@ impl Membrane {
             },
         );
         Some(valences)
-    }
-
-    /// The vertex triples of `edit`'s faces to remove, in order; fails if
-    /// one is not a live face.
-    fn removed_triples(&self, edit: &PatchEdit) -> Result<Vec<[Entity; 3]>, EditError> {
-        let t = self.cached_topology();
-        edit.remove_faces
-            .iter()
-            .map(|&f| {
-                let slot = t.face_slot(f).ok_or(EditError::UnknownFace(f))?;
-                Ok(t.faces[slot as usize].map(|s| t.vertex_entities[s as usize]))
-            })
-            .collect()
-    }
-
-    /// The faces of `edit`'s patch: fails only if a face to remove is not
-    /// live. A patch touches a few dozen entities, so these are small
-    /// vectors searched linearly, not hash sets (the checks run for every
-    /// candidate triangulation of every remesh event).
-    fn patch_fans(&self, edit: &PatchEdit) -> Result<PatchFans, EditError> {
-        let t = self.cached_topology();
-        let removed = &edit.remove_faces;
-        let removed_triples = self.removed_triples(edit)?;
-        let affected = affected_vertices(&removed_triples, &edit.add_faces);
-        let mut after: Vec<[Entity; 3]> = Vec::with_capacity(8 * affected.len());
-        let mut fans: Vec<(usize, usize)> = Vec::with_capacity(affected.len());
-        for &v in &affected {
-            let start = after.len();
-            if let Some(slot) = t.vertex_slot(v) {
-                for &f in t.ring_faces_of(slot as usize) {
-                    if !removed.contains(&t.face_entities[f as usize]) {
-                        after.push(t.faces[f as usize].map(|s| t.vertex_entities[s as usize]));
-                    }
-                }
-            }
-            after.extend(edit.add_faces.iter().filter(|f| f.contains(&v)).copied());
-            fans.push((start, after.len()));
-        }
-        Ok(PatchFans {
-            removed_triples,
-            affected,
-            after,
-            fans,
-        })
-    }
-
-    /// Checks `edit` (the geometric checks only with `geometry`), calling
-    /// `valence_of(v, valence)` for every affected vertex that stays.
-    fn check_patch_with(
-        &self,
-        edit: &PatchEdit,
-        valence: ValenceRange,
-        geometry: bool,
-        mut valence_of: impl FnMut(Entity, usize),
-    ) -> Result<(), EditError> {
-        let PatchFans {
-            removed_triples,
-            affected,
-            after,
-            fans,
-        } = self.patch_fans(edit)?;
-        if let Some(f) = edit
-            .add_faces
-            .iter()
-            .find(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2])
-        {
-            return Err(EditError::DegenerateFace(*f));
-        }
-        // World positions of the affected vertices, looked up once.
-        let world_position: Vec<Option<DVec3>> = affected
-            .iter()
-            .map(|&v| self.world.get::<&Position>(v).map(|p| p.0).ok())
-            .collect();
-        let world_at = |v: Entity| {
-            affected
-                .iter()
-                .position(|&a| a == v)
-                .and_then(|i| world_position[i])
-        };
-        // Geometry of the new faces: not degenerate, not folded over
-        // against the area-weighted normal of the faces they replace.
-        let position = |v: Entity| -> DVec3 {
-            if let Some(&(_, p)) = edit.move_vertices.iter().find(|(e, _)| *e == v) {
-                return p;
-            }
-            if let Some(&(_, p)) = edit.add_vertices.iter().find(|(e, _)| *e == v) {
-                return p;
-            }
-            world_at(v).unwrap_or(DVec3::NAN)
-        };
-        let normal = |f: &[Entity; 3]| {
-            let [a, b, c] = f.map(&position);
-            ((b - a).cross(c - a), [a, b, c])
-        };
-        let patch_normal: DVec3 = removed_triples
-            .iter()
-            .map(|f| {
-                let [a, b, c] = f.map(|v| world_at(v).unwrap_or(DVec3::ZERO));
-                (b - a).cross(c - a)
-            })
-            .sum();
-        for f in edit.add_faces.iter().filter(|_| geometry) {
-            let (n, [a, b, c]) = normal(f);
-            let longest = a
-                .distance_squared(b)
-                .max(b.distance_squared(c))
-                .max(c.distance_squared(a));
-            let shape = n.length() / longest;
-            if shape.is_nan() || shape < MIN_FACE_SHAPE {
-                return Err(EditError::DegenerateGeometry(*f));
-            }
-            if removed_triples
-                .iter()
-                .any(|t| t.iter().all(|v| f.contains(v)))
-            {
-                continue; // an unchanged face
-            }
-            if patch_normal.length_squared() > 0.0 && n.dot(patch_normal) <= 0.0 {
-                return Err(EditError::FoldOver(*f));
-            }
-        }
-        let removing = &edit.remove_vertices;
-        let fan_of = |x: Entity| {
-            let i = affected.iter().position(|&a| a == x).expect("affected");
-            &after[fans[i].0..fans[i].1]
-        };
-        let mut link: Vec<(Entity, Entity)> = Vec::with_capacity(16);
-        for &v in &affected {
-            let faces = fan_of(v);
-            if removing.contains(&v) {
-                if !faces.is_empty() {
-                    return Err(EditError::VertexStillUsed(v));
-                }
-                continue;
-            }
-            // Link of v: for face (v, a, b) the step a → b; one closed cycle.
-            link.clear();
-            for f in faces {
-                let k = f.iter().position(|&x| x == v).expect("face contains v");
-                let (from, to) = (f[(k + 1) % 3], f[(k + 2) % 3]);
-                if link.iter().any(|&(a, _)| a == from) {
-                    return Err(EditError::BrokenFan(v));
-                }
-                link.push((from, to));
-            }
-            let Some(&(start, _)) = link.first() else {
-                return Err(EditError::BrokenFan(v));
-            };
-            // The walk closes after |faces| steps from any start iff the
-            // link is one cycle through every face.
-            let mut cur = start;
-            let mut steps = 0;
-            loop {
-                cur = link
-                    .iter()
-                    .find(|&&(a, _)| a == cur)
-                    .map(|&(_, b)| b)
-                    .ok_or(EditError::BrokenFan(v))?;
-                steps += 1;
-                if cur == start || steps > faces.len() {
-                    break;
-                }
-            }
-            if cur != start || steps != faces.len() {
-                return Err(EditError::BrokenFan(v));
-            }
-            if steps < valence.min as usize || steps > valence.max as usize {
-                return Err(EditError::Valence {
-                    vertex: v,
-                    valence: steps,
-                });
-            }
-            valence_of(v, steps);
-        }
-        // Each affected edge: exactly one face per direction.
-        for tri in removed_triples.iter().chain(&edit.add_faces) {
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                if removing.contains(&a) || removing.contains(&b) {
-                    continue;
-                }
-                // Faces traversing x → y: in x's fan, y follows x.
-                let count = |x: Entity, y: Entity| {
-                    fan_of(x)
-                        .iter()
-                        .filter(|f| {
-                            let k = f.iter().position(|&w| w == x).expect("face contains x");
-                            f[(k + 1) % 3] == y
-                        })
-                        .count()
-                };
-                let (forward, backward) = (count(a, b), count(b, a));
-                if forward + backward == 0 {
-                    continue; // the edge disappears
-                }
-                if forward != 1 || backward != 1 {
-                    return Err(EditError::EdgeFaces {
-                        a,
-                        b,
-                        forward,
-                        backward,
-                    });
-                }
-            }
-        }
-        Ok(())
     }
 
     /// Checks `edit` and, if valid, applies it to the world (see the module
@@ -423,32 +159,60 @@ impl Membrane {
             self.validate_patch(edit, valence, true).is_ok(),
             "an edit applied as checked fails its check"
         );
+        let (keys, edge_entity) = self.patch_edges(edit);
+        let new_face_entities: Vec<Entity> = edit
+            .add_faces
+            .iter()
+            .map(|_| self.world.reserve_entity())
+            .collect();
+        let faces_after = self.faces_after_by_edge(edit, &keys, &new_face_entities);
+
+        // Act, recording each change for the topology update.
+        let mut changes =
+            Vec::with_capacity(2 * (edit.remove_faces.len() + edit.add_faces.len()) + keys.len());
+        for &f in &edit.remove_faces {
+            if self.world.despawn(f).is_ok() {
+                changes.push(WorldChange::DespawnFace(f));
+            }
+        }
+        self.spawn_added_vertices(edit, &mut changes);
+        let mut outcome = EditOutcome {
+            faces: new_face_entities.clone(),
+            ..Default::default()
+        };
+        let final_edge = self.write_patch_edges(
+            &keys,
+            &edge_entity,
+            &faces_after,
+            &mut outcome,
+            &mut changes,
+        );
+        self.spawn_added_faces(edit, &new_face_entities, &final_edge, &mut changes);
+        for &v in &edit.remove_vertices {
+            if self.world.despawn(v).is_ok() {
+                changes.push(WorldChange::DespawnVertex(v));
+            }
+        }
+        for &(v, p) in &edit.move_vertices {
+            if let Ok(mut pos) = self.world.get::<&mut Position>(v) {
+                pos.0 = p;
+            }
+        }
+        self.update_topology(&changes)
+            .expect("a checked edit keeps the topology valid");
+        outcome
+    }
+
+    /// The affected undirected edges of `edit` (every edge of a removed or
+    /// added face, in first-seen order) and the current entities of those
+    /// that exist.
+    fn patch_edges(&self, edit: &PatchEdit) -> (Vec<EdgeKey>, EdgeMap) {
         let t = self.cached_topology();
-        // Affected undirected edges and their current entities.
-        let key = |a: Entity, b: Entity| {
-            if a.to_bits() < b.to_bits() {
-                (a, b)
-            } else {
-                (b, a)
-            }
-        };
-        // Small maps of the patch, searched linearly (see `check_patch_with`).
-        let mut edge_entity: Vec<((Entity, Entity), Entity)> = Vec::with_capacity(16);
-        let set_edge = |map: &mut Vec<((Entity, Entity), Entity)>,
-                        k: (Entity, Entity),
-                        e: Entity| {
-            match map.iter_mut().find(|(key, _)| *key == k) {
-                Some(entry) => entry.1 = e,
-                None => map.push((k, e)),
-            }
-        };
-        let get_edge = |map: &[((Entity, Entity), Entity)], k: (Entity, Entity)| {
-            map.iter().find(|(key, _)| *key == k).map(|&(_, e)| e)
-        };
+        let mut edge_entity = EdgeMap::with_capacity(16);
         // Room for a patch's edges: 17 to 21 for a split, as many for a merge.
-        let mut keys: Vec<(Entity, Entity)> = Vec::with_capacity(32);
-        let note = |a: Entity, b: Entity, keys: &mut Vec<(Entity, Entity)>| {
-            let k = key(a, b);
+        let mut keys: Vec<EdgeKey> = Vec::with_capacity(32);
+        let note = |a: Entity, b: Entity, keys: &mut Vec<EdgeKey>| {
+            let k = edge_key(a, b);
             if !keys.contains(&k) {
                 keys.push(k);
             }
@@ -458,7 +222,7 @@ impl Membrane {
             let tri = t.faces[s].map(|v| t.vertex_entities[v as usize]);
             for m in 0..3 {
                 let e = t.edge_entities[t.face_edges[s][m] as usize];
-                set_edge(&mut edge_entity, key(tri[m], tri[(m + 1) % 3]), e);
+                edge_entity.set(edge_key(tri[m], tri[(m + 1) % 3]), e);
                 note(tri[m], tri[(m + 1) % 3], &mut keys);
             }
         }
@@ -470,26 +234,30 @@ impl Membrane {
         // Existing edges between affected vertices that no removed face
         // touches (e.g. an edge that a new face reuses).
         for &(a, b) in &keys {
-            if get_edge(&edge_entity, (a, b)).is_some() {
+            if edge_entity.get((a, b)).is_some() {
                 continue;
             }
             let slots = t.vertex_slot(a).zip(t.vertex_slot(b));
             if let Some(e) = slots.and_then(|(sa, sb)| t.edge_between(sa, sb)) {
-                set_edge(&mut edge_entity, (a, b), t.edge_entities[e as usize]);
+                edge_entity.set((a, b), t.edge_entities[e as usize]);
             }
         }
-        // Faces after the edit, per affected edge key.
+        (keys, edge_entity)
+    }
+
+    /// The faces of each edge of `keys` after `edit`, whose new faces get
+    /// `new_face_entities`.
+    fn faces_after_by_edge(
+        &self,
+        edit: &PatchEdit,
+        keys: &[EdgeKey],
+        new_face_entities: &[Entity],
+    ) -> EdgeFaces {
+        let t = self.cached_topology();
         let removed = &edit.remove_faces;
-        let new_face_entities: Vec<Entity> = edit
-            .add_faces
-            .iter()
-            .map(|_| self.world.reserve_entity())
-            .collect();
-        // faces_after[ranges[i].0..ranges[i].1]: the faces of edge keys[i]
-        // after the edit.
         let mut faces_after: Vec<FaceRef> = Vec::with_capacity(2 * keys.len());
         let mut ranges: Vec<(usize, usize)> = Vec::with_capacity(keys.len());
-        for &(a, b) in &keys {
+        for &(a, b) in keys {
             let start = faces_after.len();
             if let Some(slot) = t.vertex_slot(a) {
                 for &f in t.ring_faces_of(slot as usize) {
@@ -507,18 +275,17 @@ impl Membrane {
             }
             ranges.push((start, faces_after.len()));
         }
-
-        // Act, recording each change for the topology update.
-        let mut changes =
-            Vec::with_capacity(2 * (edit.remove_faces.len() + edit.add_faces.len()) + keys.len());
-        for &f in &edit.remove_faces {
-            if self.world.despawn(f).is_ok() {
-                changes.push(WorldChange::DespawnFace(f));
-            }
+        EdgeFaces {
+            faces: faces_after,
+            ranges,
         }
+    }
+
+    /// Spawns `edit`'s new vertices, each with every registered per-vertex
+    /// field's component in one spawn (values are set by the fields'
+    /// transfer policies afterwards).
+    fn spawn_added_vertices(&mut self, edit: &PatchEdit, changes: &mut Vec<WorldChange>) {
         for &(v, p) in &edit.add_vertices {
-            // Every registered per-vertex field's component, in one spawn
-            // (values are set by the fields' transfer policies afterwards).
             let mut vertex = hecs::EntityBuilder::new();
             vertex.add(Position(p)).add(Force::default());
             for field in self.fields() {
@@ -527,14 +294,24 @@ impl Membrane {
             self.world.spawn_at(v, vertex.build());
             changes.push(WorldChange::SpawnVertex(v));
         }
-        let mut outcome = EditOutcome {
-            faces: new_face_entities.clone(),
-            ..Default::default()
-        };
-        let mut final_edge: Vec<((Entity, Entity), Entity)> = Vec::with_capacity(keys.len());
-        for (&(a, b), &(start, end)) in keys.iter().zip(&ranges) {
-            let list = &faces_after[start..end];
-            let existing = get_edge(&edge_entity, (a, b));
+    }
+
+    /// Gives every edge of `keys` its faces after the edit (`faces_after`):
+    /// an edge left without faces is despawned, an existing one (in
+    /// `existing`) is rewritten, a new one is spawned. Returns the edge
+    /// entities after the edit.
+    fn write_patch_edges(
+        &mut self,
+        keys: &[EdgeKey],
+        existing: &EdgeMap,
+        faces_after: &EdgeFaces,
+        outcome: &mut EditOutcome,
+        changes: &mut Vec<WorldChange>,
+    ) -> EdgeMap {
+        let mut final_edge = EdgeMap::with_capacity(keys.len());
+        for (&(a, b), &(start, end)) in keys.iter().zip(&faces_after.ranges) {
+            let list = &faces_after.faces[start..end];
+            let existing = existing.get((a, b));
             if list.is_empty() {
                 if let Some(e) = existing
                     && self.world.despawn(e).is_ok()
@@ -544,18 +321,9 @@ impl Membrane {
                 }
                 continue;
             }
-            let left = list
-                .iter()
-                .find(|(_, f)| (0..3).any(|m| f[m] == a && f[(m + 1) % 3] == b));
-            let right = list
-                .iter()
-                .find(|(_, f)| (0..3).any(|m| f[m] == b && f[(m + 1) % 3] == a));
-            let (Some(left), Some(right)) = (left, right) else {
-                unreachable!("checked: one face per side");
-            };
             let edge = Edge {
                 vertices: [a, b],
-                faces: [left.0, right.0],
+                faces: edge_sides(a, b, list),
             };
             let e = match existing {
                 Some(e) => {
@@ -572,35 +340,99 @@ impl Membrane {
                     e
                 }
             };
-            set_edge(&mut final_edge, (a, b), e);
+            final_edge.set((a, b), e);
         }
+        final_edge
+    }
+
+    /// Spawns `edit`'s new faces as `new_face_entities`, with their edges
+    /// from `edges` (the edge entities after the edit).
+    fn spawn_added_faces(
+        &mut self,
+        edit: &PatchEdit,
+        new_face_entities: &[Entity],
+        edges: &EdgeMap,
+        changes: &mut Vec<WorldChange>,
+    ) {
         for (i, tri) in edit.add_faces.iter().enumerate() {
-            let edges = [0, 1, 2].map(|m| {
-                get_edge(&final_edge, key(tri[m], tri[(m + 1) % 3])).expect("an edge of a new face")
+            let face_edges = [0, 1, 2].map(|m| {
+                edges
+                    .get(edge_key(tri[m], tri[(m + 1) % 3]))
+                    .expect("an edge of a new face")
             });
             self.world.spawn_at(
                 new_face_entities[i],
                 (Face {
                     vertices: *tri,
-                    edges,
+                    edges: face_edges,
                 },),
             );
             changes.push(WorldChange::SpawnFace(new_face_entities[i]));
         }
-        for &v in &edit.remove_vertices {
-            if self.world.despawn(v).is_ok() {
-                changes.push(WorldChange::DespawnVertex(v));
-            }
-        }
-        for &(v, p) in &edit.move_vertices {
-            if let Ok(mut pos) = self.world.get::<&mut Position>(v) {
-                pos.0 = p;
-            }
-        }
-        self.update_topology(&changes)
-            .expect("a checked edit keeps the topology valid");
-        outcome
     }
+}
+
+/// An undirected edge as its two vertex entities, in `edge_key` order.
+type EdgeKey = (Entity, Entity);
+
+/// The key of the undirected edge `a`-`b`: the smaller entity first.
+#[inline]
+fn edge_key(a: Entity, b: Entity) -> EdgeKey {
+    if a.to_bits() < b.to_bits() {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// A small map of a patch's edges to their entities, searched linearly
+/// (see the `check` module).
+struct EdgeMap(Vec<(EdgeKey, Entity)>);
+
+impl EdgeMap {
+    /// An empty map with room for `n` edges.
+    fn with_capacity(n: usize) -> Self {
+        Self(Vec::with_capacity(n))
+    }
+
+    /// Sets the entity of edge `k`.
+    #[inline]
+    fn set(&mut self, k: EdgeKey, e: Entity) {
+        match self.0.iter_mut().find(|(key, _)| *key == k) {
+            Some(entry) => entry.1 = e,
+            None => self.0.push((k, e)),
+        }
+    }
+
+    /// The entity of edge `k`, if set.
+    #[inline]
+    fn get(&self, k: EdgeKey) -> Option<Entity> {
+        self.0.iter().find(|(key, _)| *key == k).map(|&(_, e)| e)
+    }
+}
+
+/// The faces of a patch's edges after an edit.
+struct EdgeFaces {
+    /// `faces[ranges[i].0..ranges[i].1]` are the faces of the `i`-th edge.
+    faces: Vec<FaceRef>,
+    /// Ranges into `faces`, one per edge.
+    ranges: Vec<(usize, usize)>,
+}
+
+/// The faces on the two sides of edge `a`-`b` among its faces after the
+/// edit (`list`): the one traversing a → b, then the one traversing b → a.
+#[inline]
+fn edge_sides(a: Entity, b: Entity, list: &[FaceRef]) -> [Entity; 2] {
+    let left = list
+        .iter()
+        .find(|(_, f)| (0..3).any(|m| f[m] == a && f[(m + 1) % 3] == b));
+    let right = list
+        .iter()
+        .find(|(_, f)| (0..3).any(|m| f[m] == b && f[(m + 1) % 3] == a));
+    let (Some(left), Some(right)) = (left, right) else {
+        unreachable!("checked: one face per side");
+    };
+    [left.0, right.0]
 }
 
 /// How many of its faces each vertex keeps when a set of faces is removed:
@@ -675,16 +507,4 @@ fn kept_count(m: &Membrane, s: u32, remove_faces: &[Entity]) -> usize {
         .iter()
         .filter(|&&f| !remove_faces.contains(&t.face_entities[f as usize]))
         .count()
-}
-
-/// Every vertex of the removed and the added faces, once each, in
-/// first-seen order (removed faces first).
-fn affected_vertices(removed: &[[Entity; 3]], added: &[[Entity; 3]]) -> Vec<Entity> {
-    let mut affected: Vec<Entity> = Vec::with_capacity(2 * removed.len() + 4);
-    for &v in removed.iter().chain(added).flatten() {
-        if !affected.contains(&v) {
-            affected.push(v);
-        }
-    }
-    affected
 }

@@ -73,6 +73,19 @@ fn rename(slots: &mut [u32], from: u32, to: u32) {
     }
 }
 
+/// What an edit rewired, read from the cache before the edit.
+struct Rewired {
+    /// The faces it adds, with their components.
+    added_faces: Vec<(Entity, Face)>,
+    /// The edges it spawns or refreshes.
+    edge_dirty: Vec<Entity>,
+    /// The faces around each corner of a removed or added face after the
+    /// edit: `fan_faces[fans[i].1..fans[i].2]` for corner `fans[i].0`.
+    fan_faces: Vec<Entity>,
+    /// One entry per corner, in first-seen order.
+    fans: Vec<(Entity, usize, usize)>,
+}
+
 impl Topology {
     /// Updates the cache for the world after `changes` (see the module
     /// docs), setting `epoch`. On error the cache is unusable and the caller
@@ -83,21 +96,33 @@ impl Topology {
         changes: &[WorldChange],
         epoch: u64,
     ) -> Result<(), UpdateError> {
-        let face_of = |f: Entity| -> Result<Face, UpdateError> {
-            world
-                .get::<&Face>(f)
-                .map(|c| *c)
-                .map_err(|_| UpdateError::Unknown(f))
-        };
-        let edge_of = |e: Entity| -> Result<Edge, UpdateError> {
-            world
-                .get::<&Edge>(e)
-                .map(|c| *c)
-                .map_err(|_| UpdateError::Unknown(e))
-        };
-        // 1. What the edit rewired, read from the unchanged cache: the
-        // faces it removes and adds, the edges it spawns or refreshes, and
-        // the corners of those faces, whose rings change.
+        // 1. What the edit rewired, read from the unchanged cache.
+        let rewired = self.rewired(world, changes)?;
+        // 2. Replay the moves on the dense arrays.
+        for &c in changes {
+            match c {
+                WorldChange::DespawnFace(e) => self.remove_slot(Kind::Face, e)?,
+                WorldChange::SpawnFace(e) => self.push_slot(Kind::Face, e),
+                WorldChange::SpawnVertex(e) => self.push_slot(Kind::Vertex, e),
+                WorldChange::DespawnVertex(e) => self.remove_slot(Kind::Vertex, e)?,
+                WorldChange::SpawnEdge(e) => self.push_slot(Kind::Edge, e),
+                WorldChange::DespawnEdge(e) => self.remove_slot(Kind::Edge, e)?,
+                WorldChange::UpdateEdge(_) => {}
+            }
+        }
+        // 3. Recompute what the edit rewired.
+        self.recompute_faces(&rewired.added_faces)?;
+        self.recompute_edges(world, &rewired.edge_dirty)?;
+        self.recompute_rings(&rewired.fan_faces, &rewired.fans)?;
+        self.epoch = epoch;
+        Ok(())
+    }
+
+    /// Step 1 of [`Topology::apply_edit`], on the cache before the edit: the
+    /// faces the edit removes and adds, the edges it spawns or refreshes,
+    /// and the corners of those faces (whose rings change) with their faces
+    /// after the edit.
+    fn rewired(&self, world: &World, changes: &[WorldChange]) -> Result<Rewired, UpdateError> {
         let mut removed_faces = Vec::with_capacity(changes.len());
         let mut added_faces: Vec<(Entity, Face)> = Vec::with_capacity(changes.len());
         let mut edge_dirty: Vec<Entity> = Vec::with_capacity(changes.len());
@@ -112,7 +137,10 @@ impl Topology {
                     }
                 }
                 WorldChange::SpawnFace(f) => {
-                    let face = face_of(f)?;
+                    let face = world
+                        .get::<&Face>(f)
+                        .map(|c| *c)
+                        .map_err(|_| UpdateError::Unknown(f))?;
                     for v in face.vertices {
                         insert(&mut ring_dirty, v);
                     }
@@ -127,7 +155,6 @@ impl Topology {
         // The faces around each of those corners after the edit (entities):
         // its cached ring's faces, less the removed ones, plus the added
         // ones using it. A corner the edit removes gets none.
-        // fan_faces[fans[i].1..fans[i].2] for corner fans[i].0.
         let mut fan_faces: Vec<Entity> = Vec::with_capacity(8 * ring_dirty.len());
         let mut fans: Vec<(Entity, usize, usize)> = Vec::with_capacity(ring_dirty.len());
         for &v in &ring_dirty {
@@ -147,49 +174,71 @@ impl Topology {
             }
             fans.push((v, start, fan_faces.len()));
         }
+        Ok(Rewired {
+            added_faces,
+            edge_dirty,
+            fan_faces,
+            fans,
+        })
+    }
 
-        // 2. Replay the moves on the dense arrays.
-        for &c in changes {
-            match c {
-                WorldChange::DespawnFace(e) => self.remove_slot(Kind::Face, e)?,
-                WorldChange::SpawnFace(e) => self.push_slot(Kind::Face, e),
-                WorldChange::SpawnVertex(e) => self.push_slot(Kind::Vertex, e),
-                WorldChange::DespawnVertex(e) => self.remove_slot(Kind::Vertex, e)?,
-                WorldChange::SpawnEdge(e) => self.push_slot(Kind::Edge, e),
-                WorldChange::DespawnEdge(e) => self.remove_slot(Kind::Edge, e)?,
-                WorldChange::UpdateEdge(_) => {}
-            }
-        }
+    /// The vertex slot of `v`, which the cache must know.
+    #[inline]
+    fn known_vertex_slot(&self, v: Entity) -> Result<u32, UpdateError> {
+        self.vertex_slot(v).ok_or(UpdateError::Unknown(v))
+    }
 
-        // 3. Recompute what the edit rewired.
-        let vertex_slot = |t: &Topology, v: Entity| t.vertex_slot(v).ok_or(UpdateError::Unknown(v));
-        for &(f, face) in &added_faces {
+    /// Step 3 of [`Topology::apply_edit`] for the added faces: their
+    /// corners' and edges' slots.
+    fn recompute_faces(&mut self, added_faces: &[(Entity, Face)]) -> Result<(), UpdateError> {
+        for &(f, face) in added_faces {
             let Some(s) = self.face_slot(f) else {
                 continue;
             };
             let mut corners = [0u32; 3];
             let mut face_edges = [0u32; 3];
             for k in 0..3 {
-                corners[k] = vertex_slot(self, face.vertices[k])?;
+                corners[k] = self.known_vertex_slot(face.vertices[k])?;
                 let e = face.edges[k];
                 face_edges[k] = self.edge_slot(e).ok_or(UpdateError::Unknown(e))?;
             }
             self.faces[s as usize] = corners;
             self.face_edges[s as usize] = face_edges;
         }
-        for &e in &edge_dirty {
+        Ok(())
+    }
+
+    /// Step 3 of [`Topology::apply_edit`] for the spawned and refreshed
+    /// edges (`edge_dirty`): their vertices' and faces' slots, read from
+    /// `world`.
+    fn recompute_edges(&mut self, world: &World, edge_dirty: &[Entity]) -> Result<(), UpdateError> {
+        for &e in edge_dirty {
             let Some(s) = self.edge_slot(e) else {
                 continue;
             };
-            let edge = edge_of(e)?;
+            let edge = world
+                .get::<&Edge>(e)
+                .map(|c| *c)
+                .map_err(|_| UpdateError::Unknown(e))?;
             self.edges[s as usize] = [
-                vertex_slot(self, edge.vertices[0])?,
-                vertex_slot(self, edge.vertices[1])?,
+                self.known_vertex_slot(edge.vertices[0])?,
+                self.known_vertex_slot(edge.vertices[1])?,
             ];
             self.edge_faces[s as usize] = edge.faces.map(|f| self.face_slot(f).unwrap_or(NO_SLOT));
         }
+        Ok(())
+    }
+
+    /// Step 3 of [`Topology::apply_edit`] for the rings of the corners of
+    /// removed and added faces that stay: each corner's faces after the
+    /// edit (`fan_faces`, ranges `fans`), as sorted slots.
+    fn recompute_rings(
+        &mut self,
+        fan_faces: &[Entity],
+        fans: &[(Entity, usize, usize)],
+    ) -> Result<(), UpdateError> {
         let mut fan: Vec<u32> = Vec::new();
-        for &(v, start, end) in &fans {
+        for &(v, start, end) in fans {
             let Some(s) = self.vertex_slot(v) else {
                 continue; // removed by the edit
             };
@@ -203,7 +252,6 @@ impl Topology {
             }
             self.write_ring(s as usize, &fan)?;
         }
-        self.epoch = epoch;
         Ok(())
     }
 

@@ -210,6 +210,138 @@ struct EdgeState {
     s: usize,
 }
 
+/// What drives a relaxation besides the patch: the goal, V_in's segments,
+/// the settings and the kicks.
+struct Drive<'a> {
+    goal: Goal,
+    seg: &'a Segmentation,
+    settings: &'a RelaxSettings,
+    kicks: &'a KickTable,
+    /// The index of the target edge, or `usize::MAX` without one.
+    target: usize,
+    /// The last V_in segment.
+    last_segment: usize,
+}
+
+impl Drive<'_> {
+    /// The target's kick direction while it has not reached its goal (with
+    /// `Normalize`, while it is outside the normal range).
+    #[inline]
+    fn target_kick(&self, l: f64) -> Option<f64> {
+        let (lo, hi) = self.settings.normal;
+        match self.goal {
+            Goal::Extend(past) if l <= past => Some(1.0),
+            Goal::Compress(below) if l >= below => Some(-1.0),
+            Goal::Extend(_) | Goal::Compress(_) => None,
+            Goal::Normalize => {
+                if l < lo {
+                    Some(1.0)
+                } else if l > hi {
+                    Some(-1.0)
+                } else {
+                    None
+                }
+            }
+        }
+    }
+
+    /// The kick direction of patch edge `k` of length `l`: the target's
+    /// toward its goal, another's back into the normal range.
+    #[inline]
+    fn kick(&self, k: usize, l: f64) -> Option<f64> {
+        let (lo, hi) = self.settings.normal;
+        if k == self.target {
+            self.target_kick(l)
+        } else if l < lo {
+            Some(1.0)
+        } else if l > hi {
+            Some(-1.0)
+        } else {
+            None
+        }
+    }
+
+    /// Measures the patch edges into `geometry`. Returns how many edges
+    /// other than the target are outside the normal range, or `None` if an
+    /// edge lies next to a wall of V_in.
+    fn measure_edges(&self, patch: &Patch, geometry: &mut [EdgeState]) -> Option<usize> {
+        let (lo, hi) = self.settings.normal;
+        let mut near_wall = false;
+        let mut others_abnormal = 0usize;
+        for (k, (g, &[a, b])) in geometry.iter_mut().zip(&patch.edges).enumerate() {
+            let d = patch.positions[b] - patch.positions[a];
+            let l = d.length();
+            let s = self.seg.segment_of(l);
+            near_wall |= s < 2 || s + 2 > self.last_segment;
+            others_abnormal += usize::from(k != self.target && !(lo..=hi).contains(&l));
+            *g = EdgeState {
+                d,
+                l,
+                inv_l: 1.0 / l,
+                s,
+            };
+        }
+        (!near_wall).then_some(others_abnormal)
+    }
+
+    /// How the relaxation ends now that every edge but the target is in
+    /// the normal range, given the target's length (`None`: no target), or
+    /// `None` if it goes on.
+    fn outcome(&self, target_length: Option<f64>) -> Option<RelaxOutcome> {
+        let (lo, hi) = self.settings.normal;
+        match (target_length, self.goal) {
+            (None, _) => Some(RelaxOutcome::Success),
+            (Some(l), Goal::Extend(past)) if l > past => Some(RelaxOutcome::Success),
+            (Some(l), Goal::Compress(below)) if l < below => Some(RelaxOutcome::Success),
+            (Some(l), Goal::Extend(_) | Goal::Compress(_)) if l > lo && l < hi => {
+                Some(RelaxOutcome::Cancel)
+            }
+            (Some(l), Goal::Normalize) if (lo..=hi).contains(&l) => Some(RelaxOutcome::Success),
+            _ => None,
+        }
+    }
+
+    /// The forces on the patch vertices into `force`: V_in chords plus
+    /// kicks, on the moveable vertices only (tangential if the patch has
+    /// frozen normals).
+    fn forces(
+        &self,
+        patch: &Patch,
+        geometry: &[EdgeState],
+        force: &mut [DVec3],
+        rng: &mut impl RngExt,
+    ) {
+        force.iter_mut().for_each(|f| *f = DVec3::ZERO);
+        for (k, (&[a, b], g)) in patch.edges.iter().zip(geometry).enumerate() {
+            let mut magnitude = -self.seg.slopes[g.s]; // > 0 pushes the ends apart
+            if let Some(sign) = self.kick(k, g.l) {
+                magnitude += sign * self.settings.kick_scale * self.kicks.draw(rng);
+            }
+            let f = g.d * (magnitude * g.inv_l);
+            force[b] += f;
+            force[a] -= f;
+        }
+        for f in &mut force[patch.moveable..] {
+            *f = DVec3::ZERO;
+        }
+        for (f, n) in force.iter_mut().zip(&patch.normals) {
+            *f -= f.dot(*n) * *n;
+        }
+    }
+
+    /// The largest time step under `force` that moves no edge across more
+    /// than one V_in segment (infinite without force).
+    fn time_step(&self, patch: &Patch, geometry: &[EdgeState], force: &[DVec3]) -> f64 {
+        let mu = self.settings.mobility;
+        let mut dt = f64::INFINITY;
+        for (&[a, b], g) in patch.edges.iter().zip(geometry) {
+            let rate = 2.0 * mu * g.d.dot(force[b] - force[a]);
+            dt = dt.min(edge_time_step_in(self.seg, g.s, g.l, rate));
+        }
+        dt
+    }
+}
+
 /// Relaxes `patch` toward `goal` with kicks drawn from `kicks`. Positions
 /// are updated in place.
 pub fn relax(
@@ -220,109 +352,40 @@ pub fn relax(
     kicks: &KickTable,
     rng: &mut impl RngExt,
 ) -> Relaxed {
-    let (lo, hi) = settings.normal;
     let n = patch.positions.len();
     let moveable = patch.moveable;
     let mut force = vec![DVec3::ZERO; n];
     let mut geometry = vec![EdgeState::default(); patch.edges.len()];
     let start = patch.positions.clone();
-    let last_segment = seg.segment_count() - 1;
-    let target = patch.target.unwrap_or(usize::MAX);
-    // The target's kick direction while it has not reached its goal, and
-    // whether its own range counts as "normal" for the outcome.
-    let target_kick = |l: f64| match goal {
-        Goal::Extend(past) if l <= past => Some(1.0),
-        Goal::Compress(below) if l >= below => Some(-1.0),
-        Goal::Extend(_) | Goal::Compress(_) => None,
-        Goal::Normalize => {
-            if l < lo {
-                Some(1.0)
-            } else if l > hi {
-                Some(-1.0)
-            } else {
-                None
-            }
-        }
+    let drive = Drive {
+        goal,
+        seg,
+        settings,
+        kicks,
+        last_segment: seg.segment_count() - 1,
+        target: patch.target.unwrap_or(usize::MAX),
     };
     for iteration in 0..settings.max_iterations {
-        let ended = |outcome| Relaxed {
-            outcome,
-            iterations: iteration + 1,
-        };
-        let mut near_wall = false;
-        let mut others_abnormal = 0usize;
-        for (k, (g, &[a, b])) in geometry.iter_mut().zip(&patch.edges).enumerate() {
-            let d = patch.positions[b] - patch.positions[a];
-            let l = d.length();
-            let s = seg.segment_of(l);
-            near_wall |= s < 2 || s + 2 > last_segment;
-            others_abnormal += usize::from(k != target && !(lo..=hi).contains(&l));
-            *g = EdgeState {
-                d,
-                l,
-                inv_l: 1.0 / l,
-                s,
-            };
-        }
-        if near_wall {
+        let Some(others_abnormal) = drive.measure_edges(patch, &mut geometry) else {
             // An edge drifted next to a wall of V_in: start over (reference
             // "restored!!").
             patch.positions.copy_from_slice(&start);
             continue;
-        }
-        // Outcome checks.
-        if others_abnormal == 0 {
-            match (patch.target.map(|t| geometry[t].l), goal) {
-                (None, _) => return ended(RelaxOutcome::Success),
-                (Some(l), Goal::Extend(past)) if l > past => return ended(RelaxOutcome::Success),
-                (Some(l), Goal::Compress(below)) if l < below => {
-                    return ended(RelaxOutcome::Success);
-                }
-                (Some(l), Goal::Extend(_) | Goal::Compress(_)) if l > lo && l < hi => {
-                    return ended(RelaxOutcome::Cancel);
-                }
-                (Some(l), Goal::Normalize) if (lo..=hi).contains(&l) => {
-                    return ended(RelaxOutcome::Success);
-                }
-                _ => {}
-            }
-        }
-        // Forces: V_in chords plus kicks (only moveable vertices move).
-        force.iter_mut().for_each(|f| *f = DVec3::ZERO);
-        for (k, (&[a, b], g)) in patch.edges.iter().zip(&geometry).enumerate() {
-            let mut magnitude = -seg.slopes[g.s]; // > 0 pushes the ends apart
-            let kick = if k == target {
-                target_kick(g.l)
-            } else if g.l < lo {
-                Some(1.0)
-            } else if g.l > hi {
-                Some(-1.0)
-            } else {
-                None
+        };
+        if others_abnormal == 0
+            && let Some(outcome) = drive.outcome(patch.target.map(|t| geometry[t].l))
+        {
+            return Relaxed {
+                outcome,
+                iterations: iteration + 1,
             };
-            if let Some(sign) = kick {
-                magnitude += sign * settings.kick_scale * kicks.draw(rng);
-            }
-            let f = g.d * (magnitude * g.inv_l);
-            force[b] += f;
-            force[a] -= f;
         }
-        for f in &mut force[moveable..] {
-            *f = DVec3::ZERO;
-        }
-        for (f, n) in force.iter_mut().zip(&patch.normals) {
-            *f -= f.dot(*n) * *n;
-        }
-        let mu = settings.mobility;
-        let mut dt = f64::INFINITY;
-        for (&[a, b], g) in patch.edges.iter().zip(&geometry) {
-            let rate = 2.0 * mu * g.d.dot(force[b] - force[a]);
-            dt = dt.min(edge_time_step_in(seg, g.s, g.l, rate));
-        }
+        drive.forces(patch, &geometry, &mut force, rng);
+        let dt = drive.time_step(patch, &geometry, &force);
         if !dt.is_finite() {
             continue; // no force this iteration: draw new kicks
         }
-        let step = mu * dt;
+        let step = settings.mobility * dt;
         for (p, f) in patch.positions[..moveable].iter_mut().zip(&force) {
             *p += step * *f;
         }

@@ -202,10 +202,7 @@ impl ShapeDiagram {
     /// reduced volumes lie in (0, 1), every scene loads with every mesh's
     /// changes, holds the area exactly, minimises and has a bending term.
     pub fn load(path: &Path) -> Result<LoadedDiagram, DiagramError> {
-        let err = |reason: String| DiagramError::File {
-            path: path.to_owned(),
-            reason,
-        };
+        let err = |reason: String| file_error(path, reason);
         let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
         let diagram: ShapeDiagram = crate::scene::setting::ron_options()
             .from_str(&text)
@@ -215,67 +212,72 @@ impl ShapeDiagram {
                     e.span.start.line, e.span.start.col, e.code
                 ))
             })?;
-        let check_volumes = |field: &str, vs: &[f64]| -> Result<(), DiagramError> {
-            if vs.is_empty() {
-                return Err(err(format!("field `{field}`: give at least one")));
-            }
-            match vs
-                .iter()
-                .find(|v| !(v.is_finite() && **v > 0.0 && **v < 1.0))
-            {
-                Some(v) => Err(err(format!(
-                    "field `{field}`: a reduced volume must be in (0, 1) (got {v})"
-                ))),
-                None => Ok(()),
-            }
-        };
-        check_volumes("reduced_volumes", &diagram.reduced_volumes)?;
-        if diagram.branches.is_empty() {
-            return Err(err("field `branches`: give at least one".into()));
+        diagram.check_fields().map_err(err)?;
+        let walks = diagram.walks(path)?;
+        Ok(LoadedDiagram {
+            path: path.to_owned(),
+            diagram,
+            walks,
+        })
+    }
+
+    /// Checks the fields by themselves: the reduced volumes, at least one
+    /// branch and one mesh, plain and unique names, and branches naming
+    /// only declared meshes.
+    fn check_fields(&self) -> Result<(), String> {
+        check_volumes("reduced_volumes", &self.reduced_volumes)?;
+        if self.branches.is_empty() {
+            return Err("field `branches`: give at least one".into());
         }
-        if diagram.meshes.is_empty() {
-            return Err(err("field `meshes`: give at least one".into()));
+        if self.meshes.is_empty() {
+            return Err("field `meshes`: give at least one".into());
         }
         for (field, names) in [
             (
                 "branches",
-                diagram.branches.iter().map(|b| &b.name).collect::<Vec<_>>(),
+                self.branches.iter().map(|b| &b.name).collect::<Vec<_>>(),
             ),
-            ("meshes", diagram.meshes.iter().map(|m| &m.label).collect()),
+            ("meshes", self.meshes.iter().map(|m| &m.label).collect()),
         ] {
             for (i, n) in names.iter().enumerate() {
                 if !crate::scene::setting::valid_name(n) {
-                    return Err(err(format!(
+                    return Err(format!(
                         "field `{field}[{i}]`: `{n}` must be a plain directory name"
-                    )));
+                    ));
                 }
                 if names[..i].contains(n) {
-                    return Err(err(format!("field `{field}[{i}]`: `{n}` is used twice")));
+                    return Err(format!("field `{field}[{i}]`: `{n}` is used twice"));
                 }
             }
         }
-        let base = path.parent().unwrap_or(Path::new("."));
-        let mut walks = Vec::new();
-        for (i, branch) in diagram.branches.iter().enumerate() {
+        for (i, branch) in self.branches.iter().enumerate() {
             if let Some(labels) = &branch.meshes
                 && let Some(l) = labels
                     .iter()
-                    .find(|l| !diagram.meshes.iter().any(|m| &&m.label == l))
+                    .find(|l| !self.meshes.iter().any(|m| &&m.label == l))
             {
-                return Err(err(format!(
+                return Err(format!(
                     "field `branches[{i}].meshes`: no mesh `{l}` in field `meshes`"
-                )));
+                ));
             }
         }
+        Ok(())
+    }
+
+    /// Every walk of the diagram in file `path`, mesh by mesh; fails if a
+    /// change of a mesh applies to none of the branches walked on it.
+    fn walks(&self, path: &Path) -> Result<Vec<Walk>, DiagramError> {
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut walks = Vec::new();
         // Which of each mesh's changes some branch took (one naming a
         // membrane kind applies only to scenes of that kind).
-        let mut applied: Vec<Vec<bool>> = diagram
+        let mut applied: Vec<Vec<bool>> = self
             .meshes
             .iter()
             .map(|m| vec![false; m.set.len()])
             .collect();
-        for (m, mesh) in diagram.meshes.iter().enumerate() {
-            for (i, branch) in diagram.branches.iter().enumerate() {
+        for (m, mesh) in self.meshes.iter().enumerate() {
+            for (i, branch) in self.branches.iter().enumerate() {
                 if branch
                     .meshes
                     .as_ref()
@@ -283,67 +285,106 @@ impl ShapeDiagram {
                 {
                     continue;
                 }
-                let volumes = branch
-                    .reduced_volumes
-                    .as_deref()
-                    .unwrap_or(&diagram.reduced_volumes);
-                check_volumes(&format!("branches[{i}].reduced_volumes"), volumes)?;
-                let scene_path = base.join(&branch.scene);
-                let scene = Scene::load(&scene_path)?;
-                let changes = changes_for(&mesh.set, &scene);
-                for (k, (path, _)) in mesh.set.iter().enumerate() {
-                    if changes.iter().any(|(p, _)| p == path) {
-                        applied[m][k] = true;
-                    }
-                }
-                let scene = crate::scene::overrides::set_parameters(&scene, &scene_path, &changes)?;
-                if !matches!(scene.dynamics.method, crate::params::Method::Minimise(_)) {
-                    return Err(err(format!(
-                        "field `branches[{i}].scene`: {} does not minimise (a shape diagram holds \
-                         equilibrium shapes: give `dynamics.method: Minimise(...)`)",
-                        scene_path.display()
-                    )));
-                }
-                if crate::study::bending_kappa(&scene).is_none() {
-                    return Err(err(format!(
-                        "field `branches[{i}].scene`: {} has no Bending term",
-                        scene_path.display()
-                    )));
-                }
-                let mut points = Vec::with_capacity(volumes.len());
-                for &v in volumes {
-                    let mut s = scene.clone();
-                    Setting::ReducedVolume(v).apply(&mut s).map_err(|r| {
-                        err(format!(
-                            "field `branches[{i}].scene`: {}: {r}",
-                            scene_path.display()
-                        ))
-                    })?;
-                    points.push((v, s));
-                }
-                walks.push(Walk {
-                    mesh: mesh.label.clone(),
-                    branch: branch.name.clone(),
-                    reference: branch.reference,
-                    scene_path,
-                    points,
-                });
+                walks.push(self.walk(path, base, i, branch, mesh, &mut applied[m])?);
             }
         }
-        for (m, mesh) in diagram.meshes.iter().enumerate() {
+        for (m, mesh) in self.meshes.iter().enumerate() {
             if let Some(k) = applied[m].iter().position(|a| !a) {
-                return Err(err(format!(
-                    "field `meshes[{m}].set[{k}]`: `{}` names a membrane that no branch \
-                     walked on mesh `{}` starts from",
-                    mesh.set[k].0, mesh.label
-                )));
+                return Err(file_error(
+                    path,
+                    format!(
+                        "field `meshes[{m}].set[{k}]`: `{}` names a membrane that no branch \
+                         walked on mesh `{}` starts from",
+                        mesh.set[k].0, mesh.label
+                    ),
+                ));
             }
         }
-        Ok(LoadedDiagram {
-            path: path.to_owned(),
-            diagram,
-            walks,
+        Ok(walks)
+    }
+
+    /// The walk of branch `i` on `mesh` (scenes relative to `base`, messages
+    /// naming `path`), noting in `applied` which of the mesh's changes the
+    /// branch's scene took.
+    fn walk(
+        &self,
+        path: &Path,
+        base: &Path,
+        i: usize,
+        branch: &DiagramBranch,
+        mesh: &DiagramMesh,
+        applied: &mut [bool],
+    ) -> Result<Walk, DiagramError> {
+        let err = |reason: String| file_error(path, reason);
+        let volumes = branch
+            .reduced_volumes
+            .as_deref()
+            .unwrap_or(&self.reduced_volumes);
+        check_volumes(&format!("branches[{i}].reduced_volumes"), volumes).map_err(err)?;
+        let scene_path = base.join(&branch.scene);
+        let scene = Scene::load(&scene_path)?;
+        let changes = changes_for(&mesh.set, &scene);
+        for (k, (changed, _)) in mesh.set.iter().enumerate() {
+            if changes.iter().any(|(p, _)| p == changed) {
+                applied[k] = true;
+            }
+        }
+        let scene = crate::scene::overrides::set_parameters(&scene, &scene_path, &changes)?;
+        if !matches!(scene.dynamics.method, crate::params::Method::Minimise(_)) {
+            return Err(err(format!(
+                "field `branches[{i}].scene`: {} does not minimise (a shape diagram holds \
+                 equilibrium shapes: give `dynamics.method: Minimise(...)`)",
+                scene_path.display()
+            )));
+        }
+        if crate::study::bending_kappa(&scene).is_none() {
+            return Err(err(format!(
+                "field `branches[{i}].scene`: {} has no Bending term",
+                scene_path.display()
+            )));
+        }
+        let mut points = Vec::with_capacity(volumes.len());
+        for &v in volumes {
+            let mut s = scene.clone();
+            Setting::ReducedVolume(v).apply(&mut s).map_err(|r| {
+                err(format!(
+                    "field `branches[{i}].scene`: {}: {r}",
+                    scene_path.display()
+                ))
+            })?;
+            points.push((v, s));
+        }
+        Ok(Walk {
+            mesh: mesh.label.clone(),
+            branch: branch.name.clone(),
+            reference: branch.reference,
+            scene_path,
+            points,
         })
+    }
+}
+
+/// The error of a diagram file `path` that is invalid for `reason`.
+fn file_error(path: &Path, reason: String) -> DiagramError {
+    DiagramError::File {
+        path: path.to_owned(),
+        reason,
+    }
+}
+
+/// Checks the reduced volumes of `field`: at least one, each in (0, 1).
+fn check_volumes(field: &str, vs: &[f64]) -> Result<(), String> {
+    if vs.is_empty() {
+        return Err(format!("field `{field}`: give at least one"));
+    }
+    match vs
+        .iter()
+        .find(|v| !(v.is_finite() && **v > 0.0 && **v < 1.0))
+    {
+        Some(v) => Err(format!(
+            "field `{field}`: a reduced volume must be in (0, 1) (got {v})"
+        )),
+        None => Ok(()),
     }
 }
 

@@ -180,10 +180,6 @@ pub fn run_diagram(
     options: &DiagramOptions,
 ) -> Result<DiagramSummary, DiagramError> {
     let started = std::time::Instant::now();
-    let io = |path: &Path, e: std::io::Error| DiagramError::Io {
-        path: path.to_owned(),
-        reason: e.to_string(),
-    };
     if let Some(labels) = &options.meshes
         && let Some(l) = labels
             .iter()
@@ -206,10 +202,31 @@ pub fn run_diagram(
         .iter()
         .filter(|w| options.meshes.as_ref().is_none_or(|m| m.contains(&w.mesh)))
         .collect();
-
-    // The continuum at every walked point, branch by branch.
-    let mut references: Vec<(Branch, f64, Option<ReferenceValue>)> = Vec::new();
+    let references = continuum_references(&walks);
+    let mut points = Vec::new();
     for w in &walks {
+        run_walk(w, &staging, &references, options, &mut points);
+    }
+    let curves = reference_curves(&walks);
+    let crossings = crossings(&points, &curves);
+    let extrapolated = extrapolate(&loaded.diagram.meshes, &points);
+    let summary = DiagramSummary {
+        name: loaded.diagram.name.clone(),
+        file: loaded.path.clone(),
+        points,
+        crossings,
+        extrapolated,
+        curves,
+        wall_time_s: started.elapsed().as_secs_f64(),
+    };
+    publish(summary, staging, out)
+}
+
+/// The continuum at every point of `walks`, branch by branch: (reference
+/// branch, reduced volume, value if the solver converged there).
+fn continuum_references(walks: &[&Walk]) -> Vec<(Branch, f64, Option<ReferenceValue>)> {
+    let mut references: Vec<(Branch, f64, Option<ReferenceValue>)> = Vec::new();
+    for w in walks {
         for &(v, _) in &w.points {
             if references
                 .iter()
@@ -231,84 +248,95 @@ pub fn run_diagram(
             references.push((w.reference, v, value));
         }
     }
+    references
+}
 
-    let reference_at = |b: Branch, v: f64| {
-        references
+/// Runs the points of walk `w` in order into `staging`, each from the
+/// final state of the one before, and pushes them onto `points`; after a
+/// failed point the rest are `not reached`.
+fn run_walk(
+    w: &Walk,
+    staging: &Path,
+    references: &[(Branch, f64, Option<ReferenceValue>)],
+    options: &DiagramOptions,
+    points: &mut Vec<DiagramPoint>,
+) {
+    let mut from: Option<PathBuf> = None;
+    let mut failed = false;
+    for (v, scene) in &w.points {
+        let dir = staging.join(&w.mesh).join(&w.branch).join(point_dir(*v));
+        let reference = references
             .iter()
-            .find(|(rb, rv, _)| *rb == b && *rv == v)
-            .and_then(|(_, _, r)| *r)
-    };
-
-    let mut points = Vec::new();
-    for w in &walks {
-        let mut from: Option<PathBuf> = None;
-        let mut failed = false;
-        for (v, scene) in &w.points {
-            let dir = staging.join(&w.mesh).join(&w.branch).join(point_dir(*v));
-            let reference = reference_at(w.reference, *v);
-            let mut point = DiagramPoint {
-                mesh: w.mesh.clone(),
-                branch: w.branch.clone(),
-                reference_branch: w.reference,
-                target: *v,
-                status: "not reached".into(),
-                vertices: 0,
-                reduced_volume: f64::NAN,
-                energy: f64::NAN,
-                pressure: f64::NAN,
-                tension: f64::NAN,
-                class: String::new(),
-                converged: false,
-                stopped_by: String::new(),
-                iterations: 0,
-                remesh_events: 0,
-                wall_time_s: 0.0,
-                reference,
-                relative_error: None,
-            };
-            if failed {
-                points.push(point);
-                continue;
-            }
-            let run_options = RunOptions {
-                out: dir.clone(),
-                overwrite: true,
-                seed: None,
-                iterations: options.iterations,
-                frames: None,
-                from: from.clone(),
-                progress: Progress::Quiet,
-                check_invariants: false,
-                checkpoint: None,
-            };
-            match run_scene(scene, &w.scene_path, &run_options, |_| Ok(())) {
-                Ok(summary) => {
-                    fill_point(&mut point, &summary, scene);
-                    from = Some(dir.join("state.json"));
-                }
-                Err(e) => {
-                    point.status = format!("failed: {e}");
-                    failed = true;
-                }
-            }
-            if options.progress {
-                eprintln!("{}", progress_line(&point));
-            }
+            .find(|(rb, rv, _)| *rb == w.reference && *rv == *v)
+            .and_then(|(_, _, r)| *r);
+        let mut point = unreached_point(w, *v, reference);
+        if failed {
             points.push(point);
+            continue;
         }
+        let run_options = RunOptions {
+            out: dir.clone(),
+            overwrite: true,
+            seed: None,
+            iterations: options.iterations,
+            frames: None,
+            from: from.clone(),
+            progress: Progress::Quiet,
+            check_invariants: false,
+            checkpoint: None,
+        };
+        match run_scene(scene, &w.scene_path, &run_options, |_| Ok(())) {
+            Ok(summary) => {
+                fill_point(&mut point, &summary, scene);
+                from = Some(dir.join("state.json"));
+            }
+            Err(e) => {
+                point.status = format!("failed: {e}");
+                failed = true;
+            }
+        }
+        if options.progress {
+            eprintln!("{}", progress_line(&point));
+        }
+        points.push(point);
     }
+}
 
-    let curves = reference_curves(&walks);
-    let crossings = crossings(&points, &curves);
-    let extrapolated = extrapolate(&loaded.diagram.meshes, &points);
-    let summary = DiagramSummary {
-        name: loaded.diagram.name.clone(),
-        file: loaded.path.clone(),
-        points,
-        crossings,
-        extrapolated,
-        curves,
-        wall_time_s: started.elapsed().as_secs_f64(),
+/// The point of walk `w` at `v` before it is run (`not reached`), with the
+/// continuum's value there.
+fn unreached_point(w: &Walk, v: f64, reference: Option<ReferenceValue>) -> DiagramPoint {
+    DiagramPoint {
+        mesh: w.mesh.clone(),
+        branch: w.branch.clone(),
+        reference_branch: w.reference,
+        target: v,
+        status: "not reached".into(),
+        vertices: 0,
+        reduced_volume: f64::NAN,
+        energy: f64::NAN,
+        pressure: f64::NAN,
+        tension: f64::NAN,
+        class: String::new(),
+        converged: false,
+        stopped_by: String::new(),
+        iterations: 0,
+        remesh_events: 0,
+        wall_time_s: 0.0,
+        reference,
+        relative_error: None,
+    }
+}
+
+/// Writes the diagram's outputs into `staging` and, if every point
+/// completed, renames it to `out`; else the error names the first failure.
+fn publish(
+    summary: DiagramSummary,
+    staging: PathBuf,
+    out: &Path,
+) -> Result<DiagramSummary, DiagramError> {
+    let io = |path: &Path, e: std::io::Error| DiagramError::Io {
+        path: path.to_owned(),
+        reason: e.to_string(),
     };
     write_outputs(&staging, &summary).map_err(|(p, e)| io(&p, e))?;
     let failures: Vec<&DiagramPoint> = summary
