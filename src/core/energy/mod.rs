@@ -29,6 +29,7 @@ pub mod springs;
 pub mod tension;
 pub mod vin;
 pub mod volume;
+pub mod wall;
 
 builtin::builtin_terms! {
     /// Double-barrier edge potential V_in.
@@ -48,4 +49,7 @@ builtin::builtin_terms! {
     Springs(springs::SpringParams),
     /// Repulsion between non-neighbouring vertices closer than a range.
     SelfAvoidance(self_avoidance::SelfAvoidanceParams),
+    /// A rigid wall (a plane, or a sphere or cylinder from inside) that
+    /// repels the vertices within a short range.
+    Wall(wall::WallParams),
 }
