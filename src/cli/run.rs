@@ -230,6 +230,11 @@ pub(super) fn report_run(
             }
             ExitCode::SUCCESS
         }
+        // A scene error names its file (and line) itself.
+        Err(e @ crate::workflow::run::RunError::Scene(_)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(e.exit_code())
+        }
         Err(e) => {
             eprintln!("error: {}: {e}", path.display());
             ExitCode::from(e.exit_code())

@@ -24,10 +24,13 @@
 //! Stage: Forces. Reads: positions. Writes: force accumulator. Units: ε in
 //! Ē, r and all lengths in l̄.
 
+use crate::engine::error::BuildError;
 use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
 use crate::engine::recorder::{FrameData, Recorder, read_error};
 use crate::engine::resources::{Access, CheckedResources};
 use crate::engine::simulation::{DensePositions, Plugin, SimBuilder, SimError};
+use crate::mesh::components::Position;
+use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -285,9 +288,34 @@ impl Recorder for WallRecorder {
     }
 }
 
+/// Refuses a wall that the initial membrane already touches or crosses: its
+/// energy would be infinite before the first step.
+fn check_initial_membrane(b: &SimBuilder, shape: &WallShape) -> Result<(), BuildError> {
+    let Ok(membrane) = b.resources().get::<Membrane>() else {
+        return Ok(());
+    };
+    let mut query = membrane.world.query::<&Position>();
+    let distances = query.iter().map(|p| shape.distance(p.0).0);
+    let (beyond, closest) = distances
+        .filter(|&d| d <= 0.0)
+        .fold((0usize, 0.0f64), |(n, m), d| (n + 1, m.min(d)));
+    match beyond {
+        0 => Ok(()),
+        n => Err(BuildError::Invalid {
+            field: "shape".into(),
+            reason: format!(
+                "{n} vertices of the initial membrane are on or beyond the wall (the farthest \
+                 {:.3} l̄ beyond it); move the wall or the membrane",
+                -closest
+            ),
+        }),
+    }
+}
+
 /// A wall: its force term and its recorder.
 pub fn plugin(params: WallParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
+        check_initial_membrane(b, &params.shape)?;
         b.add_force_term(WallForces::new(params.clone()))?;
         b.add_recorder(WallRecorder { params });
         Ok(())
@@ -299,7 +327,7 @@ impl crate::energy::builtin::BuiltinTerm for WallParams {
         &self,
         builder: &mut SimBuilder,
         _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
+    ) -> Result<(), BuildError> {
         builder.add_plugin(plugin(self.clone()))?;
         Ok(())
     }
