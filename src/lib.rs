@@ -23,7 +23,8 @@
 //!   [`ResMut`]). The schedule derives
 //!   the access from that type, so declarations cannot drift and a system cannot reach anything it
 //!   did not declare. Before tick 0 it rejects: a resource no plugin inserted, one resource borrowed
-//!   twice with a write, a Forces-stage system writing anything but [`ForceBuffers`], duplicate
+//!   twice with a write, a Forces-stage system writing anything but [`ForceBuffers`] (a limit the
+//!   core plugin declares, [`ScheduleBuilder::restrict_writes`]), duplicate
 //!   names, unknown ordering targets, cycles. [`DynamicSystem`]s (access known only at run time) get a
 //!   view that fails any undeclared borrow.
 //! - **Force terms** implement [`engine::force::ForceTerm`] (name, energy, *add* −∇E into a buffer).
@@ -107,6 +108,7 @@
 //! [`System`]: engine::schedule::System
 //! [`DynamicSystem`]: engine::schedule::DynamicSystem
 //! [`Stage`]: engine::schedule::Stage
+//! [`ScheduleBuilder::restrict_writes`]: engine::schedule::ScheduleBuilder::restrict_writes
 //! [`Res`]: engine::resources::Res
 //! [`ResMut`]: engine::resources::ResMut
 //! [`ForceBuffers`]: engine::force::ForceBuffers

@@ -117,15 +117,24 @@ fn schedule_validation_errors() {
         other => panic!("expected a cycle, got {other:?}"),
     }
 
+    // A stage restricted to the force buffers (as the core plugin restricts
+    // the Forces stage) refuses any other write; an unrestricted one allows it.
     let mut b = ScheduleBuilder::new();
     b.add(Stage::Forces, Sneaky);
+    b.restrict_writes(Stage::Forces, &[ResourceId::of::<ForceBuffers>()]);
     assert_eq!(
         b.build(&with_positions()).err(),
-        Some(ScheduleError::ForceSystemWrites {
+        Some(ScheduleError::StageWrites {
             system: "sneaky".into(),
-            resource: ResourceId::of::<DensePositions>()
+            stage: Stage::Forces,
+            resource: ResourceId::of::<DensePositions>(),
+            allowed: "ForceBuffers".into(),
         })
     );
+    let mut b = ScheduleBuilder::new();
+    b.add(Stage::Forces, Sneaky);
+    b.restrict_writes(Stage::Integrate, &[ResourceId::of::<ForceBuffers>()]);
+    assert!(b.build(&with_positions()).is_ok());
 
     // A declared resource that no plugin inserted.
     let mut b = ScheduleBuilder::new();
@@ -170,7 +179,7 @@ fn invalid_user_schedule_fails_before_tick_zero() {
     let before = sim.positions();
     assert!(matches!(
         sim.tick(),
-        Err(SimError::Schedule(ScheduleError::ForceSystemWrites { .. }))
+        Err(SimError::Schedule(ScheduleError::StageWrites { .. }))
     ));
     assert_eq!(sim.clock().iteration, 0);
     assert_eq!(sim.positions(), before);

@@ -63,6 +63,12 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             .persist_resource::<Clock>()
             .persist_resource::<TimeStepChoice>()
             .persist_resource::<AbnormalEdges>();
+        // Forces-stage systems write only the force buffers, so every force
+        // is finite-checked, timed and reported through them.
+        b.restrict_stage_writes(
+            Stage::Forces,
+            &[crate::engine::resources::ResourceId::of::<ForceBuffers>()],
+        );
         use crate::systems::{adaptive_time_step, face_geometry, force_total, gather_state};
         b.add_system(Stage::Gather, gather_state::GatherState);
         b.add_system(Stage::Gather, face_geometry::FaceGeometrySystem)

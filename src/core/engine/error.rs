@@ -207,15 +207,21 @@ pub enum ScheduleError {
         /// Systems on the cycle (comma separated).
         systems: String,
     },
-    /// A system in the Forces stage declares a write other than the force buffers.
+    /// A system writes a resource its stage does not allow
+    /// ([`ScheduleBuilder::restrict_writes`](crate::engine::schedule::ScheduleBuilder::restrict_writes)).
     #[error(
-        "force system `{system}` writes `{resource}`; systems in the Forces stage may write only the force buffers"
+        "system `{system}` in the {} stage writes `{resource}`; that stage's systems may write only {allowed}",
+        stage.name()
     )]
-    ForceSystemWrites {
+    StageWrites {
         /// The system.
         system: String,
+        /// Its stage.
+        stage: crate::engine::schedule::Stage,
         /// The forbidden write.
         resource: ResourceId,
+        /// What the stage's systems may write.
+        allowed: String,
     },
     /// A system needs a resource that no plugin inserted.
     #[error(

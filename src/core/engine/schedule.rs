@@ -11,11 +11,12 @@
 //! so its declared access is derived, never written by hand, and it can
 //! touch nothing else. When the schedule is built every declared resource
 //! must exist (or be optional), no system may borrow one resource twice
-//! with a write, and Forces-stage systems may write only the force buffers.
+//! with a write, and a stage that a plugin restricted
+//! ([`ScheduleBuilder::restrict_writes`]) may write only what it allowed:
+//! the core plugin keeps the Forces stage to the force buffers.
 
 pub use crate::engine::error::ScheduleError;
 use crate::engine::error::SimError;
-use crate::engine::force::ForceBuffers;
 use crate::engine::resources::{Access, CheckedResources, ResourceId, Resources, SystemData};
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -29,7 +30,8 @@ pub enum Stage {
     Prepare,
     /// Refresh caches, gather the dense state and the per-face geometry.
     Gather,
-    /// Accumulate forces (systems here may write only the force buffers).
+    /// Accumulate forces (the core plugin lets systems here write only the
+    /// force buffers).
     Forces,
     /// Record the state of the last completed iteration with the forces the
     /// next step applies (frames, series, observables); nothing moves yet.
@@ -284,6 +286,10 @@ impl Registered<'_> {
 #[derive(Default)]
 pub struct ScheduleBuilder {
     entries: Vec<Entry>,
+    /// Stages whose systems may write only the listed resources, as the
+    /// plugin that owns each stage's contract declared it
+    /// ([`ScheduleBuilder::restrict_writes`]).
+    write_limits: Vec<(Stage, Vec<ResourceId>)>,
 }
 
 impl ScheduleBuilder {
@@ -316,6 +322,16 @@ impl ScheduleBuilder {
         Registered { entry }
     }
 
+    /// Lets the systems of `stage` write only `allowed` (added to what an
+    /// earlier call allowed): the core plugin keeps the Forces stage to the
+    /// force buffers, so that every force is reported and checked.
+    pub fn restrict_writes(&mut self, stage: Stage, allowed: &[ResourceId]) {
+        match self.write_limits.iter_mut().find(|(s, _)| *s == stage) {
+            Some((_, list)) => list.extend_from_slice(allowed),
+            None => self.write_limits.push((stage, allowed.to_vec())),
+        }
+    }
+
     /// Names of the registered systems, in registration order.
     pub fn names(&self) -> Vec<String> {
         self.entries
@@ -327,7 +343,6 @@ impl ScheduleBuilder {
     /// Validates the systems against `resources` and fixes their order.
     pub fn build(self, resources: &Resources) -> Result<Schedule, ScheduleError> {
         let mut seen = HashMap::new();
-        let force_buffers = ResourceId::of::<ForceBuffers>();
         for e in &self.entries {
             let name = e.system.name().to_string();
             if seen.insert(name.clone(), ()).is_some() {
@@ -355,13 +370,16 @@ impl ScheduleBuilder {
                     available: available.join(", "),
                 });
             }
-            if e.stage == Stage::Forces
-                && let Some(&resource) = a.writes.iter().find(|d| **d != force_buffers)
-            {
-                return Err(ScheduleError::ForceSystemWrites {
-                    system: name,
-                    resource,
-                });
+            for (stage, allowed) in self.write_limits.iter().filter(|(s, _)| *s == e.stage) {
+                if let Some(&resource) = a.writes.iter().find(|d| !allowed.contains(d)) {
+                    let allowed: Vec<&str> = allowed.iter().map(|i| i.name()).collect();
+                    return Err(ScheduleError::StageWrites {
+                        system: name,
+                        stage: *stage,
+                        resource,
+                        allowed: allowed.join(", "),
+                    });
+                }
             }
         }
         let mut entries = self.entries;

@@ -107,6 +107,18 @@ impl SimBuilder {
         self.schedule.add(stage, system)
     }
 
+    /// Lets the systems of `stage` write only `allowed`
+    /// ([`ScheduleBuilder::restrict_writes`]); checked when the schedule is
+    /// built.
+    pub fn restrict_stage_writes(
+        &mut self,
+        stage: Stage,
+        allowed: &[crate::engine::resources::ResourceId],
+    ) -> &mut Self {
+        self.schedule.restrict_writes(stage, allowed);
+        self
+    }
+
     /// Adds a dynamic system (access checked at every borrow) to `stage`.
     pub fn add_dynamic_system(
         &mut self,
