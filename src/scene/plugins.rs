@@ -51,7 +51,7 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
         b.insert_resource(Clock::default())
             .insert_resource(DensePositions::default())
             .insert_resource(DenseLipid::default())
-            .insert_resource(ForceBuffers::new(settings.penalty_smoothing))
+            .insert_resource(ForceBuffers::new())
             .insert_resource(FaceGeometry::default())
             .insert_resource(TimeStepChoice::default())
             .insert_resource(settings.dynamics)
@@ -78,7 +78,10 @@ pub fn core(settings: CoreSettings) -> impl Plugin {
             crate::systems::force_terms::ForceTermsSystem::default(),
         )
         .before(crate::engine::force::FORCE_TOTAL);
-        b.add_system(Stage::Forces, force_total::ForceTotal);
+        b.add_system(
+            Stage::Forces,
+            force_total::ForceTotal::new(settings.penalty_smoothing),
+        );
         match settings.dynamics.method {
             crate::params::Method::Overdamped => {
                 b.add_system(Stage::TimeStep, adaptive_time_step::AdaptiveTimeStep);

@@ -226,19 +226,14 @@ pub struct TermInfo {
     pub uses_face_geometry: bool,
 }
 
-/// The force buffers: one per registered term, their sum and the penalty
-/// smoothing setting. Registering a term ([`crate::engine::simulation::SimBuilder::add_force_term`])
+/// The force buffers: one per registered term and their sum. Registering a term ([`crate::engine::simulation::SimBuilder::add_force_term`])
 /// adds its buffer here and hands the term to the `force_terms` system.
 #[derive(Debug, Default)]
 pub struct ForceBuffers {
     terms: Vec<TermInfo>,
-    /// Passes of closed 1-ring averaging applied to [`ForceKind::Penalty`]
-    /// terms (as run: 4; 0 = exact gradient).
-    pub penalty_smoothing: u32,
     /// The current evaluation.
     pub evaluation: ForceEvaluation,
     vertices: usize,
-    scratch: crate::energy::penalty::SmoothingScratch,
     objects: TermObjects,
 }
 
@@ -259,11 +254,8 @@ pub const FORCE_TOTAL: &str = "force_total";
 
 impl ForceBuffers {
     /// No terms yet.
-    pub fn new(penalty_smoothing: u32) -> Self {
-        Self {
-            penalty_smoothing,
-            ..Default::default()
-        }
+    pub fn new() -> Self {
+        Self::default()
     }
 
     /// Registers `term` and adds its buffer; returns its index.
@@ -375,9 +367,11 @@ impl ForceBuffers {
             })
     }
 
-    /// Sums the term forces into the total; penalty terms are summed first
-    /// and smoothed once (smoothing is linear, so this equals smoothing each).
-    pub fn finish(&mut self, topology: &Topology) {
+    /// Sums the term forces into the total. The [`ForceKind::Penalty`]
+    /// terms are summed apart, handed to `treat_penalty` (the 1-ring
+    /// smoothing the `force_total` system applies; a linear map, so treating
+    /// the sum equals treating each term) and then added.
+    pub fn finish(&mut self, treat_penalty: impl FnOnce(&mut Vec<DVec3>)) {
         let out = &mut self.evaluation;
         // Sized by the vertices, not the terms: with no term at all (pure
         // diffusion) the total is zero, not empty.
@@ -419,12 +413,7 @@ impl ForceBuffers {
             );
         }
         if has_penalty {
-            crate::energy::penalty::smooth_over_rings(
-                &mut out.smoothed_penalty,
-                topology,
-                self.penalty_smoothing,
-                &mut self.scratch,
-            );
+            treat_penalty(&mut out.smoothed_penalty);
             let smoothed = &out.smoothed_penalty;
             crate::util::parallel::for_each_mut(&mut out.total, |v, t| *t += smoothed[v]);
         }
