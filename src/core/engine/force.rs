@@ -8,7 +8,11 @@
 //! [`ForceBuffers`]; `force_total` then applies the optional 1-ring
 //! smoothing to penalty terms and sums the total.
 
-use crate::engine::error::DuplicateTerm;
+use crate::engine::error::{BuildError, DuplicateTerm, SimError};
+use crate::engine::persisted::PersistedResources;
+use crate::engine::resources::{Res, Resources};
+use crate::engine::schedule::Stage;
+use crate::engine::simulation::{SimBuilder, Simulation};
 use crate::mesh::flip::{Flip, FlipTotals};
 use crate::mesh::geometry::{Corners, face_geometry};
 use crate::mesh::topology::Topology;
@@ -465,4 +469,61 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
         (**self).restore_state(state)
     }
+}
+
+/// Registering force terms and evaluating them: the force stage's part of
+/// the builder's and the simulation's API.
+impl SimBuilder {
+    /// Registers a force term: its buffer in [`ForceBuffers`], evaluated by
+    /// the core plugin's `force_terms` system in the Forces stage, in
+    /// registration order of the buffers. Needs the core plugin (which
+    /// inserts the buffers). Returns the term's buffer index.
+    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, BuildError> {
+        register_force_term(self.resources_mut(), term)
+    }
+}
+
+impl Simulation {
+    /// Registers a force term (see [`SimBuilder::add_force_term`]) before the
+    /// run starts: it acts on the dynamics exactly like a scene's terms.
+    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, SimError> {
+        if self.is_sealed() {
+            return Err(SimError::AlreadyStarted(term.name().to_string()));
+        }
+        Ok(register_force_term(self.resources_mut(), term)?)
+    }
+
+    /// Evaluates the forces of the current state by running the schedule's
+    /// own Gather and Forces systems (the same terms, finite checks and
+    /// timing as a tick), without moving anything.
+    pub fn evaluate_forces(&mut self) -> Result<Res<'_, ForceBuffers>, SimError> {
+        self.run_stages(&[Stage::Gather, Stage::Forces])?;
+        Ok(self.resource::<ForceBuffers>())
+    }
+}
+
+fn register_force_term(
+    resources: &mut Resources,
+    term: impl ForceTerm + 'static,
+) -> Result<usize, BuildError> {
+    let name = term.name().to_string();
+    let buffers = resources
+        .value_mut::<ForceBuffers>()
+        .ok_or_else(|| BuildError::Requires {
+            what: format!("force term `{name}`"),
+            resource: "ForceBuffers",
+            plugin: "the core plugin",
+        })?;
+    let index = buffers.register(Box::new(term))?;
+    if !resources.contains::<PersistedResources>() {
+        resources.insert(PersistedResources::default());
+    }
+    if let Some(p) = resources.value_mut::<PersistedResources>() {
+        p.add_optional(
+            "force terms",
+            ForceBuffers::save_term_states,
+            ForceBuffers::restore_term_states,
+        );
+    }
+    Ok(index)
 }

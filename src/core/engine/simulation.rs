@@ -7,7 +7,6 @@ pub use crate::engine::core_resources::{
     CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed, StopRequest,
 };
 pub use crate::engine::error::{BuildError, SimError};
-use crate::engine::force::{ForceBuffers, ForceTerm};
 use crate::engine::persisted::PersistedResources;
 use crate::engine::resources::{Res, Resource, Resources};
 use crate::engine::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
@@ -128,12 +127,10 @@ impl SimBuilder {
         self.schedule.add_dynamic(stage, system)
     }
 
-    /// Registers a force term: its buffer in [`ForceBuffers`], evaluated by
-    /// the core plugin's `force_terms` system in the Forces stage, in
-    /// registration order of the buffers. Needs the core plugin (which
-    /// inserts the buffers). Returns the term's buffer index.
-    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, BuildError> {
-        register_force_term(&mut self.resources, term)
+    /// All resources so far, for the engine's own registrations (force
+    /// terms: [`crate::engine::force`]).
+    pub(crate) fn resources_mut(&mut self) -> &mut Resources {
+        &mut self.resources
     }
 
     /// Adds a recorder: its columns and point data go into every frame.
@@ -160,32 +157,6 @@ fn push_recorder(resources: &mut Resources, recorder: Box<dyn crate::engine::rec
     if let Some(r) = resources.value_mut::<crate::engine::recorder::Recorders>() {
         r.0.push(recorder);
     }
-}
-
-fn register_force_term(
-    resources: &mut Resources,
-    term: impl ForceTerm + 'static,
-) -> Result<usize, BuildError> {
-    let name = term.name().to_string();
-    let buffers = resources
-        .value_mut::<ForceBuffers>()
-        .ok_or_else(|| BuildError::Requires {
-            what: format!("force term `{name}`"),
-            resource: "ForceBuffers",
-            plugin: "the core plugin",
-        })?;
-    let index = buffers.register(Box::new(term))?;
-    if !resources.contains::<PersistedResources>() {
-        resources.insert(PersistedResources::default());
-    }
-    if let Some(p) = resources.value_mut::<PersistedResources>() {
-        p.add_optional(
-            "force terms",
-            ForceBuffers::save_term_states,
-            ForceBuffers::restore_term_states,
-        );
-    }
-    Ok(index)
 }
 
 /// A simulation: the world and resources, plus the schedule of systems
@@ -226,13 +197,15 @@ impl Simulation {
         Ok(self.pending(system.name())?.add_dynamic(stage, system))
     }
 
-    /// Registers a force term (see [`SimBuilder::add_force_term`]) before the
-    /// run starts: it acts on the dynamics exactly like a scene's terms.
-    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, SimError> {
-        if self.builder.is_none() {
-            return Err(SimError::AlreadyStarted(term.name().to_string()));
-        }
-        Ok(register_force_term(&mut self.resources, term)?)
+    /// Whether the schedule was taken to be built (by [`Simulation::start`]
+    /// or the first tick): nothing can be registered any more.
+    pub(crate) fn is_sealed(&self) -> bool {
+        self.builder.is_none()
+    }
+
+    /// All resources, for the engine's own registrations before the start.
+    pub(crate) fn resources_mut(&mut self) -> &mut Resources {
+        &mut self.resources
     }
 
     /// Adds a recorder before the run's frame writer takes the recorders
@@ -256,12 +229,16 @@ impl Simulation {
     /// Runs the Gather, Forces and Observe systems once: the current state
     /// with its forces is recorded (the final frame of a run).
     pub fn observe(&mut self) -> Result<(), SimError> {
+        self.run_stages(&[Stage::Gather, Stage::Forces, Stage::Observe])
+    }
+
+    /// Runs the systems of `stages` once, in order (starting the schedule
+    /// if needed), without the others: e.g. Gather and Forces evaluate the
+    /// current state's forces without moving anything.
+    pub fn run_stages(&mut self, stages: &[Stage]) -> Result<(), SimError> {
         self.start()?;
         let schedule = self.schedule.as_mut().expect("started");
-        schedule.run_stages(
-            &[Stage::Gather, Stage::Forces, Stage::Observe],
-            &self.resources,
-        )
+        schedule.run_stages(stages, &self.resources)
     }
 
     /// Inserts (or replaces) a resource before the run starts.
@@ -300,16 +277,6 @@ impl Simulation {
     /// The schedule, once started (to restore its systems' states).
     pub fn schedule_mut(&mut self) -> Option<&mut Schedule> {
         self.schedule.as_mut()
-    }
-
-    /// Evaluates the forces of the current state by running the schedule's
-    /// own Gather and Forces systems (the same terms, finite checks and
-    /// timing as a tick), without moving anything.
-    pub fn evaluate_forces(&mut self) -> Result<Res<'_, ForceBuffers>, SimError> {
-        self.start()?;
-        let schedule = self.schedule.as_mut().expect("started");
-        schedule.run_stages(&[Stage::Gather, Stage::Forces], &self.resources)?;
-        Ok(self.resource::<ForceBuffers>())
     }
 
     /// All resources.
