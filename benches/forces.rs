@@ -145,7 +145,7 @@ fn each_system(c: &mut Criterion) {
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
             b.iter(|| {
-                samples.measure(&seg, edges, &pos);
+                samples.measure(edges, &pos, |l| seg.segment_of(l));
                 black_box(samples.0.len())
             })
         });

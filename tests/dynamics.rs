@@ -126,8 +126,8 @@ fn schedule_validation_errors() {
         b.build(&with_positions()).err(),
         Some(ScheduleError::StageWrites {
             system: "sneaky".into(),
-            stage: Stage::Forces,
-            resource: ResourceId::of::<DensePositions>(),
+            stage: "Forces",
+            resource: "DensePositions",
             allowed: "ForceBuffers".into(),
         })
     );
@@ -633,7 +633,7 @@ fn measured_edge_samples_change_no_bit_of_the_vin_force_or_the_time_step() {
     let mut m = Membrane::from_mesh(&mesh, false).unwrap();
     let t = m.topology().unwrap().clone();
     let mut samples = VinEdgeSamples::default();
-    samples.measure(&seg, &t.edges, &mesh.positions);
+    samples.measure(&t.edges, &mesh.positions, |l| seg.segment_of(l));
     let mut geometry = Vec::new();
     let in_place = ForceContext::new(&m.world, &t, &mesh.positions, &[], &mut geometry, false);
     let mut vin = remembrane::energy::vin::VinForces::new(

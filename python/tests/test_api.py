@@ -219,3 +219,17 @@ def test_flip_stats_of_a_fluid_vesicle():
         stats[k]
         for k in ("accepted", "rejected_topology", "rejected_geometry", "rejected_energy")
     )
+
+
+def test_a_wall_is_declared_overridden_and_recorded(tmp_path):
+    scene = rm.Scene.load(SCENES / "open" / "confined.ron", energy__Wall__strength=2.0, iterations=50)
+    assert "strength: 2.0" in scene.to_ron()
+    sim = rm.Simulation(scene)
+    assert "wall" in sim.energies() and sim.energies()["wall"] == 0.0  # the capsule starts out of range
+    summary = sim.run(out=tmp_path / "confined", progress=False)
+    assert summary["status"] == "completed"
+    run = rm.load_run(tmp_path / "confined")
+    assert (run.series["wall_min_distance"] > 0).all()
+    with pytest.raises(rm.SceneError) as info:
+        scene.replace(energy__Wall__range=-1.0)
+    assert info.value.field == "energy.Wall.range"

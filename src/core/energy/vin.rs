@@ -15,10 +15,11 @@
 //! the force on an edge's end points is ∓V_in'(l) along the edge, with V_in'
 //! the chord slope of l's segment (piecewise-linear form) or the exact slope.
 
-use crate::energy::vin_edge_samples::VinEdgeSampling;
 use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
-use crate::engine::schedule::Stage;
-use crate::engine::simulation::{Plugin, SimBuilder};
+use crate::engine::resources::{Res, ResMut};
+use crate::engine::schedule::{Stage, System};
+use crate::engine::simulation::{DensePositions, Plugin, SimBuilder, SimError};
+use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -652,5 +653,37 @@ impl crate::energy::builtin::BuiltinTerm for VinParams {
         self.near_steepness = (self.near_steepness.0 / h, self.near_steepness.1 / h);
         self.far_steepness = (self.far_steepness.0 / h, self.far_steepness.1 / h);
         self.wall_steepness /= h;
+    }
+}
+
+/// The edge-sampling system: every edge's [`VinEdgeSamples`] entry, once
+/// per tick.
+///
+/// Stage: Gather (after `gather_state`). Reads: [`Membrane`] (edges),
+/// [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
+pub struct VinEdgeSampling;
+
+/// Its name.
+pub const VIN_EDGE_SAMPLES: &str = "vin_edge_samples";
+
+impl System for VinEdgeSampling {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, VinSegmentation>,
+        ResMut<'a, VinEdgeSamples>,
+    );
+
+    fn name(&self) -> &str {
+        VIN_EDGE_SAMPLES
+    }
+
+    fn run(
+        &mut self,
+        (membrane, positions, segmentation, mut samples): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let (edges, segmentation) = (&membrane.cached_topology().edges, &segmentation.0);
+        samples.measure(edges, &positions.0, |l| segmentation.segment_of(l));
+        Ok(())
     }
 }

@@ -1,17 +1,9 @@
 //! Every edge measured once per tick for V_in: its vector, length and
 //! segment ([`VinEdgeSamples`]), read by the V_in force and the time-step
 //! rule instead of each gathering the end positions, taking the square root
-//! and looking up the segment again. The system that measures them
-//! ([`VinEdgeSampling`]) is part of V_in's plugin ([`super::vin::plugin`]).
-//!
-//! Stage: Gather (after `gather_state`). Reads: [`Membrane`] (edges),
-//! [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
+//! and looking up the segment again. V_in's plugin measures them in the
+//! Gather stage (`super::vin::VinEdgeSampling`).
 
-use crate::energy::vin::{Segmentation, VinSegmentation};
-use crate::engine::resources::{Res, ResMut};
-use crate::engine::schedule::System;
-use crate::engine::simulation::{DensePositions, SimError};
-use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 
 pub use crate::mesh::geometry::EdgeSample;
@@ -25,12 +17,13 @@ pub use crate::mesh::geometry::EdgeSample;
 pub struct VinEdgeSamples(pub Vec<EdgeSample>);
 
 impl VinEdgeSamples {
-    /// Measures `edges` at `positions`.
+    /// Measures `edges` at `positions`; `segment_of` gives a length's
+    /// V_in segment (`Segmentation::segment_of`).
     pub fn measure(
         &mut self,
-        segmentation: &Segmentation,
         edges: &[[u32; 2]],
         positions: &[DVec3],
+        segment_of: impl Fn(f64) -> usize + Sync,
     ) {
         self.0.resize(edges.len(), EdgeSample::default());
         crate::util::parallel::fill(&mut self.0, |e| {
@@ -40,39 +33,8 @@ impl VinEdgeSamples {
             EdgeSample {
                 d,
                 length,
-                segment: segmentation.segment_of(length) as u32,
+                segment: segment_of(length) as u32,
             }
         });
-    }
-}
-
-/// The edge-sampling system.
-pub struct VinEdgeSampling;
-
-/// Its name.
-pub const VIN_EDGE_SAMPLES: &str = "vin_edge_samples";
-
-impl System for VinEdgeSampling {
-    type Data<'a> = (
-        Res<'a, Membrane>,
-        Res<'a, DensePositions>,
-        Res<'a, VinSegmentation>,
-        ResMut<'a, VinEdgeSamples>,
-    );
-
-    fn name(&self) -> &str {
-        VIN_EDGE_SAMPLES
-    }
-
-    fn run(
-        &mut self,
-        (membrane, positions, segmentation, mut samples): Self::Data<'_>,
-    ) -> Result<(), SimError> {
-        samples.measure(
-            &segmentation.0,
-            &membrane.cached_topology().edges,
-            &positions.0,
-        );
-        Ok(())
     }
 }

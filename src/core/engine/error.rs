@@ -208,18 +208,17 @@ pub enum ScheduleError {
         systems: String,
     },
     /// A system writes a resource its stage does not allow
-    /// ([`ScheduleBuilder::restrict_writes`](crate::engine::schedule::ScheduleBuilder::restrict_writes)).
+    /// (`ScheduleBuilder::restrict_writes`).
     #[error(
-        "system `{system}` in the {} stage writes `{resource}`; that stage's systems may write only {allowed}",
-        stage.name()
+        "system `{system}` in the {stage} stage writes `{resource}`; that stage's systems may write only {allowed}"
     )]
     StageWrites {
         /// The system.
         system: String,
         /// Its stage.
-        stage: crate::engine::schedule::Stage,
-        /// The forbidden write.
-        resource: ResourceId,
+        stage: &'static str,
+        /// The forbidden write (the resource's type name).
+        resource: &'static str,
         /// What the stage's systems may write.
         allowed: String,
     },

@@ -375,8 +375,8 @@ impl ScheduleBuilder {
                     let allowed: Vec<&str> = allowed.iter().map(|i| i.name()).collect();
                     return Err(ScheduleError::StageWrites {
                         system: name,
-                        stage: *stage,
-                        resource,
+                        stage: stage.name(),
+                        resource: resource.name(),
                         allowed: allowed.join(", "),
                     });
                 }
