@@ -1,8 +1,10 @@
-//! Walls end to end: the confined vesicle of `scenes/open/confined.ron`
-//! comes to rest pressed on its cylinder without any vertex reaching the
-//! wall, the wall's columns and point data are written, and a wall that
-//! cuts the initial membrane is refused before anything is written. (The
-//! force's finite-difference checks are in `energy/wall.rs`.)
+//! Walls and substrates end to end: the confined vesicle of
+//! `scenes/open/confined.ron` comes to rest pressed on its cylinder without
+//! any vertex reaching the wall, the wall's columns and point data are
+//! written, and a wall that cuts the initial membrane is refused before
+//! anything is written; the vesicle of `scenes/open/adhesion.ron` spreads on
+//! its substrate, more for a stronger adhesion. (The forces'
+//! finite-difference checks are in `energy/wall.rs` and `energy/adhesion.rs`.)
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -105,5 +107,53 @@ fn a_wall_through_the_initial_membrane_is_refused_before_anything_is_written() {
     assert!(
         msg.contains("cut.ron") && msg.contains("normal or axis"),
         "{msg}"
+    );
+}
+
+/// The final adhered area of `scenes/open/adhesion.ron` with adhesion
+/// energy `w`, after checking that the run came to rest above the wall.
+fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
+    let path = scene("open/adhesion.ron");
+    let scene = remembrane::scene::Scene::load(&path).unwrap();
+    let value = serde_json::Value::from(w);
+    let scene = remembrane::scene::overrides::set_parameter(
+        &scene,
+        &path,
+        "energy.Adhesion.strength",
+        value,
+    )
+    .unwrap();
+    let out = dir.join(format!("w{w}"));
+    let summary =
+        remembrane::workflow::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| {
+            Ok(())
+        })
+        .unwrap();
+    let m = summary.minimiser.expect("minimised");
+    assert_eq!(m.stopped_by, "force_residual", "W = {w}");
+    let min_distance = common::series_column(&out, "wall_min_distance");
+    assert!(
+        min_distance.iter().all(|&d| d > 0.0),
+        "W = {w}: {min_distance:?}"
+    );
+    let area = common::series_column(&out, "adhesion_contact_area");
+    (area[0], area[area.len() - 1])
+}
+
+#[test]
+fn the_vesicle_spreads_on_its_substrate_and_more_for_a_stronger_adhesion() {
+    let dir = tempfile::tempdir().unwrap();
+    // Set down with only its bottom within range, the vesicle spreads over
+    // the plane until bending, the volume and the area balance the
+    // adhesion; the area it binds grows with W (measured: 0.55 l̄² at the
+    // start, 64.0 at W = 0.1 and 77.8 at W = 0.2 Ē/l̄²; at 90 % volume the
+    // held volume limits the spreading).
+    let (start, weak) = adhered_area(0.1, dir.path());
+    let (_, strong) = adhered_area(0.2, dir.path());
+    println!("contact area: start {start:.2}, W = 0.1: {weak:.2}, W = 0.2: {strong:.2} l̄²");
+    assert!(start < 2.0, "{start}");
+    assert!(
+        weak > 10.0 * start && strong > 1.1 * weak,
+        "{start} {weak} {strong}"
     );
 }

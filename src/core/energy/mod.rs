@@ -21,6 +21,7 @@ pub mod vin_elasticity;
 // The built-in terms: each one's file, then its entry in the list below,
 // named as scenes write it. The list generates the scene's `EnergyTerm`
 // enum and its dispatch (`builtin::builtin_terms`).
+pub mod adhesion;
 pub mod area;
 pub mod bending;
 pub mod local_tension;
@@ -52,4 +53,6 @@ builtin::builtin_terms! {
     /// A rigid wall (a plane, or a sphere or cylinder from inside) that
     /// repels the vertices within a short range.
     Wall(wall::WallParams),
+    /// An adhesive substrate: −W per area of membrane within a short range.
+    Adhesion(adhesion::AdhesionParams),
 }

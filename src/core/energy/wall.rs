@@ -1,6 +1,7 @@
-//! Walls: a rigid surface the membrane cannot pass (a plane, the inside of
-//! a sphere or the inside of a cylinder), felt by every vertex through a
-//! short-range repulsion.
+//! Walls: a rigid surface the membrane cannot pass (a plane, a sphere from
+//! outside or inside, or the inside of a cylinder), felt by every vertex
+//! through a short-range repulsion. The surfaces ([`WallShape`]) also serve
+//! the adhesive substrates ([`super::adhesion`]).
 //!
 //! With d_i the distance of vertex i from the wall, measured into the
 //! allowed region, ε the strength and r the range:
@@ -46,6 +47,13 @@ pub enum WallShape {
         /// Normal towards the membrane's side (any non-zero length).
         normal: (f64, f64, f64),
     },
+    /// A sphere (a bead) the membrane stays outside of.
+    SphereOutside {
+        /// Centre (l̄).
+        center: (f64, f64, f64),
+        /// Radius (l̄).
+        radius: f64,
+    },
     /// A sphere the membrane stays inside.
     SphereInside {
         /// Centre (l̄).
@@ -77,6 +85,11 @@ impl WallShape {
                 let n = vec3(normal).normalize();
                 ((x - vec3(point)).dot(n), n)
             }
+            WallShape::SphereOutside { center, radius } => {
+                let r = x - vec3(center);
+                let len = r.length();
+                (len - radius, r / len)
+            }
             WallShape::SphereInside { center, radius } => {
                 let r = x - vec3(center);
                 let len = r.length();
@@ -97,11 +110,12 @@ impl WallShape {
     }
 
     /// Scales every length by `h`.
-    fn scale(&mut self, h: f64) {
+    pub(crate) fn scale(&mut self, h: f64) {
         let s = |v: (f64, f64, f64)| (v.0 * h, v.1 * h, v.2 * h);
         match self {
             WallShape::Plane { point, .. } => *point = s(*point),
-            WallShape::SphereInside { center, radius } => {
+            WallShape::SphereOutside { center, radius }
+            | WallShape::SphereInside { center, radius } => {
                 *center = s(*center);
                 *radius *= h;
             }
@@ -118,7 +132,8 @@ impl crate::util::validate::Validate for WallShape {
         let finite = |v: (f64, f64, f64)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
         let (points, direction, radius) = match *self {
             WallShape::Plane { point, normal } => (point, Some(normal), None),
-            WallShape::SphereInside { center, radius } => (center, None, Some(radius)),
+            WallShape::SphereOutside { center, radius }
+            | WallShape::SphereInside { center, radius } => (center, None, Some(radius)),
             WallShape::CylinderInside {
                 point,
                 axis,
@@ -367,6 +382,11 @@ mod tests {
                 point: (0.2, 0.1, 0.0),
                 axis: (0.2, -0.1, 1.0),
                 radius: 7.3,
+            }),
+            // A bead just outside the sphere's surface.
+            wall(WallShape::SphereOutside {
+                center: (0.4, 0.3, 9.3),
+                radius: 2.5,
             }),
         ]
     }
