@@ -55,7 +55,10 @@ pub struct AdhesionParams {
     pub range: f64,
     /// The term's name, which its energy, timing and series columns carry
     /// (default `adhesion`). Letters, digits and `_`.
-    #[serde(default = "default_name", deserialize_with = "checked_name")]
+    #[serde(
+        default = "default_name",
+        deserialize_with = "crate::util::validate::name"
+    )]
     pub name: String,
 }
 
@@ -65,17 +68,6 @@ fn default_range() -> f64 {
 
 fn default_name() -> String {
     "adhesion".into()
-}
-
-fn checked_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
-    let name = String::deserialize(d)?;
-    let ok = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-    match ok {
-        true => Ok(name),
-        false => Err(serde::de::Error::custom(format!(
-            "`{name}` is not a name: use letters, digits and `_`"
-        ))),
-    }
 }
 
 /// φ(d) and φ′(d) of the contact potential with range `range`.

@@ -182,7 +182,10 @@ pub struct WallParams {
     pub range: f64,
     /// The term's name, which its energy, timing and series columns carry
     /// (default `wall`; two walls need two names). Letters, digits and `_`.
-    #[serde(default = "default_name", deserialize_with = "checked_name")]
+    #[serde(
+        default = "default_name",
+        deserialize_with = "crate::util::validate::name"
+    )]
     pub name: String,
 }
 
@@ -198,15 +201,14 @@ fn default_name() -> String {
     "wall".into()
 }
 
-fn checked_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
-    let name = String::deserialize(d)?;
-    let ok = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-    match ok {
-        true => Ok(name),
-        false => Err(serde::de::Error::custom(format!(
-            "`{name}` is not a name: use letters, digits and `_`"
-        ))),
-    }
+/// One vertex's energy ε (r/d − 1)³ at distance 0 < d < r from the wall
+/// and the magnitude of its push away from it, −∂E/∂d.
+fn repulsion(d: f64, strength: f64, range: f64) -> (f64, f64) {
+    let q = range / d - 1.0;
+    (
+        strength * q * q * q,
+        3.0 * strength * q * q * range / (d * d),
+    )
 }
 
 /// The wall energy (Ē) of `positions`; with `force`, adds −∇E. A vertex on
@@ -228,10 +230,10 @@ pub fn wall_energy(
             energy = f64::INFINITY;
             continue;
         }
-        let q = range / d - 1.0;
-        energy += strength * q * q * q;
+        let (e, push) = repulsion(d, strength, range);
+        energy += e;
         if let Some(f) = force.as_deref_mut() {
-            f[i] += gradient * (3.0 * strength * q * q * range / (d * d));
+            f[i] += gradient * push;
         }
     }
     energy
@@ -290,8 +292,7 @@ impl Recorder for WallRecorder {
         let distances: Vec<f64> = positions.0.iter().map(|&x| p.shape.distance(x).0).collect();
         let (mut total, mut contacts) = (0.0, 0u64);
         for &d in distances.iter().filter(|&&d| d < p.range) {
-            let q = p.range / d - 1.0;
-            total += 3.0 * p.strength * q * q * p.range / (d * d);
+            total += repulsion(d, p.strength, p.range).1;
             contacts += 1;
         }
         let min = distances.iter().copied().fold(f64::INFINITY, f64::min);

@@ -33,6 +33,19 @@ pub fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     number(d, |_| true, "a finite number")
 }
 
+/// A name of letters, digits and `_` (it names a term, its timing and its
+/// series columns).
+pub fn name<'de, D: Deserializer<'de>>(d: D) -> Result<String, D::Error> {
+    let name = String::deserialize(d)?;
+    let ok = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    match ok {
+        true => Ok(name),
+        false => Err(D::Error::custom(format!(
+            "`{name}` is not a name: use letters, digits and `_`"
+        ))),
+    }
+}
+
 /// A 3-vector of finite numbers.
 pub fn finite_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<(f64, f64, f64), D::Error> {
     let v = <(f64, f64, f64)>::deserialize(d)?;
