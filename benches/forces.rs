@@ -229,7 +229,7 @@ fn rbc_all_forces(c: &mut Criterion) {
         for t in terms(&initial).into_iter().take(4) {
             builder.add_force_term(t).unwrap();
         }
-        let mut sim = builder.build();
+        let mut sim = builder.build().unwrap();
         let n = initial.vertices;
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {

@@ -22,21 +22,26 @@
 //!   Clock>, ResMut<'a, DensePositions>, Option<Res<'a, VinSegmentation>>)` ([`System`], [`Res`],
 //!   [`ResMut`]). The schedule derives
 //!   the access from that type, so declarations cannot drift and a system cannot reach anything it
-//!   did not declare. Before tick 0 it rejects: a resource no plugin inserted, one resource borrowed
+//!   did not declare. [`SimBuilder::build`] seals the simulation: it validates and orders the
+//!   schedule, and returns an error instead of a [`Simulation`] when it rejects: a resource no plugin inserted, one resource borrowed
 //!   twice with a write, a Forces-stage system writing anything but [`ForceBuffers`] (a limit the
 //!   core plugin declares, [`ScheduleBuilder::restrict_writes`]), duplicate
 //!   names, unknown ordering targets, cycles. [`DynamicSystem`]s (access known only at run time) get a
 //!   view that fails any undeclared borrow.
 //! - **Force terms** implement [`engine::force::ForceTerm`] (name, energy, *add* −∇E into a buffer).
-//!   [`SimBuilder::add_force_term`] (or [`Simulation::add_force_term`] before the first tick) registers
+//!   [`SimBuilder::add_force_term`] registers
 //!   the term's buffer in [`ForceBuffers`]; the `force_terms` system ([`force_terms`](systems::force_terms))
 //!   evaluates every registered
 //!   term, so every term is finite-checked, timed (under its own name), summed, used by the time
 //!   step and reported alike. Terms are independent, so on a large mesh with more than one thread
 //!   they run concurrently.
-//! - **Recorders** ([`recorder`](engine::recorder)) produce each frame's series columns and VTK point data; the
-//!   run's `frames` system calls them in the Observe stage, which sees the last completed
-//!   iteration's state with the forces its next step applies (no second force evaluation).
+//! - **Recorders** ([`recorder`](engine::recorder)) produce each frame's series columns and VTK point data.
+//!   Each is a typed Observe-stage system (`record_<name>`, its reads declared by its type), run
+//!   when the `frame_clock` ([`frame_clock`](engine::frame_clock)) opens a frame. Observe sees the
+//!   last completed iteration's state with the forces its next step applies (no second force
+//!   evaluation); the `frames` system writes the frame in the Output stage. A scene's simulation
+//!   has frame output from its build: a run only sets the [`FrameSchedule`] and opens the
+//!   [`OpenOutput`] directory, both resources.
 //! - **Checkpoints** ([`checkpoint`](io::checkpoint)) save what carries from one tick to the next and nothing
 //!   else: the world entity by entity with hecs' free list ([`world_snapshot`](io::world_snapshot)), the resources
 //!   their plugins declared persistent ([`SimBuilder::persist_resource`], [`persisted`](engine::persisted)), and
@@ -75,7 +80,8 @@
 //! | Prepare | [`control_point_schedule`](systems::control_point_schedule) (when scheduled) | control points in [`Membrane`] |
 //! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`VinEdgeSamples`] (each edge's vector, length and V_in segment, read by the V_in force and the time step) |
 //! | Forces | `force_terms` (every term: `vin`, `bending`, `volume`, `area`, `local_tension`, `springs`, plugins' terms, each timed under its name), then [`force_total`](systems::force_total), then [`constraint_reactions`](systems::constraint_reactions) (with `constraints`) | [`ForceBuffers`] only |
-//! | Observe | `frames` (in runs: the recorders) | [`RunOutput`] |
+//! | Observe | `frame_clock`, then the recorders (`record_state_columns`, `record_force`, …) | [`FrameSchedule`], [`CurrentFrame`] |
+//! | Output | `frames` ([`FrameWriter`]: only when a run opened an output directory) | [`OpenOutput`] |
 //! | TimeStep | [`adaptive_time_step`](systems::adaptive_time_step) | [`TimeStepChoice`] |
 //! | Integrate | [`langevin_integration`](systems::langevin_integration) (fold and inside-out checks), or [`fire_minimiser`](systems::fire_minimiser) with `method: Minimise`; then [`constraint_projection`](systems::constraint_projection) (with `constraints`) | [`DensePositions`], [`Membrane`] (positions, forces), [`Clock`]; the minimiser also [`MinimiserStatus`], [`StopRequest`] |
 //! | BarrierCheck | [`barrier_check`](systems::barrier_check) | [`AbnormalEdges`] |
@@ -95,7 +101,8 @@
 //! | `remesh` | [`ValenceRange`], [`RemeshStats`], [`RemeshTriggered`] | `remesh` |
 //! | `edge_flips` | [`ValenceRange`], [`FlipStats`] | `edge_flips` |
 //! | `diffusion` | — | `lipid_diffusion` |
-//! | `recorders` | [`Recorders`] | — (the run's `frames` system calls them) |
+//! | `recorders` | [`FrameSchedule`], [`CurrentFrame`] | `frame_clock`, a `record_<name>` system per recorder (Observe) |
+//! | `frame_output` ([`io::output::frame_output`]) | [`OpenOutput`] | `frames` (Output) |
 //!
 //! The plugin guide (`docs/plugins.md`: a force term, a resource, a system and a registry entry,
 //! declared by a scene) is compiled and run as a doctest.
@@ -114,7 +121,8 @@
 //! [`ForceBuffers`]: engine::force::ForceBuffers
 //! [`FaceGeometry`]: engine::force::FaceGeometry
 //! [`SimBuilder::add_force_term`]: engine::simulation::SimBuilder::add_force_term
-//! [`Simulation::add_force_term`]: engine::simulation::Simulation::add_force_term
+//! [`SimBuilder::build`]: engine::simulation::SimBuilder::build
+//! [`Simulation`]: engine::simulation::Simulation
 //! [`SimBuilder::persist_resource`]: engine::simulation::SimBuilder::persist_resource
 //! [`Clock`]: engine::core_resources::Clock
 //! [`DensePositions`]: engine::core_resources::DensePositions
@@ -124,7 +132,10 @@
 //! [`CheckInvariants`]: engine::core_resources::CheckInvariants
 //! [`VinEdgeSamples`]: energy::vin::VinEdgeSamples
 //! [`VinSegmentation`]: energy::vin::VinSegmentation
-//! [`RunOutput`]: io::output::RunOutput
+//! [`OpenOutput`]: io::output::OpenOutput
+//! [`FrameWriter`]: io::output::FrameWriter
+//! [`FrameSchedule`]: engine::frame_clock::FrameSchedule
+//! [`CurrentFrame`]: engine::frame_clock::CurrentFrame
 //! [`TimeStepChoice`]: timestep::TimeStepChoice
 //! [`MinimiserStatus`]: minimise::MinimiserStatus
 //! [`AbnormalEdges`]: systems::barrier_check::AbnormalEdges
@@ -135,7 +146,6 @@
 //! [`RemeshParams`]: params::RemeshParams
 //! [`Constraints`]: constraint::Constraints
 //! [`ValenceRange`]: mesh::invariants::ValenceRange
-//! [`Recorders`]: engine::recorder::Recorders
 
 pub mod analysis;
 pub mod cli;

@@ -317,8 +317,8 @@ fn maintenance_flips_make_a_jittered_fluid_mesh_delaunay_and_count_it() {
         .unwrap()
         .build(path)
         .unwrap();
-    sim.insert_resource(remembrane::engine::simulation::CheckInvariants(true))
-        .unwrap();
+    sim.resource_mut::<remembrane::engine::simulation::CheckInvariants>()
+        .0 = true;
     let before = flippable_non_delaunay(&sim, 20.0);
     assert!(before > 20, "the jitter leaves {before} non-Delaunay edges");
     let area = |sim: &Simulation| {

@@ -81,7 +81,7 @@ fn thermal_noise_on_the_as_run_vin_stops_naming_the_noise_and_its_fixes() {
     assert_ne!(cause, FoldCause::Drift, "the noise takes part");
     assert!(message.contains("thermal noise") && message.contains("dynamics.dt_max"));
     assert_eq!(
-        RunError::Sim(SimError::AlreadyStarted(String::new())).exit_code(),
+        RunError::Sim(SimError::Output(String::new())).exit_code(),
         1
     );
     // Every written frame is finite; the summary says how it ended.

@@ -46,12 +46,19 @@ const FIELD: DVec3 = DVec3::new(0.3, -0.2, 0.5);
 /// zero net sum (~1e-13 per step); 200 steps of ≤ 1e-3 s.
 const CENTROID_TOLERANCE: f64 = 1e-9;
 
-fn scene_sim() -> Simulation {
+/// The scene's simulation with what `add` registers on its builder.
+fn scene_sim_with(add: impl FnOnce(&mut SimBuilder)) -> Simulation {
+    scene_builder_with(add).build().unwrap()
+}
+
+fn scene_builder_with(add: impl FnOnce(&mut SimBuilder)) -> SimBuilder {
     let path = Path::new("field.ron");
-    Scene::from_ron_str(SCENE, path)
+    let mut builder = Scene::from_ron_str(SCENE, path)
         .unwrap()
-        .build(path)
-        .unwrap()
+        .builder(path)
+        .unwrap();
+    add(&mut builder);
+    builder
 }
 
 fn centroid(sim: &Simulation) -> DVec3 {
@@ -77,9 +84,10 @@ fn assert_centroid_follows_the_field(sim: &mut Simulation) {
 }
 
 #[test]
-fn a_force_term_added_after_the_scene_is_built_moves_the_centroid_by_mu_f_t() {
-    let mut sim = scene_sim();
-    sim.add_force_term(UniformField(FIELD)).unwrap();
+fn a_force_term_added_to_the_scenes_builder_moves_the_centroid_by_mu_f_t() {
+    let mut sim = scene_sim_with(|b| {
+        b.add_force_term(UniformField(FIELD)).unwrap();
+    });
     assert_centroid_follows_the_field(&mut sim);
     // It is reported, timed and summed like a built-in term.
     let buffers = sim.evaluate_forces().unwrap();
@@ -88,7 +96,7 @@ fn a_force_term_added_after_the_scene_is_built_moves_the_centroid_by_mu_f_t() {
     let n = buffers.evaluation.total.len() as f64;
     assert!((total / n - FIELD).length() < 1e-9, "{total:?}");
     drop(buffers);
-    let timings = sim.schedule().unwrap().timings();
+    let timings = sim.schedule().timings();
     assert!(timings.iter().any(|t| t.system == "uniform_field"
         && t.stage == "Forces"
         && t.part_of.as_deref() == Some("force_terms")));
@@ -144,7 +152,7 @@ fn a_plugin_registering_a_force_term_on_the_builder_moves_the_centroid_by_mu_f_t
         .unwrap()
         .add_plugin(field)
         .unwrap();
-    assert_centroid_follows_the_field(&mut builder.build());
+    assert_centroid_follows_the_field(&mut builder.build().unwrap());
 }
 
 #[test]
@@ -165,9 +173,10 @@ fn a_force_term_without_the_core_plugin_is_refused_with_the_reason() {
 
 #[test]
 fn a_custom_term_that_goes_non_finite_stops_the_run_naming_it() {
-    let mut sim = scene_sim();
-    sim.add_force_term(UniformField(DVec3::new(f64::NAN, 0.0, 0.0)))
-        .unwrap();
+    let mut sim = scene_sim_with(|b| {
+        b.add_force_term(UniformField(DVec3::new(f64::NAN, 0.0, 0.0)))
+            .unwrap();
+    });
     let err = sim.tick().unwrap_err();
     assert!(
         matches!(&err, SimError::BlowUp { term, .. } if term == "uniform_field"),
@@ -214,9 +223,10 @@ impl System for CountTicks {
 
 #[test]
 fn a_plugin_adds_its_own_resource_and_system() {
-    let mut sim = scene_sim();
-    sim.insert_resource(TickCount(0)).unwrap();
-    sim.add_system(Stage::Observe, CountTicks).unwrap();
+    let mut sim = scene_sim_with(|b| {
+        b.insert_resource(TickCount(0));
+        b.add_system(Stage::Observe, CountTicks);
+    });
     for _ in 0..5 {
         sim.tick().unwrap();
     }
@@ -224,12 +234,12 @@ fn a_plugin_adds_its_own_resource_and_system() {
 }
 
 #[test]
-fn a_system_declaring_a_resource_nobody_inserted_fails_before_tick_zero() {
-    let mut sim = scene_sim();
-    sim.add_system(Stage::Observe, CountTicks).unwrap();
-    let err = sim.tick().unwrap_err();
+fn a_system_declaring_a_resource_nobody_inserted_is_refused_by_build() {
+    let builder = scene_builder_with(|b| {
+        b.add_system(Stage::Observe, CountTicks);
+    });
+    let err = builder.build().err().unwrap();
     assert!(err.to_string().contains("TickCount"), "{err}");
-    assert_eq!(sim.clock().iteration, 0);
 }
 
 /// A dynamic system that declares a read of the clock but then writes the
@@ -257,8 +267,9 @@ impl DynamicSystem for Undeclared {
 
 #[test]
 fn a_system_touching_a_resource_it_did_not_declare_is_rejected() {
-    let mut sim = scene_sim();
-    sim.add_dynamic_system(Stage::Prepare, Undeclared).unwrap();
+    let mut sim = scene_sim_with(|b| {
+        b.add_dynamic_system(Stage::Prepare, Undeclared);
+    });
     sim.evaluate_forces().unwrap();
     let before = sim.positions();
     assert!(!before.is_empty());
@@ -455,20 +466,15 @@ impl ForceTerm for Counting {
 struct Height;
 
 impl remembrane::engine::recorder::Recorder for Height {
+    type Data<'a> = Res<'a, DensePositions>;
     fn name(&self) -> &str {
         "height"
     }
-    fn access(&self) -> remembrane::engine::resources::Access {
-        remembrane::engine::resources::Access::default().read::<DensePositions>()
-    }
     fn record(
         &mut self,
-        s: &CheckedResources<'_>,
+        p: Self::Data<'_>,
         frame: &mut remembrane::engine::recorder::FrameData,
     ) -> Result<(), SimError> {
-        let p = s
-            .get::<DensePositions>()
-            .map_err(remembrane::engine::recorder::read_error("height"))?;
         let z: Vec<f64> = p.0.iter().map(|p| p.z).collect();
         frame.column("height", z.iter().copied().fold(f64::MIN, f64::max));
         frame.scalars("height_field", z);
@@ -499,7 +505,8 @@ fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
     let counter = calls.clone();
     let summary = run_scene(&scene, &path, &options, move |sim| {
         sim.add_force_term(Counting(counter))?;
-        sim.add_recorder(Height)
+        sim.add_recorder(Height);
+        Ok(())
     })
     .unwrap();
     assert_eq!(summary.frames.len(), 11);
@@ -518,7 +525,13 @@ fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
         summary
             .timings
             .iter()
-            .any(|t| t.system == "frames" && t.stage == "Observe")
+            .any(|t| t.system == "frames" && t.stage == "Output")
+    );
+    assert!(
+        summary
+            .timings
+            .iter()
+            .any(|t| t.system == "record_height" && t.stage == "Observe")
     );
 }
 
@@ -561,13 +574,13 @@ impl ForceTerm for GrowingField {
 fn a_force_terms_own_state_is_saved_and_restored_with_the_run() {
     use remembrane::engine::persisted::PersistedResources;
     let make = || {
-        let mut sim = scene_sim();
-        sim.add_force_term(GrowingField {
-            step: FIELD * 1e-3,
-            evaluations: 0,
+        scene_sim_with(|b| {
+            b.add_force_term(GrowingField {
+                step: FIELD * 1e-3,
+                evaluations: 0,
+            })
+            .unwrap();
         })
-        .unwrap();
-        sim
     };
     let mut straight = make();
     for _ in 0..10 {
@@ -582,7 +595,6 @@ fn a_force_terms_own_state_is_saved_and_restored_with_the_run() {
         serde_json::json!({"growing_field": 10})
     );
     let mut resumed = make();
-    resumed.start().unwrap();
     let snapshot =
         remembrane::io::world_snapshot::WorldSnapshot::capture(&straight.membrane()).unwrap();
     snapshot.restore(resumed.membrane_mut()).unwrap();

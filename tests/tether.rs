@@ -55,15 +55,15 @@ fn a_phase_continues_from_the_saved_state_of_the_previous_one() {
     opts.from = Some(first.join("state.json"));
     let mut sim_pull = None;
     let summary = run_scene(&pull, &pull_path, &opts, |sim| {
-        assert_eq!(sim.membrane().cached_topology().vertex_count(), rho.len());
+        let membrane = sim
+            .resource_mut::<remembrane::mesh::membrane::Membrane>()
+            .unwrap();
+        assert_eq!(membrane.topology().unwrap().vertex_count(), rho.len());
         let mut gathered = Vec::new();
-        sim.membrane().gather_lipid(&mut gathered);
+        membrane.gather_lipid(&mut gathered);
         assert_eq!(gathered, rho, "densities are restored vertex by vertex");
         // a0 = A_t / Σρ.
-        sim_pull = Some(
-            sim.resource::<remembrane::engine::simulation::InitialState>()
-                .lipid_total,
-        );
+        sim_pull = Some(sim.initial_state("the test").unwrap().lipid_total);
         Ok(())
     })
     .unwrap();
@@ -117,7 +117,6 @@ fn time_scheduled_moves_follow_simulated_time() {
         jitter: 0.0,
     };
     let mut sim = scene.build(&path).unwrap();
-    sim.start().unwrap();
     let start = (-14.0, 14.0);
     while sim.clock().time < 3.0 * 1.25e-4 && sim.clock().iteration < 20_000 {
         // The move for the interval that starts at time t is applied at the

@@ -99,7 +99,7 @@ fn simulation_of(
         })
         .unwrap();
     }
-    let mut sim = b.build();
+    let mut sim = b.build().unwrap();
     sim.evaluate_forces().unwrap();
     (sim, mesh.positions)
 }

@@ -12,27 +12,41 @@ use pyo3::exceptions::{PyFileExistsError, PyKeyError, PyTypeError, PyValueError}
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use remembrane::engine::force::ForceBuffers;
+use remembrane::engine::resources::Res;
 use remembrane::engine::simulation::SimError;
+use remembrane::engine::simulation::{Clock, Simulation};
 use remembrane::io::report::EnergyReport;
+use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::quality::MeshQuality;
 use remembrane::remesh::RemeshStats;
 use remembrane::workflow::run::{
-    PreparedRun, Progress, RunError, RunOptions, drive_run, prepare_run,
+    PendingRun, PreparedRun, Progress, RunError, RunOptions, drive_run,
 };
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, TryLockError};
 use std::time::Instant;
 
-/// Everything behind the lock: the engine's simulation and what is needed
-/// to build it again.
+/// The simulation's life: a builder until it is first evaluated, stepped or
+/// run, then the sealed simulation.
+enum State {
+    /// The scene's builder; Python force terms join it.
+    Pending(PendingRun),
+    /// Built and sealed.
+    Built(PreparedRun),
+    /// Only while the builder is being sealed.
+    Sealing,
+}
+
+/// Everything behind the lock: the engine's simulation (or its builder) and
+/// what a changed scene needs to be built again.
 struct Inner {
-    run: PreparedRun,
+    state: State,
     scene: PyScene,
     check_invariants: bool,
     python_terms: Vec<(String, Py<PyAny>)>,
     errors: TermErrors,
-    /// Set once `run()` has been called: its frame writer and outputs are
-    /// part of the schedule, so the simulation cannot be stepped again.
+    /// Set once `run()` has been called: the simulation cannot be stepped
+    /// again.
     ran: bool,
 }
 
@@ -61,19 +75,81 @@ impl Inner {
         run_options(out, overwrite, progress, self.check_invariants)
     }
 
-    /// A fresh, unstarted simulation of the scene with the Python terms
-    /// added again in their order.
-    fn rebuild(&mut self, py: Python<'_>) -> PyResult<()> {
+    /// The scene's builder again, with the Python terms added in their
+    /// order: after a change of the scene (`minimise()` settings).
+    fn restart(&mut self, py: Python<'_>) -> PyResult<()> {
         let options = self.options(PathBuf::new(), false, Progress::Quiet);
-        self.run = prepare(py, &self.scene, &options)?;
+        let mut pending = prepare(py, &self.scene, &options)?;
         for (name, f) in &self.python_terms {
             let term = PyForceTerm::new(name.clone(), f.clone_ref(py), self.errors.clone());
-            self.run
-                .sim
+            pending
+                .builder
                 .add_force_term(term)
                 .map_err(simulation_error)?;
         }
+        self.state = State::Pending(pending);
         Ok(())
+    }
+
+    /// The sealed run, built from the builder on first use.
+    fn run_mut(&mut self, py: Python<'_>) -> PyResult<&mut PreparedRun> {
+        if let State::Pending(_) = self.state {
+            let State::Pending(pending) = std::mem::replace(&mut self.state, State::Sealing) else {
+                unreachable!("checked above")
+            };
+            let built = pending.build(&self.scene.path).map_err(|e| match e {
+                RunError::Scene(e) => scene_error(py, &e),
+                other => simulation_error(other),
+            })?;
+            self.state = State::Built(built);
+        }
+        match &mut self.state {
+            State::Built(run) => Ok(run),
+            _ => Err(simulation_error("the simulation could not be built")),
+        }
+    }
+
+    /// The sealed simulation, built from the builder on first use.
+    fn sim(&mut self, py: Python<'_>) -> PyResult<&mut Simulation> {
+        Ok(&mut self.run_mut(py)?.sim)
+    }
+
+    /// The simulation once built (`None` before its first use).
+    fn built(&self) -> Option<&Simulation> {
+        match &self.state {
+            State::Built(run) => Some(&run.sim),
+            _ => None,
+        }
+    }
+
+    /// The membrane (world and topology cache).
+    fn membrane(&self) -> PyResult<Res<'_, Membrane>> {
+        match &self.state {
+            State::Built(run) => Ok(run.sim.membrane()),
+            State::Pending(p) => p
+                .builder
+                .resources()
+                .get::<Membrane>()
+                .map_err(simulation_error),
+            State::Sealing => Err(simulation_error("the simulation could not be built")),
+        }
+    }
+
+    /// The membrane, mutably (to bring its topology cache up to date).
+    fn membrane_mut(&mut self) -> PyResult<&mut Membrane> {
+        match &mut self.state {
+            State::Built(run) => Ok(run.sim.membrane_mut()),
+            State::Pending(p) => p
+                .builder
+                .resource_mut::<Membrane>()
+                .ok_or_else(|| simulation_error("the scene built no membrane")),
+            State::Sealing => Err(simulation_error("the simulation could not be built")),
+        }
+    }
+
+    /// Simulated time and iterations (zero before the first step).
+    fn clock(&self) -> Clock {
+        self.built().map(|s| s.clock()).unwrap_or_default()
     }
 
     /// The error to raise for a failed step: the Python term's own
@@ -85,7 +161,7 @@ impl Inner {
     /// Brings the topology cache up to date and returns the positions by
     /// dense slot, gathered from the world (the source of truth).
     fn positions(&mut self) -> PyResult<Vec<DVec3>> {
-        let membrane = self.run.sim.membrane_mut();
+        let membrane = self.membrane_mut()?;
         membrane.topology().map_err(simulation_error)?;
         let mut p = Vec::new();
         membrane.gather_positions(&mut p);
@@ -93,16 +169,12 @@ impl Inner {
     }
 
     fn topology(&mut self) -> PyResult<&remembrane::mesh::topology::Topology> {
-        self.run
-            .sim
-            .membrane_mut()
-            .topology()
-            .map_err(simulation_error)
+        self.membrane_mut()?.topology().map_err(simulation_error)
     }
 }
 
-fn prepare(py: Python<'_>, scene: &PyScene, options: &RunOptions) -> PyResult<PreparedRun> {
-    prepare_run(&scene.scene, &scene.path, options).map_err(|e| match e {
+fn prepare(py: Python<'_>, scene: &PyScene, options: &RunOptions) -> PyResult<PendingRun> {
+    PendingRun::new(&scene.scene, &scene.path, options).map_err(|e| match e {
         RunError::Scene(e) => scene_error(py, &e),
         other => simulation_error(other),
     })
@@ -141,7 +213,7 @@ impl PySimulation {
     /// would) without moving anything, detached from the interpreter.
     fn evaluate(&self, py: Python<'_>, inner: &mut Inner) -> PyResult<()> {
         inner.errors.take();
-        let sim = &mut inner.run.sim;
+        let sim = inner.sim(py)?;
         let (result, raised) = run_detached(py, self.pool.as_ref(), |_| {
             sim.evaluate_forces().map(|_| ())
         });
@@ -174,10 +246,10 @@ impl PySimulation {
             ),
         };
         let options = run_options(PathBuf::new(), false, Progress::Quiet, check_invariants);
-        let run = prepare(py, &scene, &options)?;
+        let pending = prepare(py, &scene, &options)?;
         Ok(Self {
             inner: Mutex::new(Inner {
-                run,
+                state: State::Pending(pending),
                 scene,
                 check_invariants,
                 python_terms: Vec::new(),
@@ -188,7 +260,8 @@ impl PySimulation {
         })
     }
 
-    /// Adds a force term written in Python, before the first step.
+    /// Adds a force term written in Python, before the first step or force
+    /// evaluation (the simulation is sealed then).
     ///
     /// `fn(positions) -> (energy, forces)` is called once per force
     /// evaluation with the vertex positions (N×3 float64, l̄) and returns the
@@ -203,20 +276,17 @@ impl PySimulation {
             ));
         }
         let mut inner = self.lock()?;
-        if inner.ran || inner.run.sim.clock().iteration > 0 || inner.run.sim.schedule().is_some() {
-            if inner.run.sim.clock().iteration > 0 || inner.ran {
-                return Err(simulation_error(format!(
-                    "add_force_term({name:?}): terms are added before the first step"
-                )));
-            }
-            // Only evaluated so far: start again from the same state.
-            inner.rebuild(py)?;
-        }
         let term = PyForceTerm::new(name.clone(), r#fn.clone_ref(py), inner.errors.clone());
-        inner.run.sim.add_force_term(term).map_err(|e| match e {
-            SimError::Build(b) => PyValueError::new_err(b.to_string()),
-            other => simulation_error(other),
-        })?;
+        let State::Pending(pending) = &mut inner.state else {
+            return Err(simulation_error(format!(
+                "add_force_term({name:?}): terms are added before the first step or force \
+                 evaluation (energies, forces, report, minimise, run); build a new Simulation"
+            )));
+        };
+        pending
+            .builder
+            .add_force_term(term)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         inner.python_terms.push((name, r#fn));
         Ok(())
     }
@@ -233,8 +303,8 @@ impl PySimulation {
             ));
         }
         inner.errors.take();
-        let sim = &mut inner.run.sim;
         let errors = inner.errors.clone();
+        let sim = inner.sim(py)?;
         let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
             for _ in 0..n {
                 sim.tick()?;
@@ -271,7 +341,7 @@ impl PySimulation {
                 "this simulation has done its run(); build a new Simulation",
             ));
         }
-        let done = inner.run.sim.clock().iteration;
+        let done = inner.clock().iteration;
         if done > 0 {
             return Err(simulation_error(format!(
                 "run() starts at iteration 0, but this simulation has stepped {done} iterations; \
@@ -284,18 +354,13 @@ impl PySimulation {
                 out.display()
             )));
         }
-        if inner.run.sim.schedule().is_some() {
-            // Forces were evaluated: the schedule is fixed, so build the
-            // same unstarted simulation again to add the frame writer.
-            inner.rebuild(py)?;
-        }
         let progress = Progress::for_stderr(!progress);
         let options = inner.options(out, overwrite, progress);
         inner.errors.take();
-        inner.ran = true;
-        let run = &mut inner.run;
         let path = inner.scene.path.clone();
         let errors = inner.errors.clone();
+        inner.ran = true;
+        let run = inner.run_mut(py)?;
         let started = Instant::now();
         let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
             drive_run(run, &path, &options, started, &|| {
@@ -351,7 +416,7 @@ impl PySimulation {
         }
         let current = inner.scene.scene.dynamics.method;
         if !changes.is_empty() || !matches!(current, Method::Minimise(_)) {
-            let done = inner.run.sim.clock().iteration;
+            let done = inner.clock().iteration;
             if done > 0 {
                 return Err(simulation_error(format!(
                     "minimise(): this simulation has stepped {done} iterations of its {} \
@@ -385,12 +450,12 @@ impl PySimulation {
                 scene: changed,
                 path: inner.scene.path.clone(),
             };
-            inner.rebuild(py)?;
+            inner.restart(py)?;
         }
         let cap = max_iterations.unwrap_or(inner.scene.scene.dynamics.iterations);
         inner.errors.take();
-        let sim = &mut inner.run.sim;
         let errors = inner.errors.clone();
+        let sim = inner.sim(py)?;
         let (result, raised) = run_detached(py, self.pool.as_ref(), |stop| {
             let start = sim.clock().iteration;
             while sim.clock().iteration - start < cap {
@@ -409,7 +474,7 @@ impl PySimulation {
             return Err(e);
         }
         result.map_err(|e| inner.step_error(e))?;
-        let sim = &inner.run.sim;
+        let sim = inner.sim(py)?;
         let summary = remembrane::workflow::run::minimiser_summary(sim)
             .ok_or_else(|| simulation_error("the minimiser is not part of this simulation"))?;
         let mut value = serde_json::to_value(&summary).map_err(simulation_error)?;
@@ -428,13 +493,13 @@ impl PySimulation {
     /// Simulated time (s).
     #[getter]
     fn time(&self) -> PyResult<f64> {
-        Ok(self.lock()?.run.sim.clock().time)
+        Ok(self.lock()?.clock().time)
     }
 
     /// Completed iterations.
     #[getter]
     fn iteration(&self) -> PyResult<u64> {
-        Ok(self.lock()?.run.sim.clock().iteration)
+        Ok(self.lock()?.clock().iteration)
     }
 
     /// The scene being simulated.
@@ -477,9 +542,7 @@ impl PySimulation {
     fn field_names(&self) -> PyResult<Vec<String>> {
         let inner = self.lock()?;
         Ok(inner
-            .run
-            .sim
-            .membrane()
+            .membrane()?
             .fields()
             .iter()
             .map(|f| f.name().to_string())
@@ -494,7 +557,7 @@ impl PySimulation {
     ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
         let mut inner = self.lock()?;
         inner.topology()?;
-        let membrane = inner.run.sim.membrane();
+        let membrane = inner.membrane()?;
         let field = membrane
             .fields()
             .iter()
@@ -525,7 +588,7 @@ impl PySimulation {
     fn energies<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let mut inner = self.lock()?;
         self.evaluate(py, &mut inner)?;
-        let buffers = inner.run.sim.resource::<ForceBuffers>();
+        let buffers = inner.sim(py)?.resource::<ForceBuffers>();
         let d = PyDict::new(py);
         for t in remembrane::io::report::term_energies(&buffers) {
             d.set_item(t.term, t.energy)?;
@@ -544,7 +607,7 @@ impl PySimulation {
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let mut inner = self.lock()?;
         self.evaluate(py, &mut inner)?;
-        let buffers = inner.run.sim.resource::<ForceBuffers>();
+        let buffers = inner.sim(py)?.resource::<ForceBuffers>();
         let e = &buffers.evaluation;
         match term {
             None => vec3_array(py, &e.total),
@@ -567,7 +630,7 @@ impl PySimulation {
         let mut inner = self.lock()?;
         self.evaluate(py, &mut inner)?;
         let name = inner.scene.name();
-        let report = EnergyReport::new(&name, &inner.run.sim);
+        let report = EnergyReport::new(&name, inner.sim(py)?);
         json_to_py(
             py,
             &serde_json::to_value(&report).map_err(simulation_error)?,
@@ -579,7 +642,7 @@ impl PySimulation {
     fn mesh_quality<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let mut inner = self.lock()?;
         let p = inner.positions()?;
-        let q = MeshQuality::measure(inner.run.sim.membrane().cached_topology(), &p);
+        let q = MeshQuality::measure(inner.membrane()?.cached_topology(), &p);
         json_to_py(py, &serde_json::to_value(&q).map_err(simulation_error)?)
     }
 
@@ -587,8 +650,8 @@ impl PySimulation {
     /// failure, unresolved and capped ticks, events), or None when the
     /// scene has no remeshing.
     fn remesh_stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let inner = self.lock()?;
-        let Ok(stats) = inner.run.sim.resources().get::<RemeshStats>() else {
+        let mut inner = self.lock()?;
+        let Ok(stats) = inner.sim(py)?.resources().get::<RemeshStats>() else {
             return Ok(None);
         };
         let value = serde_json::json!({
@@ -607,10 +670,9 @@ impl PySimulation {
     /// rejected_geometry, rejected_energy), or None when the scene declares
     /// no `edge_flips`.
     fn flip_stats<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let inner = self.lock()?;
+        let mut inner = self.lock()?;
         let Ok(stats) = inner
-            .run
-            .sim
+            .sim(py)?
             .resources()
             .get::<remembrane::systems::edge_flips::FlipStats>()
         else {
@@ -623,11 +685,20 @@ impl PySimulation {
     fn __repr__(&self) -> String {
         match self.inner.try_lock() {
             Ok(inner) => {
-                let c = inner.run.sim.clock();
+                let c = inner.clock();
+                let vertices = inner
+                    .membrane()
+                    .map(|m| {
+                        m.world
+                            .query::<&remembrane::mesh::components::Position>()
+                            .iter()
+                            .count()
+                    })
+                    .unwrap_or(0);
                 format!(
                     "Simulation({:?}, vertices={}, iteration={}, time={:.6e})",
                     inner.scene.name(),
-                    inner.run.sim.membrane().cached_topology().vertex_count(),
+                    vertices,
                     c.iteration,
                     c.time
                 )

@@ -34,7 +34,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Format tag written into every checkpoint.
-pub const CHECKPOINT_FORMAT: &str = "remembrane-checkpoint-1";
+pub const CHECKPOINT_FORMAT: &str = "remembrane-checkpoint-2";
 
 /// How to rebuild the run a checkpoint belongs to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -171,11 +171,13 @@ impl Checkpoint {
             Ok(p) => p.save(sim.resources()).map_err(sim_error)?,
             Err(_) => BTreeMap::new(),
         };
-        let systems = sim.schedule().map(|s| s.save_states()).unwrap_or_default();
+        let systems = sim.schedule().save_states();
         let output = sim
             .resources()
-            .get::<crate::io::output::RunOutput>()
+            .get::<crate::io::output::OpenOutput>()
             .map_err(sim_error)?
+            .get()
+            .ok_or_else(|| sim_error("the run has no open output directory"))?
             .progress();
         Ok(Self {
             format: CHECKPOINT_FORMAT.into(),
@@ -217,7 +219,6 @@ impl Checkpoint {
             )));
         }
         sim.schedule_mut()
-            .ok_or_else(|| sim_error("the simulation has not started"))?
             .restore_states(&self.systems)
             .map_err(sim_error)
     }

@@ -18,8 +18,8 @@
 
 use crate::analysis::tube_radius::TubeProbe;
 use crate::engine::force::ForceBuffers;
-use crate::engine::recorder::{FrameData, Recorder, read_error};
-use crate::engine::resources::{Access, CheckedResources, FetchError};
+use crate::engine::recorder::{FrameData, Recorder};
+use crate::engine::resources::Res;
 use crate::engine::simulation::{Clock, DenseLipid, DensePositions, SimError};
 use crate::mesh::membrane::Membrane;
 use crate::remesh::RemeshStats;
@@ -30,26 +30,26 @@ use crate::timestep::TimeStepChoice;
 pub struct StateColumns;
 
 impl Recorder for StateColumns {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, ForceBuffers>,
+        Res<'a, TimeStepChoice>,
+        Res<'a, Clock>,
+        Res<'a, AbnormalEdges>,
+        Option<Res<'a, RemeshStats>>,
+    );
+
     fn name(&self) -> &str {
         "state_columns"
     }
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<Membrane>()
-            .read::<DensePositions>()
-            .read::<ForceBuffers>()
-            .read::<TimeStepChoice>()
-            .read::<Clock>()
-            .read::<AbnormalEdges>()
-            .read_optional::<RemeshStats>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let err = read_error("state_columns");
-        let membrane = s.get::<Membrane>().map_err(&err)?;
+    fn record(
+        &mut self,
+        (membrane, positions, buffers, step, clock, abnormal, stats): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         let t = membrane.cached_topology();
-        let positions = s.get::<DensePositions>().map_err(&err)?;
         let p = &positions.0;
         let area = crate::mesh::geometry::total_area(p, &t.faces);
         let volume = crate::mesh::geometry::enclosed_volume(p, &t.faces, p[0]);
@@ -59,12 +59,10 @@ impl Recorder for StateColumns {
             lmin = lmin.min(l);
             lmax = lmax.max(l);
         }
-        let clock = *s.get::<Clock>().map_err(&err)?;
         frame.count("iteration", clock.iteration);
         frame.column("time", clock.time);
-        frame.column("dt", s.get::<TimeStepChoice>().map_err(&err)?.dt);
+        frame.column("dt", step.dt);
         frame.count("vertices", t.vertex_count() as u64);
-        let buffers = s.get::<ForceBuffers>().map_err(&err)?;
         for (term, e) in buffers.terms().iter().zip(&buffers.evaluation.energies) {
             frame.column(format!("energy_{}", term.name), *e);
         }
@@ -77,13 +75,7 @@ impl Recorder for StateColumns {
         );
         frame.column("edge_min", lmin);
         frame.column("edge_max", lmax);
-        let abnormal = s.get::<AbnormalEdges>().map_err(&err)?.0.len();
-        frame.count("abnormal_edges", abnormal as u64);
-        let stats = match s.get::<RemeshStats>() {
-            Ok(stats) => Some(stats),
-            Err(FetchError::Missing(_)) => None,
-            Err(e) => return Err(err(e)),
-        };
+        frame.count("abnormal_edges", abnormal.0.len() as u64);
         let none = RemeshStats::default();
         let stats = stats.as_deref().unwrap_or(&none);
         frame.count("splits", stats.split.success);
@@ -97,16 +89,13 @@ impl Recorder for StateColumns {
 pub struct ForceField;
 
 impl Recorder for ForceField {
+    type Data<'a> = Res<'a, ForceBuffers>;
+
     fn name(&self) -> &str {
         "force"
     }
 
-    fn access(&self) -> Access {
-        Access::default().read::<ForceBuffers>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let buffers = s.get::<ForceBuffers>().map_err(read_error("force"))?;
+    fn record(&mut self, buffers: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         frame.vectors("force", buffers.evaluation.total.clone());
         Ok(())
     }
@@ -116,20 +105,17 @@ impl Recorder for ForceField {
 pub struct MeanCurvatureField;
 
 impl Recorder for MeanCurvatureField {
+    type Data<'a> = (Res<'a, Membrane>, Res<'a, DensePositions>);
+
     fn name(&self) -> &str {
         "mean_curvature"
     }
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<Membrane>()
-            .read::<DensePositions>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let err = read_error("mean_curvature");
-        let membrane = s.get::<Membrane>().map_err(&err)?;
-        let positions = s.get::<DensePositions>().map_err(&err)?;
+    fn record(
+        &mut self,
+        (membrane, positions): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         let k = crate::mesh::geometry::curvature_vectors(
             &positions.0,
             &membrane.cached_topology().faces,
@@ -143,16 +129,13 @@ impl Recorder for MeanCurvatureField {
 pub struct LipidDensityField;
 
 impl Recorder for LipidDensityField {
+    type Data<'a> = Res<'a, DenseLipid>;
+
     fn name(&self) -> &str {
         "density"
     }
 
-    fn access(&self) -> Access {
-        Access::default().read::<DenseLipid>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let lipid = s.get::<DenseLipid>().map_err(read_error("density"))?;
+    fn record(&mut self, lipid: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         if !lipid.0.is_empty() {
             frame.scalars("density", lipid.0.clone());
         }
@@ -164,24 +147,27 @@ impl Recorder for LipidDensityField {
 pub struct TubeRadius {
     probe: TubeProbe,
     first: Option<f64>,
+    /// `radius_<name>`: the recorder's name.
+    column: String,
 }
 
 impl TubeRadius {
     /// A recorder measuring `probe`.
     pub fn new(probe: TubeProbe) -> Self {
-        Self { probe, first: None }
+        let column = format!("radius_{}", probe.name);
+        Self {
+            probe,
+            first: None,
+            column,
+        }
     }
 }
 
 impl Recorder for TubeRadius {
-    fn name(&self) -> &str {
-        &self.probe.name
-    }
+    type Data<'a> = (Res<'a, Membrane>, Res<'a, DensePositions>);
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<Membrane>()
-            .read::<DensePositions>()
+    fn name(&self) -> &str {
+        &self.column
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {
@@ -199,10 +185,11 @@ impl Recorder for TubeRadius {
         Ok(())
     }
 
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let err = read_error(&self.probe.name);
-        let membrane = s.get::<Membrane>().map_err(&err)?;
-        let positions = s.get::<DensePositions>().map_err(&err)?;
+    fn record(
+        &mut self,
+        (membrane, positions): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         let r = self
             .probe
             .measure(&positions.0, &membrane.cached_topology().edges)
@@ -214,9 +201,8 @@ impl Recorder for TubeRadius {
             (Some(r), Some(r0)) => r / r0,
             _ => f64::NAN,
         };
-        let name = &self.probe.name;
-        frame.column(format!("radius_{name}"), r.unwrap_or(f64::NAN));
-        frame.column(format!("radius_{name}_norm"), norm);
+        frame.column(self.column.clone(), r.unwrap_or(f64::NAN));
+        frame.column(format!("{}_norm", self.column), norm);
         Ok(())
     }
 }
@@ -225,43 +211,43 @@ impl Recorder for TubeRadius {
 /// (x_c − x_j) over its nearest vertex and that vertex's 1-ring (the same
 /// total for both couplings; Ē/l̄).
 pub struct ControlPointForce {
-    name: String,
     index: u32,
+    /// `force_<name>`: the recorder's name and its columns' prefix.
+    column: String,
 }
 
 impl ControlPointForce {
     /// A recorder for the control point declared `index`-th, columns named
     /// after `name`.
     pub fn new(name: String, index: u32) -> Self {
-        Self { name, index }
+        Self {
+            index,
+            column: format!("force_{name}"),
+        }
     }
 }
 
 impl Recorder for ControlPointForce {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Option<Res<'a, crate::params::SpringCoupling>>,
+        Option<Res<'a, crate::params::MembraneModel>>,
+    );
+
     fn name(&self) -> &str {
-        &self.name
+        &self.column
     }
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<Membrane>()
-            .read::<DensePositions>()
-            .read_optional::<crate::params::SpringCoupling>()
-            .read_optional::<crate::params::MembraneModel>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+    fn record(
+        &mut self,
+        (membrane, positions, coupling, model): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         use crate::mesh::components::{ControlPoint, ControlPointIndex};
-        let err = read_error(&self.name);
-        let membrane = s.get::<Membrane>().map_err(&err)?;
-        let p = &s.get::<DensePositions>().map_err(&err)?.0;
-        let coupling = s
-            .get::<crate::params::SpringCoupling>()
-            .map(|c| *c)
-            .unwrap_or_default();
-        let fluid = s
-            .get::<crate::params::MembraneModel>()
-            .is_ok_and(|m| m.is_fluid());
+        let p = &positions.0;
+        let coupling = coupling.map(|c| *c).unwrap_or_default();
+        let fluid = model.is_some_and(|m| m.is_fluid());
         let t = membrane.cached_topology();
         let point = membrane
             .world
@@ -278,11 +264,11 @@ impl Recorder for ControlPointForce {
             }
             _ => glam::DVec3::NAN,
         };
-        let name = &self.name;
-        frame.column(format!("force_{name}"), force.length());
-        frame.column(format!("force_{name}_x"), force.x);
-        frame.column(format!("force_{name}_y"), force.y);
-        frame.column(format!("force_{name}_z"), force.z);
+        let name = &self.column;
+        frame.column(name.clone(), force.length());
+        frame.column(format!("{name}_x"), force.x);
+        frame.column(format!("{name}_y"), force.y);
+        frame.column(format!("{name}_z"), force.z);
         Ok(())
     }
 }
@@ -292,16 +278,13 @@ impl Recorder for ControlPointForce {
 pub struct ConstraintColumns;
 
 impl Recorder for ConstraintColumns {
+    type Data<'a> = Res<'a, ForceBuffers>;
+
     fn name(&self) -> &str {
         "constraints"
     }
 
-    fn access(&self) -> Access {
-        Access::default().read::<ForceBuffers>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let buffers = s.get::<ForceBuffers>().map_err(read_error("constraints"))?;
+    fn record(&mut self, buffers: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         let c = buffers.evaluation.constraint.unwrap_or_default();
         frame.column("tension", c.reactions.tension);
         frame.column("pressure", c.reactions.pressure);
@@ -317,21 +300,21 @@ impl Recorder for ConstraintColumns {
 pub struct MinimiserColumns;
 
 impl Recorder for MinimiserColumns {
+    type Data<'a> = (
+        Res<'a, ForceBuffers>,
+        Res<'a, crate::minimise::MinimiserStatus>,
+    );
+
     fn name(&self) -> &str {
         "minimiser"
     }
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<ForceBuffers>()
-            .read::<crate::minimise::MinimiserStatus>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let err = read_error("minimiser");
-        let buffers = s.get::<ForceBuffers>().map_err(&err)?;
+    fn record(
+        &mut self,
+        (buffers, status): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         let residual = buffers.evaluation.largest_force();
-        let status = s.get::<crate::minimise::MinimiserStatus>().map_err(&err)?;
         frame.column("force_residual", residual);
         frame.column("energy_change", status.energy_change.unwrap_or(f64::NAN));
         Ok(())

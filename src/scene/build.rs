@@ -90,26 +90,39 @@ impl Scene {
         Ok((mesh, lipid))
     }
 
-    /// Builds the world and the force systems this scene declares.
+    /// Builds the world and the systems this scene declares, sealed.
     pub fn build(&self, scene_path: &Path) -> Result<Simulation, SceneError> {
+        self.builder(scene_path)?
+            .build()
+            .map_err(|e| SceneError::Invalid {
+                path: scene_path.to_owned(),
+                field: "systems".into(),
+                reason: e.to_string(),
+            })
+    }
+
+    /// The builder of [`Scene::build`], holding every plugin this scene
+    /// declares (and frame output), for a caller that adds its own
+    /// plugins or force terms before [`SimBuilder::build`].
+    pub fn builder(&self, scene_path: &Path) -> Result<SimBuilder, SceneError> {
         let (mesh, saved_lipid) = self.initial_state(scene_path)?;
         let h = self.resolution.edge_length(mesh.mean_edge_length());
         if h != 1.0 {
             return self
                 .at_resolution(h)
-                .build_from(mesh, saved_lipid, scene_path);
+                .builder_from(mesh, saved_lipid, scene_path);
         }
-        self.build_from(mesh, saved_lipid, scene_path)
+        self.builder_from(mesh, saved_lipid, scene_path)
     }
 
     /// Builds from the initial mesh (and saved lipid density), with this
     /// scene's parameters as they stand (already at its resolution).
-    fn build_from(
+    fn builder_from(
         &self,
         mesh: SurfaceMesh,
         saved_lipid: Option<Vec<f64>>,
         scene_path: &Path,
-    ) -> Result<Simulation, SceneError> {
+    ) -> Result<SimBuilder, SceneError> {
         let lipid_total = match (&saved_lipid, self.lipid_density) {
             (Some(rho), true) => rho.iter().sum(),
             _ => mesh.vertex_count() as f64,
@@ -186,8 +199,10 @@ impl Scene {
             ))
             .map_err(build_err)?;
         self.add_remeshing_and_systems(&mut builder, scene_path)?;
-        let sim = builder.build();
-        Ok(sim)
+        builder
+            .add_plugin(crate::io::output::frame_output)
+            .map_err(build_err)?;
+        Ok(builder)
     }
 
     /// Adds the energy terms' plugins in declaration order; returns the

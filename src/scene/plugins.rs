@@ -13,7 +13,8 @@
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
-//! | [`recorders`] | `Recorders` | — (the run's `frames` system, Observe, calls them) |
+//! | [`recorders`] | `FrameSchedule`, `CurrentFrame` | `frame_clock` and a `record_<name>` system per recorder (Observe) |
+//! | [`crate::io::output::frame_output`] (added last) | `OpenOutput` | `frames` (Output) |
 
 use crate::engine::force::{FaceGeometry, ForceBuffers};
 use crate::engine::schedule::Stage;

@@ -24,8 +24,8 @@ use glam::DVec3;
 use hecs::Entity;
 use remembrane::energy::bending::{BendingScratch, bending_varying, signed_curvatures};
 use remembrane::engine::force::{FaceGeometry, FlipProposal, ForceContext, ForceTerm};
-use remembrane::engine::recorder::{FrameData, Recorder, read_error};
-use remembrane::engine::resources::{Access, CheckedResources, Res, ResMut};
+use remembrane::engine::recorder::{FrameData, Recorder};
+use remembrane::engine::resources::{Res, ResMut};
 use remembrane::engine::schedule::{Stage, System};
 use remembrane::engine::simulation::{BuildError, DensePositions, SimBuilder, SimError};
 use remembrane::mesh::membrane::Membrane;
@@ -368,22 +368,21 @@ pub fn patch_measures(
 }
 
 impl Recorder for CoverageRecorder {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, FaceGeometry>,
+    );
+
     fn name(&self) -> &str {
         "coverage"
     }
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<Membrane>()
-            .read::<DensePositions>()
-            .read::<FaceGeometry>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
-        let err = read_error("coverage");
-        let membrane = s.get::<Membrane>().map_err(&err)?;
-        let positions = s.get::<DensePositions>().map_err(&err)?;
-        let geometry = s.get::<FaceGeometry>().map_err(&err)?;
+    fn record(
+        &mut self,
+        (membrane, positions, geometry): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         let t = membrane.cached_topology();
         coverage_by_slot(&membrane.world, t, &mut self.phi);
         let (area, curvature, height) = patch_measures(

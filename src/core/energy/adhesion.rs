@@ -27,8 +27,8 @@
 use crate::energy::wall::WallShape;
 use crate::engine::error::BuildError;
 use crate::engine::force::{ForceContext, ForceTerm};
-use crate::engine::recorder::{FrameData, Recorder, read_error};
-use crate::engine::resources::{Access, CheckedResources};
+use crate::engine::recorder::{FrameData, Recorder};
+use crate::engine::resources::Res;
 use crate::engine::simulation::{DensePositions, Plugin, SimBuilder, SimError};
 use crate::mesh::membrane::Membrane;
 use glam::DVec3;
@@ -160,20 +160,18 @@ pub struct AdhesionRecorder {
 }
 
 impl Recorder for AdhesionRecorder {
+    type Data<'a> = (Res<'a, Membrane>, Res<'a, DensePositions>);
+
     fn name(&self) -> &str {
         &self.params.name
     }
 
-    fn access(&self) -> Access {
-        Access::default()
-            .read::<Membrane>()
-            .read::<DensePositions>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+    fn record(
+        &mut self,
+        (membrane, positions): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
         let p = &self.params;
-        let membrane = s.get::<Membrane>().map_err(read_error(&p.name))?;
-        let positions = s.get::<DensePositions>().map_err(read_error(&p.name))?;
         let faces = &membrane.cached_topology().faces;
         let (_, contact_area) = adhesion_energy(p, faces, &positions.0, None);
         let distances = positions.0.iter().map(|&x| p.shape.distance(x).0);

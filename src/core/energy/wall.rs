@@ -27,8 +27,8 @@
 
 use crate::engine::error::BuildError;
 use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
-use crate::engine::recorder::{FrameData, Recorder, read_error};
-use crate::engine::resources::{Access, CheckedResources};
+use crate::engine::recorder::{FrameData, Recorder};
+use crate::engine::resources::Res;
 use crate::engine::simulation::{DensePositions, Plugin, SimBuilder, SimError};
 use crate::mesh::components::Position;
 use crate::mesh::membrane::Membrane;
@@ -278,17 +278,14 @@ pub struct WallRecorder {
 }
 
 impl Recorder for WallRecorder {
+    type Data<'a> = Res<'a, DensePositions>;
+
     fn name(&self) -> &str {
         &self.params.name
     }
 
-    fn access(&self) -> Access {
-        Access::default().read::<DensePositions>()
-    }
-
-    fn record(&mut self, s: &CheckedResources<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+    fn record(&mut self, positions: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         let p = &self.params;
-        let positions = s.get::<DensePositions>().map_err(read_error(&p.name))?;
         let distances: Vec<f64> = positions.0.iter().map(|&x| p.shape.distance(x).0).collect();
         let (mut total, mut contacts) = (0.0, 0u64);
         for &d in distances.iter().filter(|&&d| d < p.range) {

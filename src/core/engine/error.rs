@@ -83,9 +83,6 @@ pub enum SimError {
     /// An output could not be written.
     #[error("{0}")]
     Output(String),
-    /// A system was added after the schedule was fixed by the first tick.
-    #[error("system `{0}` can only be added before the first tick")]
-    AlreadyStarted(String),
     /// A system could not be handed its resources (an undeclared access
     /// of a dynamic system, or a resource removed after validation).
     #[error("system `{system}`: {source}")]
@@ -171,9 +168,9 @@ pub enum BuildError {
         /// What is wrong.
         reason: String,
     },
-    /// A system was added after the first tick.
-    #[error("`{0}` can only be added before the first tick")]
-    AlreadyStarted(String),
+    /// The systems do not form a valid schedule.
+    #[error(transparent)]
+    Schedule(#[from] ScheduleError),
 }
 
 /// A schedule that cannot run.

@@ -484,15 +484,6 @@ impl SimBuilder {
 }
 
 impl Simulation {
-    /// Registers a force term (see [`SimBuilder::add_force_term`]) before the
-    /// run starts: it acts on the dynamics exactly like a scene's terms.
-    pub fn add_force_term(&mut self, term: impl ForceTerm + 'static) -> Result<usize, SimError> {
-        if self.is_sealed() {
-            return Err(SimError::AlreadyStarted(term.name().to_string()));
-        }
-        Ok(register_force_term(self.resources_mut(), term)?)
-    }
-
     /// Evaluates the forces of the current state by running the schedule's
     /// own Gather and Forces systems (the same terms, finite checks and
     /// timing as a tick), without moving anything.

@@ -6,6 +6,7 @@
 pub mod core_resources;
 pub mod error;
 pub mod force;
+pub mod frame_clock;
 pub mod persisted;
 pub mod recorder;
 pub mod resources;

@@ -1,11 +1,14 @@
-//! Recorders: what a frame contains. Each recorder reads the observed state
-//! (the resources it declares) and adds series columns and per-vertex point
-//! data to a [`FrameData`]. The run's frame writer, an Observe-stage system,
-//! calls every recorder when a frame is due and writes the VTK frame and the
-//! `series.csv` row from what they produced, so a plugin adds a column or a
-//! point-data array by registering a recorder
-//! ([`crate::engine::simulation::SimBuilder::add_recorder`]), without touching the
-//! output code.
+//! Recorders: what a frame contains. A recorder is a typed Observe-stage
+//! system: its [`Recorder::Data`] declares what it reads, exactly as a
+//! [`System`]'s does, so its access is derived from its type and checked
+//! when the schedule is built. When a frame is due
+//! ([`CurrentFrame::due`], set by the `frame_clock` system,
+//! [`crate::engine::frame_clock`]) it adds series columns and per-vertex
+//! point data to the [`CurrentFrame`]; the run's frame writer (Output
+//! stage) writes the VTK frame and the `series.csv` row from them. A plugin
+//! adds a column or a point-data array by registering a recorder
+//! ([`crate::engine::simulation::SimBuilder::add_recorder`]), without
+//! touching the output code.
 //!
 //! The Observe stage runs right after the Forces stage: it sees the state
 //! of the last completed iteration together with the forces the next step
@@ -13,7 +16,9 @@
 //! again.
 
 use crate::engine::error::SimError;
-use crate::engine::resources::{Access, CheckedResources};
+use crate::engine::frame_clock::CurrentFrame;
+use crate::engine::resources::{ResMut, SystemData};
+use crate::engine::schedule::System;
 use glam::DVec3;
 
 /// One per-vertex array of a frame (by dense vertex slot).
@@ -70,20 +75,43 @@ impl FrameData {
             values,
         });
     }
+
+    /// Empties the frame (kept allocations).
+    pub fn clear(&mut self) {
+        self.columns.clear();
+        self.point_data.clear();
+    }
 }
 
 /// Adds columns and point data to frames.
+///
+/// ```
+/// use remembrane_core::engine::recorder::{FrameData, Recorder};
+/// use remembrane_core::engine::resources::Res;
+/// use remembrane_core::engine::simulation::{DensePositions, SimError};
+///
+/// /// The highest vertex, as a series column.
+/// struct Top;
+///
+/// impl Recorder for Top {
+///     type Data<'a> = Res<'a, DensePositions>;
+///     fn name(&self) -> &str {
+///         "top"
+///     }
+///     fn record(&mut self, p: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError> {
+///         frame.column("top", p.0.iter().map(|x| x.z).fold(f64::MIN, f64::max));
+///         Ok(())
+///     }
+/// }
+/// ```
 pub trait Recorder: Send + 'static {
-    /// Name (for errors).
+    /// The resources it reads, declared by type as a [`System`]'s are.
+    type Data<'a>: SystemData<'a>;
+    /// Name; its system in the schedule is `record_<name>`.
     fn name(&self) -> &str;
-    /// The resources it reads (a read of anything else fails the frame).
-    fn access(&self) -> Access;
-    /// Records the observed state into `frame`.
-    fn record(
-        &mut self,
-        state: &CheckedResources<'_>,
-        frame: &mut FrameData,
-    ) -> Result<(), SimError>;
+    /// Records the observed state into `frame` (called only when a frame
+    /// is due).
+    fn record(&mut self, data: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError>;
     /// State the recorder carries from one frame to the next (e.g. a first
     /// frame's value that later frames are divided by), for checkpoints;
     /// `None` (the default) means none.
@@ -97,17 +125,41 @@ pub trait Recorder: Send + 'static {
     }
 }
 
-/// The recorders registered so far, in order; the run's frame writer takes
-/// them when it is added.
-#[derive(Default)]
-pub struct Recorders(pub Vec<Box<dyn Recorder>>);
+/// The Observe-stage system that runs a [`Recorder`] when a frame is due.
+///
+/// Stage: Observe, after `frame_clock`. Reads: what the recorder declares.
+/// Writes: [`CurrentFrame`].
+pub(crate) struct RecorderSystem<R> {
+    recorder: R,
+    name: String,
+}
 
-/// A recorder's read failed: the error names the recorder.
-pub fn read_error(
-    recorder: &str,
-) -> impl Fn(crate::engine::resources::FetchError) -> SimError + '_ {
-    move |source| SimError::Resource {
-        system: format!("recorder `{recorder}`"),
-        source,
+impl<R: Recorder> RecorderSystem<R> {
+    pub(crate) fn new(recorder: R) -> Self {
+        let name = format!("record_{}", recorder.name());
+        Self { recorder, name }
+    }
+}
+
+impl<R: Recorder> System for RecorderSystem<R> {
+    type Data<'a> = (ResMut<'a, CurrentFrame>, R::Data<'a>);
+
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn run(&mut self, (mut frame, data): Self::Data<'_>) -> Result<(), SimError> {
+        if !frame.due {
+            return Ok(());
+        }
+        self.recorder.record(data, &mut frame.data)
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        self.recorder.save_state()
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        self.recorder.restore_state(state)
     }
 }

@@ -36,6 +36,8 @@ pub enum Stage {
     /// Record the state of the last completed iteration with the forces the
     /// next step applies (frames, series, observables); nothing moves yet.
     Observe,
+    /// Write what Observe recorded (the run's frames); nothing moves yet.
+    Output,
     /// Choose the time step.
     TimeStep,
     /// Move the vertices.
@@ -50,11 +52,12 @@ pub enum Stage {
 
 impl Stage {
     /// All stages in tick order.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
         Stage::Prepare,
         Stage::Gather,
         Stage::Forces,
         Stage::Observe,
+        Stage::Output,
         Stage::TimeStep,
         Stage::Integrate,
         Stage::BarrierCheck,
@@ -70,6 +73,7 @@ impl Stage {
             Stage::Gather => "Gather",
             Stage::Forces => "Forces",
             Stage::Observe => "Observe",
+            Stage::Output => "Output",
             Stage::TimeStep => "TimeStep",
             Stage::Integrate => "Integrate",
             Stage::BarrierCheck => "BarrierCheck",

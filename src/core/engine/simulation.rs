@@ -7,6 +7,7 @@ pub use crate::engine::core_resources::{
     CheckInvariants, Clock, DenseLipid, DensePositions, InitialState, Seed, StopRequest,
 };
 pub use crate::engine::error::{BuildError, SimError};
+pub use crate::engine::frame_clock::{CurrentFrame, FrameSchedule};
 use crate::engine::persisted::PersistedResources;
 use crate::engine::resources::{Res, Resource, Resources};
 use crate::engine::schedule::{Registered, Schedule, ScheduleBuilder, Stage, System};
@@ -133,150 +134,94 @@ impl SimBuilder {
         &mut self.resources
     }
 
-    /// Adds a recorder: its columns and point data go into every frame.
-    pub fn add_recorder(&mut self, recorder: impl crate::engine::recorder::Recorder) -> &mut Self {
-        push_recorder(&mut self.resources, Box::new(recorder));
+    /// Adds a recorder ([`crate::engine::recorder`]): a typed Observe-stage
+    /// system, run after the frame clock, whose columns and point data go
+    /// into every frame.
+    pub fn add_recorder<R: crate::engine::recorder::Recorder>(&mut self, recorder: R) -> &mut Self {
+        self.add_frame_clock();
+        self.schedule
+            .add(
+                Stage::Observe,
+                crate::engine::recorder::RecorderSystem::new(recorder),
+            )
+            .after(crate::engine::frame_clock::FRAME_CLOCK);
         self
     }
 
-    /// The simulation (its schedule is validated by [`Simulation::start`]
-    /// or the first tick).
-    pub fn build(self) -> Simulation {
-        Simulation {
-            resources: self.resources,
-            builder: Some(self.schedule),
-            schedule: None,
+    /// Adds the frame clock once ([`crate::engine::frame_clock`]): the
+    /// `frame_clock` system, the [`FrameSchedule`] (no frame due until a run
+    /// sets it; kept by checkpoints) and the [`CurrentFrame`] recorders
+    /// fill. [`SimBuilder::add_recorder`] calls it.
+    pub fn add_frame_clock(&mut self) -> &mut Self {
+        if !self.resources.contains::<FrameSchedule>() {
+            self.resources.insert(CurrentFrame::default());
+            self.resources.insert(FrameSchedule::never());
+            self.persist_resource::<FrameSchedule>();
+            self.schedule
+                .add(Stage::Observe, crate::engine::frame_clock::FrameClock);
         }
+        self
+    }
+
+    /// The simulation, sealed: its schedule is validated against the
+    /// resources and ordered here, and nothing can be registered after.
+    pub fn build(self) -> Result<Simulation, BuildError> {
+        let schedule = self.schedule.build(&self.resources)?;
+        Ok(Simulation {
+            resources: self.resources,
+            schedule,
+        })
     }
 }
 
-fn push_recorder(resources: &mut Resources, recorder: Box<dyn crate::engine::recorder::Recorder>) {
-    if !resources.contains::<crate::engine::recorder::Recorders>() {
-        resources.insert(crate::engine::recorder::Recorders::default());
-    }
-    if let Some(r) = resources.value_mut::<crate::engine::recorder::Recorders>() {
-        r.0.push(recorder);
-    }
-}
-
-/// A simulation: the world and resources, plus the schedule of systems
-/// that advances them.
+/// A simulation: the world and resources, plus the validated schedule of
+/// systems that advances them. Built sealed ([`SimBuilder::build`]): what
+/// runs is fixed; resources keep their values' freedom (a run sets its
+/// frame schedule and output directory before the first tick).
+///
+/// Systems, force terms and recorders join on the [`SimBuilder`]; a sealed
+/// simulation has no method to add one:
+///
+/// ```compile_fail,E0599
+/// use remembrane_core::engine::schedule::Stage;
+/// use remembrane_core::engine::simulation::Simulation;
+///
+/// fn too_late(sim: &mut Simulation) {
+///     sim.add_system(Stage::Observe, ()); // only `SimBuilder::add_system` exists
+/// }
+/// ```
 pub struct Simulation {
     resources: Resources,
-    builder: Option<ScheduleBuilder>,
-    schedule: Option<Schedule>,
+    schedule: Schedule,
 }
 
 impl Simulation {
-    /// The schedule builder while the run has not started; `name` is what
-    /// the caller is adding (for the error).
-    fn pending(&mut self, name: &str) -> Result<&mut ScheduleBuilder, SimError> {
-        self.builder
-            .as_mut()
-            .ok_or_else(|| SimError::AlreadyStarted(name.to_string()))
-    }
-
-    /// Adds a typed system to `stage` before the run starts; returns the
-    /// builder handle for `before`/`after` constraints. Errors if the run
-    /// started.
-    pub fn add_system(
-        &mut self,
-        stage: Stage,
-        system: impl System,
-    ) -> Result<Registered<'_>, SimError> {
-        Ok(self.pending(system.name())?.add(stage, system))
-    }
-
-    /// Adds a dynamic system (access checked at every borrow) to `stage`
-    /// before the run starts.
-    pub fn add_dynamic_system(
-        &mut self,
-        stage: Stage,
-        system: impl crate::engine::schedule::DynamicSystem,
-    ) -> Result<Registered<'_>, SimError> {
-        Ok(self.pending(system.name())?.add_dynamic(stage, system))
-    }
-
-    /// Whether the schedule was taken to be built (by [`Simulation::start`]
-    /// or the first tick): nothing can be registered any more.
-    pub(crate) fn is_sealed(&self) -> bool {
-        self.builder.is_none()
-    }
-
-    /// All resources, for the engine's own registrations before the start.
-    pub(crate) fn resources_mut(&mut self) -> &mut Resources {
-        &mut self.resources
-    }
-
-    /// Adds a recorder before the run's frame writer takes the recorders
-    /// (see [`crate::engine::recorder`]).
-    pub fn add_recorder(
-        &mut self,
-        recorder: impl crate::engine::recorder::Recorder,
-    ) -> Result<(), SimError> {
-        if self.schedule.is_some() {
-            return Err(SimError::AlreadyStarted(recorder.name().to_string()));
-        }
-        push_recorder(&mut self.resources, Box::new(recorder));
-        Ok(())
-    }
-
-    /// Removes and returns resource `T`.
-    pub fn remove_resource<T: Resource>(&mut self) -> Option<T> {
-        self.resources.remove::<T>()
-    }
-
-    /// Runs the Gather, Forces and Observe systems once: the current state
-    /// with its forces is recorded (the final frame of a run).
+    /// Runs the Gather, Forces, Observe and Output systems once: the
+    /// current state with its forces is recorded (the final frame of a run).
     pub fn observe(&mut self) -> Result<(), SimError> {
-        self.run_stages(&[Stage::Gather, Stage::Forces, Stage::Observe])
+        self.run_stages(&[Stage::Gather, Stage::Forces, Stage::Observe, Stage::Output])
     }
 
     /// Runs the systems of `stages` once, in order (starting the schedule
     /// if needed), without the others: e.g. Gather and Forces evaluate the
     /// current state's forces without moving anything.
     pub fn run_stages(&mut self, stages: &[Stage]) -> Result<(), SimError> {
-        self.start()?;
-        let schedule = self.schedule.as_mut().expect("started");
-        schedule.run_stages(stages, &self.resources)
-    }
-
-    /// Inserts (or replaces) a resource before the run starts.
-    pub fn insert_resource<T: Resource>(&mut self, value: T) -> Result<(), SimError> {
-        if self.schedule.is_some() {
-            return Err(SimError::AlreadyStarted(
-                crate::engine::resources::ResourceId::of::<T>()
-                    .name()
-                    .to_string(),
-            ));
-        }
-        self.resources.insert(value);
-        Ok(())
-    }
-
-    /// Validates and fixes the schedule (done by the first tick otherwise).
-    pub fn start(&mut self) -> Result<(), SimError> {
-        if let Some(builder) = self.builder.take() {
-            self.schedule = Some(builder.build(&self.resources)?);
-        }
-        Ok(())
+        self.schedule.run_stages(stages, &self.resources)
     }
 
     /// Runs one tick of every system.
     pub fn tick(&mut self) -> Result<(), SimError> {
-        self.start()?;
-        let schedule = self.schedule.as_mut().expect("started");
-        schedule.run_tick(&self.resources)
+        self.schedule.run_tick(&self.resources)
     }
 
-    /// The schedule (after [`Simulation::start`]).
-    pub fn schedule(&self) -> Option<&Schedule> {
-        self.schedule.as_ref()
+    /// The schedule.
+    pub fn schedule(&self) -> &Schedule {
+        &self.schedule
     }
 
-    /// The schedule, once started (to restore its systems' states).
-    pub fn schedule_mut(&mut self) -> Option<&mut Schedule> {
-        self.schedule.as_mut()
+    /// The schedule, mutably (to restore its systems' states).
+    pub fn schedule_mut(&mut self) -> &mut Schedule {
+        &mut self.schedule
     }
 
     /// All resources.

@@ -11,10 +11,8 @@
 //! the registered recorders produce (see [`crate::engine::recorder`]).
 
 use crate::atomic_write;
-use crate::engine::recorder::{FrameData, PointArray, Recorder};
-use crate::engine::resources::{Access, CheckedResources};
-use crate::engine::schedule::DynamicSystem;
-use crate::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
+use crate::engine::recorder::{FrameData, PointArray};
+use crate::engine::simulation::{Clock, SimError};
 use crate::mesh::SurfaceMesh;
 use crate::mesh::io::{VertexScalar, write_ply_to};
 use crate::mesh::membrane::Membrane;

@@ -1,14 +1,13 @@
 //! Running a scene to completion with outputs: the driver behind
 //! `remembrane run`.
 
-use crate::engine::recorder::Recorders;
-use crate::engine::schedule::Stage;
 use crate::engine::schedule::SystemTiming;
 use crate::engine::simulation::{
-    CheckInvariants, DenseLipid, DensePositions, InitialState, SimError, Simulation,
+    BuildError, CheckInvariants, DenseLipid, DensePositions, InitialState, SimBuilder, SimError,
+    Simulation,
 };
 use crate::io::checkpoint::{Checkpoint, CheckpointError};
-use crate::io::output::{FrameSchedule, FrameWriter, OutputError, RunOutput};
+use crate::io::output::{FrameSchedule, OpenOutput, OutputError, RunOutput};
 use crate::io::report::EnergyReport;
 use crate::remesh::RemeshStats;
 use crate::scene::{Scene, SceneError};
@@ -134,27 +133,93 @@ impl RunError {
 }
 
 /// Builds `scene` (from `scene_path`) and runs it with `options`, writing all
-/// outputs. `customize` may add systems before the first tick.
+/// outputs. `customize` may add plugins, systems and force terms to the
+/// builder before the simulation is sealed.
 pub fn run_scene(
     scene: &Scene,
     scene_path: &Path,
     options: &RunOptions,
-    customize: impl FnOnce(&mut Simulation) -> Result<(), SimError>,
+    customize: impl FnOnce(&mut SimBuilder) -> Result<(), BuildError>,
 ) -> Result<RunSummary, RunError> {
     let started = Instant::now();
-    let mut run = prepare_run(scene, scene_path, options)?;
-    customize(&mut run.sim)?;
+    let mut pending = PendingRun::new(scene, scene_path, options)?;
+    customize(&mut pending.builder).map_err(|e| SceneError::Invalid {
+        path: scene_path.to_owned(),
+        field: "systems".into(),
+        reason: e.to_string(),
+    })?;
+    let mut run = pending.build(scene_path)?;
     drive_run(&mut run, scene_path, options, started, &|| false)
 }
 
-/// A scene with the run's overrides applied and its simulation built, not
-/// yet started: what [`drive_run`] runs.
+/// A scene with the run's overrides applied and its builder holding every
+/// plugin the scene declares, not yet sealed: a caller may add its own
+/// plugins and force terms before [`PendingRun::build`].
+pub struct PendingRun {
+    /// The scene as run (seed, iterations, frames and `from` applied).
+    pub scene: Scene,
+    /// The run's name (the scene's, else the file stem).
+    pub name: String,
+    /// The builder.
+    pub builder: SimBuilder,
+}
+
+impl PendingRun {
+    /// Applies `options`' overrides (seed, iterations, frames, start state,
+    /// invariant checks) to `scene` and assembles its builder.
+    pub fn new(scene: &Scene, scene_path: &Path, options: &RunOptions) -> Result<Self, RunError> {
+        let mut scene = scene.clone();
+        if let Some(seed) = options.seed {
+            scene.seed = seed;
+        }
+        if let Some(n) = options.iterations {
+            scene.dynamics.iterations = n;
+        }
+        if let Some(f) = options.frames {
+            scene.dynamics.frames = f;
+        }
+        if let Some(from) = &options.from {
+            // Absolute, so it does not depend on the scene file's folder.
+            let path = std::path::absolute(from).unwrap_or_else(|_| from.clone());
+            scene.membrane = crate::scene::MembraneSource::State { path, refine: 0 };
+        }
+        let name = run_name(&scene, scene_path);
+        let mut builder = scene.builder(scene_path)?;
+        if let Some(c) = builder.resource_mut::<CheckInvariants>() {
+            c.0 |= options.check_invariants;
+        }
+        Ok(Self {
+            scene,
+            name,
+            builder,
+        })
+    }
+
+    /// Seals the simulation; a schedule that cannot run is an error of the
+    /// scene's `systems`.
+    pub fn build(self, scene_path: &Path) -> Result<PreparedRun, RunError> {
+        let sim = self.builder.build().map_err(|e| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field: "systems".into(),
+            reason: e.to_string(),
+        })?;
+        Ok(PreparedRun {
+            scene: self.scene,
+            name: self.name,
+            sim,
+            resume: None,
+        })
+    }
+}
+
+/// A scene with the run's overrides applied and its simulation built and
+/// sealed, before its first tick: what [`drive_run`] runs.
 pub struct PreparedRun {
     /// The scene as run (seed, iterations, frames and `from` applied).
     pub scene: Scene,
     /// The run's name (the scene's, else the file stem).
     pub name: String,
-    /// The simulation; systems and force terms may still be added.
+    /// The simulation.
     pub sim: Simulation,
     /// The checkpoint this run continues from ([`resume_run`]), if any.
     pub resume: Option<Box<Checkpoint>>,
@@ -173,36 +238,13 @@ pub fn run_name(scene: &Scene, scene_path: &Path) -> String {
 }
 
 /// Applies `options`' overrides (seed, iterations, frames, start state) to
-/// `scene` and builds its simulation.
+/// `scene` and builds its simulation ([`PendingRun`], sealed at once).
 pub fn prepare_run(
     scene: &Scene,
     scene_path: &Path,
     options: &RunOptions,
 ) -> Result<PreparedRun, RunError> {
-    let mut scene = scene.clone();
-    if let Some(seed) = options.seed {
-        scene.seed = seed;
-    }
-    if let Some(n) = options.iterations {
-        scene.dynamics.iterations = n;
-    }
-    if let Some(f) = options.frames {
-        scene.dynamics.frames = f;
-    }
-    if let Some(from) = &options.from {
-        // Absolute, so it does not depend on the scene file's folder.
-        let path = std::path::absolute(from).unwrap_or_else(|_| from.clone());
-        scene.membrane = crate::scene::MembraneSource::State { path, refine: 0 };
-    }
-    let name = run_name(&scene, scene_path);
-    let mut sim = scene.build(scene_path)?;
-    sim.resource_mut::<CheckInvariants>().0 |= options.check_invariants;
-    Ok(PreparedRun {
-        scene,
-        name,
-        sim,
-        resume: None,
-    })
+    PendingRun::new(scene, scene_path, options)?.build(scene_path)
 }
 
 /// Continues the run whose output directory is `dir` from the checkpoint
@@ -312,17 +354,12 @@ pub fn drive_run(
     let name = name.as_str();
     let iterations = scene.dynamics.iterations;
     let duration = scene.dynamics.duration.unwrap_or(f64::INFINITY);
-    let frames = FrameSchedule::new(
+    *sim.resource_mut::<FrameSchedule>() = FrameSchedule::new(
         iterations,
         scene.dynamics.frames,
         scene.dynamics.frame_time,
         duration,
     );
-    let recorders = sim
-        .remove_resource::<Recorders>()
-        .map(|r| r.0)
-        .unwrap_or_default();
-    sim.add_dynamic_system(Stage::Observe, FrameWriter::new(frames, recorders))?;
     let earlier_wall = resume.as_ref().map_or(0.0, |c| c.wall_time_s);
     open_output(sim, options, resume.as_deref())?;
     let source = checkpoint_source(scene_path, options, resume.as_deref());
@@ -330,7 +367,9 @@ pub fn drive_run(
         let wall = earlier_wall + started.elapsed().as_secs_f64();
         let checkpoint = Checkpoint::capture(sim, source, wall)?;
         Ok(sim
-            .resource::<RunOutput>()
+            .resource::<OpenOutput>()
+            .get()
+            .expect("the run's output is open")
             .write_checkpoint(&checkpoint.to_json())?)
     };
     // A first checkpoint before the first tick: a scene whose state cannot
@@ -339,9 +378,7 @@ pub fn drive_run(
         && resume.is_none()
         && let Err(e) = write_checkpoint(sim, source)
     {
-        if let Some(out) = sim.remove_resource::<RunOutput>() {
-            out.discard();
-        }
+        take_output(sim).discard();
         return Err(e);
     }
     let stop = tick_to_the_end(
@@ -366,39 +403,37 @@ pub fn drive_run(
     finish_run(sim, name, scene, scene_path, stop, wall)
 }
 
-/// Inserts the run's output: a new staging directory, or for a resumed
-/// run the one its checkpoint left, and starts the simulation (restoring
-/// the checkpoint). A failed fresh start discards its staging directory; a
-/// failed resume leaves the staging directory and its checkpoint as they
-/// were.
+/// Opens the run's output: a new staging directory, or for a resumed run
+/// the one its checkpoint left, whose state it then restores. A failed
+/// restore leaves the staging directory and its checkpoint as they were.
 fn open_output(
     sim: &mut Simulation,
     options: &RunOptions,
     resume: Option<&Checkpoint>,
 ) -> Result<(), RunError> {
-    match resume {
-        None => {
-            sim.insert_resource(RunOutput::create(&options.out, options.overwrite)?)?;
-            if let Err(e) = sim.start() {
-                if let Some(out) = sim.remove_resource::<RunOutput>() {
-                    out.discard();
-                }
-                return Err(e.into());
-            }
-        }
-        Some(checkpoint) => {
-            sim.insert_resource(RunOutput::reopen(&options.out, &checkpoint.output)?)?;
-            sim.start()?;
-            checkpoint.restore_into(sim).map_err(|e| {
-                RunError::Checkpoint(CheckpointError {
-                    path: crate::io::checkpoint::staging_of(&options.out)
-                        .join(crate::io::checkpoint::CHECKPOINT_FILE),
-                    reason: e.to_string(),
-                })
-            })?;
-        }
+    let out = match resume {
+        None => RunOutput::create(&options.out, options.overwrite)?,
+        Some(checkpoint) => RunOutput::reopen(&options.out, &checkpoint.output)?,
+    };
+    sim.resource_mut::<OpenOutput>().0 = Some(out);
+    if let Some(checkpoint) = resume {
+        checkpoint.restore_into(sim).map_err(|e| {
+            RunError::Checkpoint(CheckpointError {
+                path: crate::io::checkpoint::staging_of(&options.out)
+                    .join(crate::io::checkpoint::CHECKPOINT_FILE),
+                reason: e.to_string(),
+            })
+        })?;
     }
     Ok(())
+}
+
+/// Takes the run's output directory back from the simulation.
+fn take_output(sim: &mut Simulation) -> RunOutput {
+    sim.resource_mut::<OpenOutput>()
+        .0
+        .take()
+        .expect("the run's output is open until the run ends")
 }
 
 /// What a checkpoint records of how the run was started (`None` without
@@ -465,9 +500,7 @@ fn tick_to_the_end(
             if let Some(b) = &bar {
                 b.abandon();
             }
-            let out = sim
-                .remove_resource::<RunOutput>()
-                .expect("the run's output stays a resource");
+            let out = take_output(sim);
             return Err(RunError::Interrupted {
                 iteration: it,
                 staging: out.staging().to_owned(),
@@ -522,9 +555,7 @@ fn finish_run(
         // before writing back); re-gather without the failing forces.
         regather(sim)?;
     }
-    let out = sim
-        .remove_resource::<RunOutput>()
-        .expect("the run's output stays a resource");
+    let out = take_output(sim);
     let summary = summarize(name, scene, scene_path, sim, &out, stop.as_ref(), wall());
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| SimError::Output(e.to_string()))?;

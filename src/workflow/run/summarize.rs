@@ -61,7 +61,7 @@ pub(super) fn summarize(
             .constraint,
         model,
         frames: out.frames.clone(),
-        timings: sim.schedule().map(|s| s.timings()).unwrap_or_default(),
+        timings: sim.schedule().timings(),
     }
 }
 
