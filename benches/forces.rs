@@ -150,8 +150,10 @@ fn each_system(c: &mut Criterion) {
             })
         });
         g.finish();
+        let mut inputs = remembrane::engine::term_inputs::TermInputs::default();
+        inputs.insert(samples.clone());
         let sampled = ForceContext {
-            edge_samples: &samples.0,
+            inputs: &inputs,
             ..ctx
         };
         let mut vin = VinForces::new(seg.clone(), VinForm::PiecewiseLinear);

@@ -78,7 +78,7 @@
 //! | stage | systems | resources written |
 //! |---|---|---|
 //! | Prepare | [`control_point_schedule`](systems::control_point_schedule) (when scheduled) | control points in [`Membrane`] |
-//! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`VinEdgeSamples`] (each edge's vector, length and V_in segment, read by the V_in force and the time step) |
+//! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`TermInputs`] (what is measured once for the terms: with V_in its [`VinEdgeSamples`], each edge's vector, length and V_in segment, read by the V_in force and the time step) |
 //! | Forces | `force_terms` (every term: `vin`, `bending`, `volume`, `area`, `local_tension`, `springs`, plugins' terms, each timed under its name), then [`force_total`](systems::force_total), then [`constraint_reactions`](systems::constraint_reactions) (with `constraints`) | [`ForceBuffers`] only |
 //! | Observe | `frame_clock`, then the recorders (`record_state_columns`, `record_force`, …) | [`FrameSchedule`], [`CurrentFrame`] |
 //! | Output | `frames` ([`FrameWriter`]: only when a run opened an output directory) | [`OpenOutput`] |
@@ -94,7 +94,7 @@
 //! | plugin ([`scene::plugins`]) | resources | systems |
 //! |---|---|---|
 //! | `core` | [`Clock`], [`DensePositions`], [`DenseLipid`], [`ForceBuffers`], [`FaceGeometry`], [`TimeStepChoice`], [`DynamicsParams`], [`RemeshParams`], [`AbnormalEdges`], [`Seed`], [`CheckInvariants`] | gather, face geometry, force total, time step, integration, barrier check |
-//! | `vin` ([`energy::vin`]) | [`VinSegmentation`], [`VinEdgeSamples`] | `vin_edge_samples`, term `vin` (unless the geometric baseline) |
+//! | `vin` ([`energy::vin`]) | [`VinSegmentation`], [`VinEdgeSamples`] in [`TermInputs`] | `vin_edge_samples`, term `vin` (unless the geometric baseline) |
 //! | each term's `plugin` in [`energy`] (`bending`, `volume`, `area`, `tension`, `local_tension`, `springs`, `self_avoidance`) | — | their term |
 //! | `constraints` | [`Constraints`] | `constraint_reactions`, `constraint_projection` |
 //! | `control_points` | control-point entities | `control_point_schedule` |
@@ -131,6 +131,7 @@
 //! [`Seed`]: engine::core_resources::Seed
 //! [`CheckInvariants`]: engine::core_resources::CheckInvariants
 //! [`VinEdgeSamples`]: energy::vin::VinEdgeSamples
+//! [`TermInputs`]: engine::term_inputs::TermInputs
 //! [`VinSegmentation`]: energy::vin::VinSegmentation
 //! [`OpenOutput`]: io::output::OpenOutput
 //! [`FrameWriter`]: io::output::FrameWriter

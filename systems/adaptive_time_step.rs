@@ -2,20 +2,20 @@
 //!
 //! Stage: TimeStep. Reads: [`Membrane`] (edges), [`DensePositions`], the
 //! total force in [`ForceBuffers`], [`DynamicsParams`] (mobility, dt_max,
-//! s_max), the V_in segmentation and the tick's edge samples when a Vin
-//! plugin inserted them, and the
+//! s_max), the V_in segmentation and the tick's edge samples (in
+//! [`TermInputs`]) when a Vin plugin inserted them, and the
 //! bending rigidity when a bending term did (for the explicit bending
 //! step's stability bound in scenes without V_in or in the fluid model),
 //! the [`remembrane_core::params::MembraneModel`] when inserted. Writes:
 //! [`TimeStepChoice`]. Units: s.
 
 use remembrane_core::energy::bending::BendingRigidity;
-use remembrane_core::energy::vin::VinEdgeSamples;
-use remembrane_core::energy::vin::VinSegmentation;
+use remembrane_core::energy::vin::{VinEdgeSamples, VinSegmentation};
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{Clock, DensePositions, SimError};
+use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::params::DynamicsParams;
 use remembrane_core::timestep::{Limiter, TimeStepChoice, bending_step_limit, choose_time_step};
@@ -31,7 +31,7 @@ impl System for AdaptiveTimeStep {
         Res<'a, DynamicsParams>,
         Res<'a, Clock>,
         Option<Res<'a, VinSegmentation>>,
-        Option<Res<'a, VinEdgeSamples>>,
+        Option<Res<'a, TermInputs>>,
         Option<Res<'a, BendingRigidity>>,
         Option<Res<'a, remembrane_core::params::MembraneModel>>,
         ResMut<'a, TimeStepChoice>,
@@ -60,7 +60,10 @@ impl System for AdaptiveTimeStep {
         let mut choice = choose_time_step(
             segmentation.as_deref().map(|s| &*s.0),
             &membrane.cached_topology().edges,
-            samples.as_deref().map_or(&[], |s| &s.0),
+            samples
+                .as_deref()
+                .and_then(|i| i.get::<VinEdgeSamples>())
+                .map_or(&[], |s| &s.0),
             &positions.0,
             &buffers.evaluation.total,
             d.mobility,

@@ -1,12 +1,12 @@
 //! The system that runs every registered force term (see
 //! [`remembrane_core::engine::simulation::SimBuilder::add_force_term`]).
 
-use remembrane_core::energy::vin::VinEdgeSamples;
 use remembrane_core::engine::core_resources::{DenseLipid, DensePositions};
 use remembrane_core::engine::error::SimError;
 use remembrane_core::engine::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::membrane::Membrane;
 use std::time::{Duration, Instant};
 
@@ -24,7 +24,7 @@ pub const FORCE_TERMS: &str = "force_terms";
 ///
 /// Stage: Forces (before `force_total`). Reads: the membrane (topology, the
 /// terms' own components), dense positions and lipid density, face
-/// geometry, the V_in edge samples when measured. Writes: the terms (they
+/// geometry, the [`TermInputs`] when a plugin publishes any. Writes: the terms (they
 /// live in [`ForceBuffers`], where the flip system prices flips with them),
 /// their buffers and energies.
 #[derive(Default)]
@@ -47,7 +47,7 @@ impl System for ForceTermsSystem {
         Res<'a, DensePositions>,
         Res<'a, DenseLipid>,
         Res<'a, FaceGeometry>,
-        Option<Res<'a, VinEdgeSamples>>,
+        Option<Res<'a, TermInputs>>,
         ResMut<'a, ForceBuffers>,
     );
 
@@ -57,7 +57,7 @@ impl System for ForceTermsSystem {
 
     fn run(
         &mut self,
-        (membrane, positions, lipid, geometry, edge_samples, mut buffers): Self::Data<'_>,
+        (membrane, positions, lipid, geometry, inputs, mut buffers): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let (terms, ev) = buffers.terms_and_evaluation();
         self.timings.resize(terms.len(), Duration::ZERO);
@@ -70,7 +70,7 @@ impl System for ForceTermsSystem {
             positions: &positions.0,
             lipid: &lipid.0,
             face_geometry: &geometry.0,
-            edge_samples: edge_samples.as_deref().map_or(&[], |s| &s.0),
+            inputs: inputs.as_deref().unwrap_or(TermInputs::none()),
         };
         // Term work scales with the faces.
         let faces = membrane.cached_topology().faces.len();

@@ -631,8 +631,10 @@ fn measured_edge_samples_change_no_bit_of_the_vin_force_or_the_time_step() {
     );
     let mut f_in_place = vec![DVec3::ZERO; mesh.positions.len()];
     let e_in_place = vin.accumulate(&in_place, &mut f_in_place);
+    let mut inputs = remembrane::engine::term_inputs::TermInputs::default();
+    inputs.insert(samples.clone());
     let measured = ForceContext {
-        edge_samples: &samples.0,
+        inputs: &inputs,
         ..in_place
     };
     let mut f_measured = vec![DVec3::ZERO; mesh.positions.len()];

@@ -7,7 +7,7 @@
 //! | plugin | resources it inserts | systems (stage) |
 //! |---|---|---|
 //! | [`core`](fn@core) | `Clock`, `DensePositions`, `DenseLipid`, `ForceBuffers`, `FaceGeometry`, `TimeStepChoice`, `DynamicsParams`, `RemeshParams`, `AbnormalEdges`, `Seed`, `CheckInvariants`, `StopRequest` | `gather_state`, `face_geometry` (Gather), `force_total` (Forces), `adaptive_time_step` (TimeStep), `langevin_integration` (Integrate), or with `Method::Minimise` `fire_minimiser` (Integrate) and `MinimiserStatus`; `barrier_check` (BarrierCheck) |
-//! | each term's `plugin` in [`crate::energy`] (vin, bending, volume, area, tension, local tension, springs, self-avoidance) | V_in: `VinSegmentation`, `VinEdgeSamples` | their term (Forces); V_in also `vin_edge_samples` (Gather), and exerts no force in the geometric baseline |
+//! | each term's `plugin` in [`crate::energy`] (vin, bending, volume, area, tension, local tension, springs, self-avoidance) | V_in: `VinSegmentation`, `VinEdgeSamples` in `TermInputs` | their term (Forces); V_in also `vin_edge_samples` (Gather), and exerts no force in the geometric baseline |
 //! | [`fluid`] | `MembraneModel`, `VertexNormals` | `vertex_normals` (Gather), `fluid_projection` (Forces) |
 //! | [`constraints`] | `Constraints` | `constraint_reactions` (Forces), `constraint_projection` (Integrate) |
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |

@@ -19,6 +19,7 @@ use crate::engine::force::{FlipProposal, ForceContext, ForceKind, ForceTerm};
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::{Stage, System};
 use crate::engine::simulation::{DensePositions, Plugin, SimBuilder, SimError};
+use crate::engine::term_inputs::TermInputs;
 use crate::mesh::membrane::Membrane;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -557,7 +558,7 @@ impl VinForces {
         let exact = |_: usize, l: f64| seg.exact_and_slope(l);
         // The tick's edge samples when the Gather stage measured them (the
         // same vectors, lengths and segments this would compute).
-        let samples = ctx.edge_samples;
+        let samples = ctx.inputs.get::<VinEdgeSamples>().map_or(&[][..], |s| &s.0);
         if samples.len() == edges.len() {
             let sample = |e: usize| {
                 let s = samples[e];
@@ -621,7 +622,7 @@ pub fn plugin(params: VinParams, exerts_force: bool) -> impl Plugin {
     move |b: &mut SimBuilder| {
         let segmentation = Arc::new(Segmentation::new(params));
         b.insert_resource(VinSegmentation(segmentation.clone()))
-            .insert_resource(VinEdgeSamples::default());
+            .publish_term_input(VinEdgeSamples::default());
         b.add_system(Stage::Gather, VinEdgeSampling)
             .after("gather_state");
         if exerts_force {
@@ -660,7 +661,8 @@ impl crate::energy::builtin::BuiltinTerm for VinParams {
 /// per tick.
 ///
 /// Stage: Gather (after `gather_state`). Reads: [`Membrane`] (edges),
-/// [`DensePositions`], [`VinSegmentation`]. Writes: [`VinEdgeSamples`].
+/// [`DensePositions`], [`VinSegmentation`]. Writes: the
+/// [`VinEdgeSamples`] in [`TermInputs`].
 pub struct VinEdgeSampling;
 
 /// Its name.
@@ -671,7 +673,7 @@ impl System for VinEdgeSampling {
         Res<'a, Membrane>,
         Res<'a, DensePositions>,
         Res<'a, VinSegmentation>,
-        ResMut<'a, VinEdgeSamples>,
+        ResMut<'a, TermInputs>,
     );
 
     fn name(&self) -> &str {
@@ -680,10 +682,18 @@ impl System for VinEdgeSampling {
 
     fn run(
         &mut self,
-        (membrane, positions, segmentation, mut samples): Self::Data<'_>,
+        (membrane, positions, segmentation, mut inputs): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let (edges, segmentation) = (&membrane.cached_topology().edges, &segmentation.0);
-        samples.measure(edges, &positions.0, |l| segmentation.segment_of(l));
+        let segment_of = |l| segmentation.segment_of(l);
+        match inputs.get_mut::<VinEdgeSamples>() {
+            Some(samples) => samples.measure(edges, &positions.0, segment_of),
+            None => {
+                let mut samples = VinEdgeSamples::default();
+                samples.measure(edges, &positions.0, segment_of);
+                inputs.insert(samples);
+            }
+        }
         Ok(())
     }
 }

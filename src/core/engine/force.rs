@@ -13,6 +13,7 @@ use crate::engine::persisted::PersistedResources;
 use crate::engine::resources::{Res, Resources};
 use crate::engine::schedule::Stage;
 use crate::engine::simulation::{SimBuilder, Simulation};
+use crate::engine::term_inputs::TermInputs;
 use crate::mesh::flip::{Flip, FlipTotals};
 use crate::mesh::geometry::{Corners, face_geometry};
 use crate::mesh::topology::Topology;
@@ -34,11 +35,10 @@ pub struct ForceContext<'a> {
     /// `positions`, in face order; empty unless a term in the evaluation
     /// returned `true` from [`ForceTerm::uses_face_geometry`].
     pub face_geometry: &'a [Corners],
-    /// Per-edge vectors, lengths and V_in segments at `positions`, in edge
-    /// order, when the vin plugin measured them this tick
-    /// ([`crate::energy::vin::VinEdgeSamples`]); empty otherwise (a term
+    /// What the Gather stage measured for the terms this tick, by type
+    /// ([`TermInputs`]); [`TermInputs::none`] outside the schedule (a term
     /// then measures what it needs itself).
-    pub edge_samples: &'a [crate::mesh::geometry::EdgeSample],
+    pub inputs: &'a TermInputs,
 }
 
 impl<'a> ForceContext<'a> {
@@ -63,7 +63,7 @@ impl<'a> ForceContext<'a> {
             positions,
             lipid,
             face_geometry: geometry,
-            edge_samples: &[],
+            inputs: TermInputs::none(),
         }
     }
 }
@@ -74,8 +74,8 @@ impl<'a> ForceContext<'a> {
 pub struct FlipProposal<'a> {
     /// The flip, in the dense slots of `before.topology`.
     pub flip: Flip,
-    /// The state before the flip. Its face geometry and edge samples are
-    /// empty: a flip touches two faces, so a term measures what it needs.
+    /// The state before the flip. Its face geometry and inputs are empty: a
+    /// flip touches two faces, so a term measures what it needs.
     pub before: ForceContext<'a>,
     /// Area and enclosed volume before the flip (l̄², l̄³), kept current as
     /// flips are taken.
@@ -103,7 +103,7 @@ impl<'a> FlipProposal<'a> {
                 positions,
                 lipid,
                 face_geometry: &[],
-                edge_samples: &[],
+                inputs: TermInputs::none(),
             },
             totals,
             change: flip.totals_change(positions),

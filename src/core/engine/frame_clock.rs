@@ -6,10 +6,11 @@
 //! recorders fill. A run sets the schedule before its first tick; the run's
 //! frame writer (Output stage) writes the frame that the recorders filled.
 
+use crate::engine::core_resources::{Clock, StopRequest};
 use crate::engine::error::SimError;
+pub use crate::engine::frame::CurrentFrame;
 use crate::engine::resources::{Res, ResMut};
 use crate::engine::schedule::System;
-use crate::engine::simulation::{Clock, StopRequest};
 
 /// Name of the frame-opening system (recorders run after it).
 pub const FRAME_CLOCK: &str = "frame_clock";
@@ -105,16 +106,6 @@ impl FrameSchedule {
         }
         open
     }
-}
-
-/// The frame of this tick: whether it is due, and what the recorders put in
-/// it so far.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct CurrentFrame {
-    /// Whether this tick's Observe stage records a frame.
-    pub due: bool,
-    /// The columns and point data recorded so far.
-    pub data: crate::engine::recorder::FrameData,
 }
 
 /// Opens a frame when one is due: sets [`CurrentFrame::due`] and empties it.

@@ -6,9 +6,11 @@
 pub mod core_resources;
 pub mod error;
 pub mod force;
+pub mod frame;
 pub mod frame_clock;
 pub mod persisted;
 pub mod recorder;
 pub mod resources;
 pub mod schedule;
 pub mod simulation;
+pub mod term_inputs;

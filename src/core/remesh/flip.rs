@@ -121,7 +121,7 @@ fn view<'a>(
     ForceContext {
         topology,
         face_geometry: geometry,
-        edge_samples: &[],
+        inputs: crate::engine::term_inputs::TermInputs::none(),
         ..*ctx
     }
 }

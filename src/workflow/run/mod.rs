@@ -609,9 +609,10 @@ fn release_tick_scratch(sim: &mut Simulation) {
     {
         g.0 = Vec::new();
     }
-    if let Ok(mut s) = sim
+    if let Ok(mut inputs) = sim
         .resources()
-        .get_mut::<crate::energy::vin::VinEdgeSamples>()
+        .get_mut::<crate::engine::term_inputs::TermInputs>()
+        && let Some(s) = inputs.get_mut::<crate::energy::vin::VinEdgeSamples>()
     {
         s.0 = Vec::new();
     }
