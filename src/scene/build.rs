@@ -74,18 +74,29 @@ impl Scene {
         };
         // Generated meshes are valid by construction; this also applies the
         // scene's valence limits to files and docked pairs.
-        check_mesh(&mesh.positions, &mesh.faces, Some(self.valence)).map_err(|source| {
-            let field = if matches!(source, MeshError::ValenceOutOfRange { .. }) {
-                "valence"
-            } else {
-                "membrane"
-            };
-            SceneError::Mesh {
+        let report =
+            check_mesh(&mesh.positions, &mesh.faces, Some(self.valence)).map_err(|source| {
+                let field = if matches!(source, MeshError::ValenceOutOfRange { .. }) {
+                    "valence"
+                } else {
+                    "membrane"
+                };
+                SceneError::Mesh {
+                    path: scene_path.to_owned(),
+                    field,
+                    source,
+                }
+            })?;
+        if report.boundary_loops > 0 {
+            return Err(SceneError::Invalid {
                 path: scene_path.to_owned(),
-                field,
-                source,
-            }
-        })?;
+                field: "membrane".into(),
+                reason: format!(
+                    "the mesh is open ({} boundary loops): scenes do not run open meshes yet",
+                    report.boundary_loops
+                ),
+            });
+        }
         mesh.positions.shrink_to_fit();
         Ok((mesh, lipid))
     }
