@@ -52,6 +52,15 @@ impl Scene {
                 *area,
                 *mean_edge_length,
             )?,
+            MembraneSource::Disc {
+                radius,
+                mean_edge_length,
+            } => crate::mesh::disc(*radius, *mean_edge_length),
+            MembraneSource::SphericalCap {
+                sphere_radius,
+                opening_angle,
+                mean_edge_length,
+            } => crate::mesh::spherical_cap(*sphere_radius, *opening_angle, *mean_edge_length),
             MembraneSource::DockedPair { level } => docked_pair(*level),
             MembraneSource::File { path, scale } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));
@@ -88,14 +97,7 @@ impl Scene {
                 }
             })?;
         if report.boundary_loops > 0 {
-            return Err(SceneError::Invalid {
-                path: scene_path.to_owned(),
-                field: "membrane".into(),
-                reason: format!(
-                    "the mesh is open ({} boundary loops): scenes do not run open meshes yet",
-                    report.boundary_loops
-                ),
-            });
+            self.refuse_on_open_mesh(scene_path, report.boundary_loops)?;
         }
         mesh.positions.shrink_to_fit();
         Ok((mesh, lipid))

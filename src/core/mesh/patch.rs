@@ -18,6 +18,20 @@ pub fn patch_vertex_count(rings: u32) -> usize {
     1 + 3 * k * (k + 1)
 }
 
+/// Vertices of the patch whose radial extent (the disc's radius, the cap's
+/// arc from pole to rim) is `length` at `mean_edge_length` (both l̄), as
+/// [`disc`] and [`spherical_cap`] choose the rings; saturates instead of
+/// overflowing.
+pub fn patch_vertex_count_for(length: f64, mean_edge_length: f64) -> usize {
+    let k = (EDGE_PER_SPACING * length / mean_edge_length)
+        .round()
+        .max(1.0);
+    if k > 1e6 {
+        return usize::MAX;
+    }
+    patch_vertex_count(k as u32)
+}
+
 /// Index of vertex `j` (taken modulo 6k) of ring `k`.
 fn index(k: u32, j: u32) -> u32 {
     if k == 0 {
