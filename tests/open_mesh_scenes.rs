@@ -184,3 +184,91 @@ fn a_bad_open_mesh_file_exits_2_naming_the_file_and_reason() {
     );
     assert!(!out_dir.exists(), "no partial output");
 }
+
+/// The positions of boundary loop 0 and the rest, by dense slot.
+fn rim_and_interior(sim: &remembrane::engine::simulation::Simulation) -> (Vec<u32>, Vec<u32>) {
+    let t = sim.membrane().cached_topology().clone();
+    let rim = t.boundary_loops()[0].clone();
+    let inner = (0..t.vertex_count() as u32)
+        .filter(|v| !rim.contains(v))
+        .collect();
+    (rim, inner)
+}
+
+#[test]
+fn a_pinned_rim_stays_put_under_noise_and_the_minimiser() {
+    let noisy = DISC
+        .replace(
+            "dynamics: (iterations: 20, frames: 2)",
+            "dynamics: (iterations: 200, frames: 2, temperature: 0.05)",
+        )
+        .replace(
+            "    dynamics:",
+            "    boundary: [Pinned(loop: 0)],\n    dynamics:",
+        );
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/flat_patch.ron");
+    let bundled = std::fs::read_to_string(&path).unwrap();
+    for (text, ticks) in [(noisy, 200), (bundled, 20000)] {
+        let mut sim = build(&text).unwrap();
+        let positions = |sim: &remembrane::engine::simulation::Simulation| {
+            let mut p = Vec::new();
+            sim.membrane().gather_positions(&mut p);
+            p
+        };
+        let before = positions(&sim);
+        let (rim, inner) = rim_and_interior(&sim);
+        sim.start().unwrap();
+        for _ in 0..ticks {
+            if sim
+                .resource::<remembrane::engine::simulation::StopRequest>()
+                .0
+                .is_some()
+            {
+                break;
+            }
+            sim.tick().unwrap();
+        }
+        let after = positions(&sim);
+        for &v in &rim {
+            assert_eq!(
+                after[v as usize], before[v as usize],
+                "rim vertex {v} moved"
+            );
+        }
+        let moved = inner
+            .iter()
+            .map(|&v| after[v as usize].distance(before[v as usize]))
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-2, "the interior did not move ({moved})");
+    }
+}
+
+#[test]
+fn boundary_conditions_name_a_loop_that_exists() {
+    let with = |membrane: &str, boundary: &str| {
+        DISC.replace("Disc(radius: 4.0)", membrane).replace(
+            "    dynamics:",
+            &format!("    boundary: {boundary},\n    dynamics:"),
+        )
+    };
+    for (text, reason) in [
+        (
+            with("Disc(radius: 4.0)", "[Pinned(loop: 1)]"),
+            "1 boundary loops (0..=0), not loop 1",
+        ),
+        (
+            with("Disc(radius: 4.0)", "[Pinned(loop: 0), Pinned(loop: 0)]"),
+            "already has a condition",
+        ),
+        (with("Icosphere(level: 1)", "[Pinned(loop: 0)]"), "closed"),
+    ] {
+        let msg = match build(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            msg.contains("open.ron") && msg.contains("field `boundary`") && msg.contains(reason),
+            "{msg}"
+        );
+    }
+}

@@ -198,6 +198,11 @@ impl Scene {
                 self.control_point_schedule.clone(),
             ))
             .map_err(build_err)?;
+        if !self.boundary.is_empty() {
+            builder
+                .add_plugin(plugins::boundary_conditions(self.boundary.clone()))
+                .map_err(|e| invalid_at("boundary".into(), e))?;
+        }
         self.add_remeshing_and_systems(&mut builder, scene_path)?;
         let sim = builder.build();
         Ok(sim)

@@ -88,6 +88,12 @@ pub struct Scene {
     /// a fluid membrane without shear modulus).
     #[serde(default)]
     pub model: crate::params::MembraneModel,
+    /// Boundary conditions of an open membrane, one per boundary loop:
+    /// `[Pinned(loop: 0)]` (default none: every loop free, without line
+    /// tension). Loops are numbered by their lowest-numbered vertex; a
+    /// `Disc` or `SphericalCap` has one, loop 0. See `docs/open_meshes.md`.
+    #[serde(default)]
+    pub boundary: Vec<crate::params::BoundaryCondition>,
     /// Target edge length h: `EdgeLength(h)` (l̄; default 1) or `FromMesh`
     /// (the initial mesh's mean edge length). Every mesh-scale length of the
     /// scene (V_in's, remeshing's, flips', self-avoidance's, the Gaussian
