@@ -12,7 +12,8 @@
 //! [`MinimiserStatus`] and, once a convergence criterion holds,
 //! [`StopRequest`] (the state is then left where it is).
 //!
-//! A step that turns a face over or the membrane inside out is undone: the
+//! A step that turns a face over or the membrane inside out (a closed one:
+//! an open membrane encloses no volume) is undone: the
 //! step is halved and FIRE restarts from rest. Below a millionth of the
 //! first step the run stops with [`SimError::MinimiserStuck`].
 
@@ -136,9 +137,10 @@ impl System for FireMinimiser {
                     value: format!("{:?}", positions[v]),
                 });
             }
-            let faces = &membrane.cached_topology().faces;
+            let topology = membrane.cached_topology();
+            let faces = &topology.faces;
             let (turned, volume) = check_step(faces, &self.previous, positions);
-            if turned.is_none() && volume > 0.0 {
+            if turned.is_none() && (volume > 0.0 || topology.is_open()) {
                 break;
             }
             // Undo, halve the step and start again from rest.

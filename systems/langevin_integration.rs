@@ -153,7 +153,8 @@ impl System for LangevinIntegration {
                 value: format!("{:?}", positions[v]),
             });
         }
-        let faces = &membrane.cached_topology().faces;
+        let topology = membrane.cached_topology();
+        let faces = &topology.faces;
         let (turned, volume) =
             check_step_with(faces, &self.previous, positions, &mut self.per_face);
         if let Some(f) = turned {
@@ -182,8 +183,9 @@ impl System for LangevinIntegration {
             });
         }
         // A point reflection (a penalty overshooting through zero size) keeps
-        // every face normal: the enclosed volume's sign catches it.
-        if volume <= 0.0 {
+        // every face normal: the enclosed volume's sign catches it (on a
+        // closed membrane; an open one encloses none).
+        if volume <= 0.0 && !topology.is_open() {
             positions.copy_from_slice(&self.previous);
             return Err(SimError::InsideOut {
                 iteration: clock.iteration + 1,

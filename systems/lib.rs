@@ -12,6 +12,7 @@
 
 pub mod adaptive_time_step;
 pub mod barrier_check;
+pub mod boundary_pinning;
 pub mod constraint_projection;
 pub mod constraint_reactions;
 pub mod control_point_schedule;

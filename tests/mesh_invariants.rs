@@ -63,15 +63,11 @@ fn valid_meshes_pass() {
 }
 
 #[test]
-fn rejects_open_mesh() {
+fn accepts_open_mesh_with_its_loop() {
+    // Open meshes are valid (tests/open_mesh.rs has their broken kinds).
     let mut m = sphere();
-    let removed = m.faces.remove(7);
-    let err = check(&m).unwrap_err();
-    match err {
-        MeshError::OpenEdge { a, b, .. } => assert!(removed.contains(&a) && removed.contains(&b)),
-        e => panic!("expected OpenEdge, got {e}"),
-    }
-    assert!(err.to_string().contains("open"));
+    m.faces.remove(7);
+    assert_eq!(check(&m).unwrap().boundary_loops, 1);
 }
 
 #[test]
@@ -252,20 +248,20 @@ fn ply_and_obj_round_trip() {
 #[test]
 fn broken_mesh_files_are_rejected_with_path_and_reason() {
     let dir = tempfile::tempdir().unwrap();
-    let mut open = sphere();
-    open.faces.pop();
-    let path = dir.path().join("open.obj");
-    std::fs::write(&path, obj_text(&open)).unwrap();
+    let mut flipped = sphere();
+    flipped.faces[2].swap(0, 1);
+    let path = dir.path().join("flipped.obj");
+    std::fs::write(&path, obj_text(&flipped)).unwrap();
     let err = read_mesh(&path).unwrap_err();
     assert!(matches!(
         err,
         MeshIoError::Invalid {
-            source: MeshError::OpenEdge { .. },
+            source: MeshError::InconsistentOrientation { .. },
             ..
         }
     ));
     assert!(
-        err.to_string().contains("open.obj") && err.to_string().contains("open"),
+        err.to_string().contains("flipped.obj") && err.to_string().contains("orientation"),
         "{err}"
     );
 

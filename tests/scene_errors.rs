@@ -272,10 +272,19 @@ fn bad_mesh_files_are_named_with_the_reason() {
         remembrane::mesh::io::write_obj_to(&mut buf, m).unwrap();
         std::fs::write(dir.path().join(name), buf).unwrap();
     };
-    // Open.
-    let mut open = mesh.clone();
-    open.faces.pop();
-    write_obj("open.obj", &open);
+    // Open with a bow-tie: the sphere's two faces at one vertex removed
+    // so that their holes touch there.
+    let v = mesh.faces[0][0];
+    let at_v: Vec<usize> = (0..mesh.faces.len())
+        .filter(|&f| mesh.faces[f].contains(&v))
+        .collect();
+    let mut bow_tie = mesh.clone();
+    // Remove two faces of v's fan that share no edge (ring positions 0, 2).
+    let ring = fan_order(&mesh, v, &at_v);
+    for f in [ring[0].max(ring[2]), ring[0].min(ring[2])] {
+        bow_tie.faces.remove(f);
+    }
+    write_obj("bowtie.obj", &bow_tie);
     // Inconsistently oriented.
     let mut flipped = mesh.clone();
     flipped.faces[4].swap(0, 1);
@@ -286,7 +295,7 @@ fn bad_mesh_files_are_named_with_the_reason() {
     mesh.faces.push([b, a, (mesh.positions.len() - 1) as u32]);
     write_obj("nonmanifold.obj", &mesh);
     for (file, reason) in [
-        ("open.obj", "open"),
+        ("bowtie.obj", "not manifold"),
         ("flipped.obj", "orientation"),
         ("nonmanifold.obj", "not manifold"),
     ] {
@@ -299,6 +308,24 @@ fn bad_mesh_files_are_named_with_the_reason() {
             "{msg}"
         );
     }
+}
+
+/// The faces of vertex `v`'s fan (`at_v`) in ring order.
+fn fan_order(mesh: &remembrane::mesh::SurfaceMesh, v: u32, at_v: &[usize]) -> Vec<usize> {
+    let next = |f: usize| {
+        let k = mesh.faces[f].iter().position(|&x| x == v).unwrap();
+        mesh.faces[f][(k + 2) % 3]
+    };
+    let starts = |f: usize, a: u32| {
+        let k = mesh.faces[f].iter().position(|&x| x == v).unwrap();
+        mesh.faces[f][(k + 1) % 3] == a
+    };
+    let mut order = vec![at_v[0]];
+    while order.len() < at_v.len() {
+        let a = next(*order.last().unwrap());
+        order.push(*at_v.iter().find(|&&f| starts(f, a)).unwrap());
+    }
+    order
 }
 
 /// The dihedral bending has no local flip formula, so the energy-based

@@ -177,6 +177,23 @@ pub fn perturbed_icosphere(level: u32, seed: u64) -> crate::mesh::SurfaceMesh {
     mesh
 }
 
+/// The open test patches every term that runs on open meshes is checked
+/// on (boundary vertices included): a spherical cap (radius 4 l̄, opening
+/// 70°, 91 vertices) and a flat disc (radius 4 l̄, 61 vertices), both of
+/// mean edge about 1 l̄, shifted by the seeded jitter of
+/// [`perturbed_icosphere`].
+pub fn perturbed_patches(seed: u64) -> [crate::mesh::SurfaceMesh; 2] {
+    [
+        crate::mesh::spherical_cap(4.0, 70.0, 1.0),
+        crate::mesh::disc(4.0, 1.0),
+    ]
+    .map(|mut mesh| {
+        mesh.jitter(2.0 * TEST_PERTURBATION, seed);
+        mesh.translate(DVec3::splat(-TEST_PERTURBATION));
+        mesh
+    })
+}
+
 /// The result of [`check_flip_energy_change`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FlipCheckReport {

@@ -52,6 +52,15 @@ impl Scene {
                 *area,
                 *mean_edge_length,
             )?,
+            MembraneSource::Disc {
+                radius,
+                mean_edge_length,
+            } => crate::mesh::disc(*radius, *mean_edge_length),
+            MembraneSource::SphericalCap {
+                sphere_radius,
+                opening_angle,
+                mean_edge_length,
+            } => crate::mesh::spherical_cap(*sphere_radius, *opening_angle, *mean_edge_length),
             MembraneSource::DockedPair { level } => docked_pair(*level),
             MembraneSource::File { path, scale } => {
                 let base = scene_path.parent().unwrap_or(Path::new("."));
@@ -74,18 +83,22 @@ impl Scene {
         };
         // Generated meshes are valid by construction; this also applies the
         // scene's valence limits to files and docked pairs.
-        check_mesh(&mesh.positions, &mesh.faces, Some(self.valence)).map_err(|source| {
-            let field = if matches!(source, MeshError::ValenceOutOfRange { .. }) {
-                "valence"
-            } else {
-                "membrane"
-            };
-            SceneError::Mesh {
-                path: scene_path.to_owned(),
-                field,
-                source,
-            }
-        })?;
+        let report =
+            check_mesh(&mesh.positions, &mesh.faces, Some(self.valence)).map_err(|source| {
+                let field = if matches!(source, MeshError::ValenceOutOfRange { .. }) {
+                    "valence"
+                } else {
+                    "membrane"
+                };
+                SceneError::Mesh {
+                    path: scene_path.to_owned(),
+                    field,
+                    source,
+                }
+            })?;
+        if report.boundary_loops > 0 {
+            self.refuse_on_open_mesh(scene_path, report.boundary_loops)?;
+        }
         mesh.positions.shrink_to_fit();
         Ok((mesh, lipid))
     }
@@ -198,6 +211,11 @@ impl Scene {
                 self.control_point_schedule.clone(),
             ))
             .map_err(build_err)?;
+        if !self.boundary.is_empty() {
+            builder
+                .add_plugin(plugins::boundary_conditions(self.boundary.clone()))
+                .map_err(|e| invalid_at("boundary".into(), e))?;
+        }
         self.add_remeshing_and_systems(&mut builder, scene_path)?;
         builder
             .add_plugin(crate::io::output::frame_output)

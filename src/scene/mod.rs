@@ -6,6 +6,7 @@
 //! (e.g. local tension without lipid density) name the file and field.
 
 mod build;
+mod open_mesh;
 pub mod overrides;
 pub mod plugin_decl;
 pub mod plugins;
@@ -87,6 +88,12 @@ pub struct Scene {
     /// a fluid membrane without shear modulus).
     #[serde(default)]
     pub model: crate::params::MembraneModel,
+    /// Boundary conditions of an open membrane, one per boundary loop:
+    /// `[Pinned(loop: 0)]` (default none: every loop free, without line
+    /// tension). Loops are numbered by their lowest-numbered vertex; a
+    /// `Disc` or `SphericalCap` has one, loop 0. See `docs/open_meshes.md`.
+    #[serde(default)]
+    pub boundary: Vec<crate::params::BoundaryCondition>,
     /// Target edge length h: `EdgeLength(h)` (l̄; default 1) or `FromMesh`
     /// (the initial mesh's mean edge length). Every mesh-scale length of the
     /// scene (V_in's, remeshing's, flips', self-avoidance's, the Gaussian
@@ -187,6 +194,40 @@ pub enum MembraneSource {
         #[serde(deserialize_with = "crate::util::validate::positive")]
         area: f64,
         /// Side of the triangles (l̄; default 1).
+        #[serde(
+            default = "default_edge_length",
+            deserialize_with = "crate::util::validate::positive"
+        )]
+        mean_edge_length: f64,
+    },
+    /// An open flat disc in the plane z = 0, centred at the origin, normal
+    /// +z, in rings of a hexagonal lattice (valence 6 inside, 3-4 on the rim;
+    /// 1 + 3K(K + 1) vertices for K rings): one boundary loop. Open meshes
+    /// run only the terms and options that are correct on them (see
+    /// `docs/open_meshes.md`).
+    Disc {
+        /// Radius of the rim (l̄).
+        #[serde(deserialize_with = "crate::util::validate::positive")]
+        radius: f64,
+        /// Mean edge length aimed at (l̄; default 1): K = round(1.12 ·
+        /// radius / mean_edge_length) rings.
+        #[serde(
+            default = "default_edge_length",
+            deserialize_with = "crate::util::validate::positive"
+        )]
+        mean_edge_length: f64,
+    },
+    /// An open spherical cap: the part of the sphere of `sphere_radius`
+    /// centred at the origin within `opening_angle` of the +z pole, normal
+    /// outward, in the disc's lattice mapped to equal polar-angle steps:
+    /// one boundary loop (an open mesh, as `Disc`).
+    SphericalCap {
+        /// Radius of the sphere (l̄).
+        #[serde(deserialize_with = "crate::util::validate::positive")]
+        sphere_radius: f64,
+        /// Polar angle of the rim (degrees, in (0, 90]).
+        opening_angle: f64,
+        /// Mean edge length aimed at (l̄; default 1).
         #[serde(
             default = "default_edge_length",
             deserialize_with = "crate::util::validate::positive"

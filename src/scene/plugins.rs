@@ -14,6 +14,7 @@
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
 //! | [`recorders`] | `FrameSchedule`, `CurrentFrame` | `frame_clock` and a `record_<name>` system per recorder (Observe) |
+//! | [`boundary_conditions`] | `PinnedVertices` | `pin_forces` (Forces), `pin_positions` (Integrate) |
 //! | [`crate::io::output::frame_output`] (added last) | `OpenOutput` | `frames` (Output) |
 
 use crate::engine::force::{FaceGeometry, ForceBuffers};
@@ -259,6 +260,64 @@ pub fn diffusion(params: DiffusionParams) -> impl Plugin {
             Stage::Diffuse,
             crate::systems::lipid_diffusion::LipidDiffusion::new(params),
         );
+        Ok(())
+    }
+}
+
+/// An open membrane's boundary conditions, one per boundary loop (loops
+/// numbered as [`crate::mesh::topology::Topology::boundary_loops`] lists
+/// them): a `Pinned` loop's vertices keep their initial positions. Inserts
+/// `PinnedVertices`; adds `pin_forces` (Forces, after `force_total`) and
+/// `pin_positions` (Integrate, after the integrator or minimiser). Errors
+/// name the condition (`[i].loop`).
+pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::systems::boundary_pinning::{PinForces, PinPositions, PinnedVertices};
+        let invalid = |field: String, reason: String| BuildError::Invalid { field, reason };
+        let membrane = b
+            .resource_mut::<Membrane>()
+            .ok_or_else(|| invalid(String::new(), "no membrane".into()))?;
+        let loops = membrane
+            .topology()
+            .map_err(|e| invalid(String::new(), e.to_string()))?
+            .boundary_loops();
+        let mut positions = Vec::new();
+        membrane.gather_positions(&mut positions);
+        let mut pinned = PinnedVertices::default();
+        let mut seen = vec![false; loops.len()];
+        for (i, c) in conditions.iter().enumerate() {
+            let l = c.loop_index();
+            let Some(vertices) = loops.get(l) else {
+                let reason = match loops.len() {
+                    0 => "the membrane is closed: it has no boundary loop".to_string(),
+                    n => format!(
+                        "the membrane has {n} boundary loops (0..={}), not loop {l}",
+                        n - 1
+                    ),
+                };
+                return Err(invalid(format!("[{i}].loop"), reason));
+            };
+            if std::mem::replace(&mut seen[l], true) {
+                return Err(invalid(
+                    format!("[{i}].loop"),
+                    format!("loop {l} already has a condition"),
+                ));
+            }
+            let crate::params::BoundaryCondition::Pinned { .. } = c;
+            pinned.vertices.extend_from_slice(vertices);
+            pinned
+                .positions
+                .extend(vertices.iter().map(|&v| positions[v as usize]));
+        }
+        b.insert_resource(pinned);
+        b.add_system(Stage::Forces, PinForces)
+            .after(crate::engine::force::FORCE_TOTAL);
+        let integrator = match b.resources().contains::<crate::minimise::MinimiserStatus>() {
+            true => crate::systems::fire_minimiser::FIRE_MINIMISER,
+            false => "langevin_integration",
+        };
+        b.add_system(Stage::Integrate, PinPositions)
+            .after(integrator);
         Ok(())
     }
 }

@@ -89,6 +89,46 @@ impl Scene {
                     ),
                 ));
             }
+            MembraneSource::SphericalCap { opening_angle, .. }
+                if !crate::mesh::patch::valid_cap_angle(*opening_angle) =>
+            {
+                return Err(invalid(
+                    "membrane.opening_angle",
+                    format!("must be in (0, 90] degrees (got {opening_angle})"),
+                ));
+            }
+            MembraneSource::Disc {
+                radius,
+                mean_edge_length,
+            } if crate::mesh::patch::patch_vertex_count_for(*radius, *mean_edge_length)
+                > MAX_CAPSULE_VERTICES =>
+            {
+                return Err(invalid(
+                    "membrane",
+                    format!(
+                        "a disc of radius {radius} with edges of {mean_edge_length} has more \
+                         than {MAX_CAPSULE_VERTICES} vertices"
+                    ),
+                ));
+            }
+            MembraneSource::SphericalCap {
+                sphere_radius,
+                opening_angle,
+                mean_edge_length,
+            } if crate::mesh::patch::patch_vertex_count_for(
+                sphere_radius * opening_angle.to_radians(),
+                *mean_edge_length,
+            ) > MAX_CAPSULE_VERTICES =>
+            {
+                return Err(invalid(
+                    "membrane",
+                    format!(
+                        "a cap of sphere radius {sphere_radius} and opening {opening_angle}° \
+                         with edges of {mean_edge_length} has more than \
+                         {MAX_CAPSULE_VERTICES} vertices"
+                    ),
+                ));
+            }
             MembraneSource::Axisymmetric { reduced_volume, .. }
                 if !(*reduced_volume > 0.5 && *reduced_volume <= 1.0) =>
             {

@@ -191,6 +191,11 @@ pub fn plugin(params: AdhesionParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for AdhesionParams {
+    /// Correct on open meshes: a sum over faces of their area times a contact weight: nothing in it assumes a closed surface.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

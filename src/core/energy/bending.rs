@@ -8,6 +8,19 @@
 //! the adjoints ∂H/∂L_i and ∂H/∂A_i, and a second face pass pulls them back
 //! onto the corner positions ([`Corners::backward`]).
 //!
+//! ## Open meshes
+//!
+//! On a mesh with boundary loops the sum runs over the interior vertices
+//! only: a boundary vertex's fan spans part of a turn, so its cotangent
+//! Laplacian is not a curvature (on a flat patch it points across the
+//! rim), and it carries no bending energy of its own. It still enters its
+//! interior neighbours' L_j and A_j, so it feels their bending forces. This
+//! is the interior discretisation unchanged: a flat patch has zero energy
+//! and force, and a cap cut from a sphere has the sphere's forces at every
+//! vertex two rings or more from its rim (`tests/open_bending.rs`). It
+//! suits pinned boundaries, whose vertices do not move; a free boundary's
+//! own bending (a geodesic-curvature or clamped term) is not modelled.
+//!
 //! ## The force term
 //!
 //! Helfrich bending forces (analytic gradient of the discrete energy, in
@@ -37,8 +50,8 @@ pub struct BendingScratch {
 }
 
 /// Bending energy (Ē) for bending modulus `kappa` (Ē) and spontaneous
-/// curvature `c0` (1/l̄) of a mesh with `n` vertices, from its faces and
-/// their precomputed geometry. With `force = Some(f)`, adds −∇H to `f`.
+/// curvature `c0` (1/l̄) of a closed mesh with `n` vertices, from its faces
+/// and their precomputed geometry. With `force = Some(f)`, adds −∇H to `f`.
 #[allow(clippy::too_many_arguments)]
 pub fn bending(
     n: usize,
@@ -49,6 +62,24 @@ pub fn bending(
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
+    bending_open(n, faces, geometry, kappa, c0, None, scratch, force)
+}
+
+/// [`bending`] on a mesh that may be open: `boundary` (by vertex slot, or
+/// `None` for a closed mesh) marks the boundary vertices, which carry no
+/// energy of their own (see the module docs). With `None` the same bits as
+/// [`bending`].
+#[allow(clippy::too_many_arguments)]
+pub fn bending_open(
+    n: usize,
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    kappa: f64,
+    c0: f64,
+    boundary: Option<&[bool]>,
+    scratch: &mut BendingScratch,
+    force: Option<&mut [DVec3]>,
+) -> f64 {
     if c0 == 0.0 {
         let s = &mut *scratch;
         vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, None, n);
@@ -56,6 +87,11 @@ pub fn bending(
         s.g_area.resize(n, 0.0);
         let mut energy = 0.0;
         for i in 0..n {
+            if boundary.is_some_and(|b| b[i]) {
+                s.g_lap[i] = DVec3::ZERO;
+                s.g_area[i] = 0.0;
+                continue;
+            }
             let (a, l) = (s.areas[i], s.laplacians[i]);
             let l2 = l.length_squared();
             let inv_a = 1.0 / a;
@@ -68,7 +104,7 @@ pub fn bending(
         }
         energy
     } else {
-        bending_with(n, faces, geometry, kappa, |_| c0, scratch, force)
+        bending_with(n, faces, geometry, kappa, |_| c0, boundary, scratch, force)
     }
 }
 
@@ -84,7 +120,16 @@ pub fn bending_varying(
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    bending_with(c0.len(), faces, geometry, kappa, |i| c0[i], scratch, force)
+    bending_with(
+        c0.len(),
+        faces,
+        geometry,
+        kappa,
+        |i| c0[i],
+        None,
+        scratch,
+        force,
+    )
 }
 
 /// The signed curvature h_i = s_i |K_i| of every vertex (1/l̄), with the
@@ -128,13 +173,16 @@ fn sign(laplacian: DVec3, normal: DVec3) -> f64 {
     }
 }
 
-/// The signed-curvature form with spontaneous curvature `c0(i)` at vertex i.
+/// The signed-curvature form with spontaneous curvature `c0(i)` at vertex i;
+/// the `boundary` vertices (if any) carry no energy.
+#[allow(clippy::too_many_arguments)]
 fn bending_with(
     n: usize,
     faces: &[[u32; 3]],
     geometry: &[Corners],
     kappa: f64,
     c0: impl Fn(usize) -> f64,
+    boundary: Option<&[bool]>,
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
@@ -144,6 +192,11 @@ fn bending_with(
     s.g_area.resize(n, 0.0);
     let mut energy = 0.0;
     for i in 0..n {
+        if boundary.is_some_and(|b| b[i]) {
+            s.g_lap[i] = DVec3::ZERO;
+            s.g_area[i] = 0.0;
+            continue;
+        }
         let (a, l) = (s.areas[i], s.laplacians[i]);
         let len = l.length();
         let sign = sign(l, s.normals[i]);
@@ -310,6 +363,11 @@ pub struct BendingForces {
     params: BendingParams,
     scratch: BendingScratch,
     dihedral: DihedralScratch,
+    /// Boundary vertices by slot (empty on a closed mesh), for the
+    /// topology of `boundary_for` (structure epoch; vertex, edge and face
+    /// counts).
+    boundary: Vec<bool>,
+    boundary_for: Option<(u64, usize, usize, usize)>,
 }
 
 impl BendingForces {
@@ -319,6 +377,8 @@ impl BendingForces {
             params,
             scratch: BendingScratch::default(),
             dihedral: DihedralScratch::default(),
+            boundary: Vec::new(),
+            boundary_for: None,
         }
     }
 }
@@ -359,14 +419,24 @@ impl ForceTerm for BendingForces {
 impl BendingForces {
     /// The energy, and with `force` its negative gradient added to it.
     fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        let t = ctx.topology;
+        let key = (t.epoch, t.vertex_count(), t.edges.len(), t.faces.len());
+        if self.boundary_for != Some(key) {
+            self.boundary_for = Some(key);
+            self.boundary.clear();
+            if t.is_open() {
+                self.boundary = t.boundary_mask();
+            }
+        }
         let p = &self.params;
         match p.discretisation {
-            BendingDiscretisation::Cotangent => bending(
+            BendingDiscretisation::Cotangent => bending_open(
                 ctx.positions.len(),
                 &ctx.topology.faces,
                 ctx.face_geometry,
                 p.kappa,
                 p.c0,
+                (!self.boundary.is_empty()).then_some(&self.boundary[..]),
                 &mut self.scratch,
                 force,
             ),
@@ -401,6 +471,21 @@ pub fn plugin(params: BendingParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for BendingParams {
+    /// The cotangent form is correct on open meshes (boundary vertices carry
+    /// no bending energy of their own, see the module docs); the dihedral
+    /// form is refused: its per-edge angle needs two faces on every edge.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        match self.discretisation {
+            BendingDiscretisation::Cotangent => Ok(()),
+            BendingDiscretisation::Dihedral => Err(
+                "the Dihedral discretisation measures an angle between two faces on every \
+                 edge, and a boundary edge has one; it is not boundary-aware yet (use the \
+                 Cotangent form)"
+                    .into(),
+            ),
+        }
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

@@ -31,6 +31,15 @@ pub trait BuiltinTerm {
     fn at_resolution(&mut self, h: f64) {
         let _ = h;
     }
+
+    /// Whether the term is correct on an open mesh (one with boundary
+    /// loops: boundary edges have one face, boundary vertices an open fan):
+    /// `Ok`, or why not, as a clause for the user. Default: refused, so a
+    /// new term runs on open meshes only once it says it is correct there
+    /// (and its finite-difference test covers an open patch).
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Err("it has not been made boundary-aware".into())
+    }
 }
 
 /// Generates, from the list of built-in terms, the scene's `EnergyTerm`
@@ -65,6 +74,18 @@ macro_rules! builtin_terms {
                 match self {
                     $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::at_resolution(p, h), )*
                     EnergyTerm::Custom(_) => {}
+                }
+            }
+
+            /// Whether the term is correct on an open mesh: `Ok`, or why
+            /// not ([`BuiltinTerm::open_mesh_support`](crate::energy::builtin::BuiltinTerm::open_mesh_support)).
+            /// A plugin term is refused: plugins do not declare it.
+            pub fn open_mesh_support(&self) -> Result<(), String> {
+                match self {
+                    $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::open_mesh_support(p), )*
+                    EnergyTerm::Custom(_) => Err(
+                        "plugin terms do not declare whether they are correct on open meshes".into(),
+                    ),
                 }
             }
 

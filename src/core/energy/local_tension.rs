@@ -102,6 +102,11 @@ pub fn plugin(params: LocalTensionParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for LocalTensionParams {
+    /// Correct on open meshes: a sum over vertices of their mixed areas, made of their faces' shares: a boundary vertex's is the share of its fan.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

@@ -177,6 +177,11 @@ pub fn plugin(params: crate::params::SelfAvoidanceParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for SelfAvoidanceParams {
+    /// Correct on open meshes: pairs of vertices that are not ring neighbours: a boundary vertex's ring is its fan.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

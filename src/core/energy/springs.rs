@@ -364,6 +364,11 @@ pub fn plugin(coupling: SpringCoupling) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for SpringParams {
+    /// Correct on open meshes: a control point's nearest vertex and its ring (a boundary vertex's is its fan), or vertices by distance.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

@@ -101,6 +101,11 @@ pub fn plugin(params: crate::params::TensionParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for TensionParams {
+    /// Correct on open meshes: σ times a sum over faces of their area: nothing in it assumes a closed surface.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

@@ -633,6 +633,11 @@ pub fn plugin(params: VinParams, exerts_force: bool) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for VinParams {
+    /// Correct on open meshes: one potential per edge: a boundary edge is an edge.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     /// V_in exerts its force except in the geometric remeshing baseline,
     /// where it sets Δt and drives the local relaxation only.
     fn add_to(

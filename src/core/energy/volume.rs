@@ -98,6 +98,16 @@ pub fn plugin(params: VolumeParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for VolumeParams {
+    /// Refused on open meshes: there is no enclosed volume without a
+    /// closing reference, which is not implemented yet.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Err(
+            "an open mesh encloses no volume (a closing reference such as a base plane \
+             is not implemented yet)"
+                .into(),
+        )
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

@@ -336,6 +336,11 @@ pub fn plugin(params: WallParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for WallParams {
+    /// Correct on open meshes: one repulsion per vertex: nothing in it assumes a closed surface.
+    fn open_mesh_support(&self) -> Result<(), String> {
+        Ok(())
+    }
+
     fn add_to(
         &self,
         builder: &mut SimBuilder,

@@ -1,10 +1,14 @@
 //! The mesh invariant checker shared by tests, the debug mode and file import.
 //!
-//! A valid membrane mesh is closed, edge- and vertex-manifold, consistently
-//! and outwardly oriented, has Euler characteristic 2 per connected component,
-//! no duplicate or degenerate faces, finite coordinates and valences within a
-//! given range. The first violation found is returned as a [`MeshError`]
-//! naming the offending element.
+//! A valid membrane mesh is edge- and vertex-manifold and consistently
+//! oriented, has no duplicate or degenerate faces, finite coordinates and
+//! valences within a given range, and every connected component is a
+//! topological sphere with b ≥ 0 holes (Euler characteristic 2 − b, b its
+//! boundary loops). A closed component (b = 0) is oriented outward (positive
+//! enclosed volume). An open one has boundary edges (one face each), and
+//! each of its boundary vertices lies on exactly one boundary fan: two loops
+//! touching at a vertex (a bow-tie) are not manifold. The first violation
+//! found is returned as a [`MeshError`] naming the offending element.
 
 use glam::DVec3;
 // Integer keys; every iteration over a map is sorted first.
@@ -15,6 +19,9 @@ use rustc_hash::FxHashMap as HashMap;
 pub const DEGENERATE_AREA_RATIO: f64 = 1e-10;
 
 /// Inclusive vertex valence limits (the paper's default is 5..=8, fusion 5..=10).
+/// They are an interior vertex's; a boundary vertex, whose fan spans half a
+/// turn (a flat lattice's has 4 neighbours where an interior one has 6), is
+/// held to `max(min − 2, 2)..=max − 2` ([`ValenceRange::for_boundary`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ValenceRange {
@@ -22,6 +29,16 @@ pub struct ValenceRange {
     pub min: u32,
     /// Largest allowed number of 1-ring neighbours.
     pub max: u32,
+}
+
+impl ValenceRange {
+    /// The limits for a boundary vertex: `max(min − 2, 2)..=max − 2`.
+    pub fn for_boundary(self) -> Self {
+        Self {
+            min: self.min.saturating_sub(2).max(2),
+            max: self.max.saturating_sub(2),
+        }
+    }
 }
 
 impl Default for ValenceRange {
@@ -82,16 +99,6 @@ pub enum MeshError {
         /// Shared vertices.
         vertices: [u32; 3],
     },
-    /// An edge has a single incident face: the surface is open there.
-    #[error("edge ({a}, {b}) has only face {face}: the mesh is open (has a boundary)")]
-    OpenEdge {
-        /// First vertex.
-        a: u32,
-        /// Second vertex.
-        b: u32,
-        /// The only incident face.
-        face: usize,
-    },
     /// An edge has more than two incident faces.
     #[error("edge ({a}, {b}) has {count} incident faces: the mesh is not manifold there")]
     NonManifoldEdge {
@@ -128,9 +135,11 @@ pub enum MeshError {
         /// Number of separate face fans.
         fans: usize,
     },
-    /// A component is not a topological sphere.
+    /// A component is not a topological sphere (with holes).
     #[error(
-        "component {component} (containing vertex {vertex}) has Euler characteristic {chi}, expected 2"
+        "component {component} (containing vertex {vertex}) has Euler characteristic {chi}, \
+         expected {} (a sphere with {boundary_loops} boundary loops)",
+        2 - *boundary_loops as i64
     )]
     WrongEulerCharacteristic {
         /// Component index.
@@ -139,6 +148,8 @@ pub enum MeshError {
         vertex: u32,
         /// V − E + F of the component.
         chi: i64,
+        /// Its number of boundary loops.
+        boundary_loops: usize,
     },
     /// A component's faces are oriented inward (negative enclosed volume).
     #[error(
@@ -152,9 +163,15 @@ pub enum MeshError {
         /// Its signed volume.
         volume: f64,
     },
-    /// A vertex has too few or too many neighbours.
-    #[error("vertex {vertex} has valence {valence}, outside the allowed {min}..={max}")]
+    /// A vertex has too few or too many neighbours (a boundary vertex's
+    /// limits are the range's shifted down by 2, see [`ValenceRange`]).
+    #[error(
+        "{} {vertex} has valence {valence}, outside the allowed {min}..={max}",
+        if *boundary { "boundary vertex" } else { "vertex" }
+    )]
     ValenceOutOfRange {
+        /// Whether the vertex lies on a boundary loop.
+        boundary: bool,
         /// Vertex index.
         vertex: usize,
         /// Its valence.
@@ -177,12 +194,15 @@ pub struct MeshReport {
     pub faces: usize,
     /// Number of connected components.
     pub components: usize,
-    /// Valence of every vertex.
+    /// Valence (number of neighbours) of every vertex.
     pub valences: Vec<u32>,
+    /// Number of boundary loops (0: closed).
+    pub boundary_loops: usize,
 }
 
-/// Checks every invariant of a closed membrane mesh. `valence` = `None` skips
-/// the valence limits (used on import; scenes apply their own limits later).
+/// Checks every invariant of a membrane mesh, closed or open (see the module
+/// docs). `valence` = `None` skips the valence limits (used on import; scenes
+/// apply their own limits later).
 pub fn check_mesh(
     positions: &[DVec3],
     faces: &[[u32; 3]],
@@ -192,13 +212,20 @@ pub fn check_mesh(
     let n = positions.len();
     check_degenerate_faces(positions, faces)?;
     check_duplicate_faces(faces)?;
-    let edge_keys = check_edges(faces)?;
-    let valences = check_vertex_links(n, faces)?;
-    let components = check_components(positions, faces, &edge_keys)?;
-    if let Some(range) = valence {
+    let (edge_keys, boundary) = check_edges(faces)?;
+    let (valences, on_boundary) = check_vertex_links(n, faces)?;
+    let (components, boundary_loops) = check_components(positions, faces, &edge_keys, &boundary)?;
+    if let Some(interior) = valence {
         for (vertex, &valence) in valences.iter().enumerate() {
+            let boundary = on_boundary[vertex];
+            let range = if boundary {
+                interior.for_boundary()
+            } else {
+                interior
+            };
             if valence < range.min || valence > range.max {
                 return Err(MeshError::ValenceOutOfRange {
+                    boundary,
                     vertex,
                     valence,
                     min: range.min,
@@ -214,6 +241,7 @@ pub fn check_mesh(
         faces: faces.len(),
         components,
         valences,
+        boundary_loops,
     })
 }
 
@@ -295,9 +323,11 @@ fn check_duplicate_faces(faces: &[[u32; 3]]) -> Result<(), MeshError> {
     Ok(())
 }
 
-/// Every edge in exactly two faces, traversed once each way; returns the
-/// edges as sorted (low, high) pairs.
-fn check_edges(faces: &[[u32; 3]]) -> Result<Vec<(u32, u32)>, MeshError> {
+/// Every edge in one face (a boundary edge) or two, traversed once each
+/// way; returns the edges as sorted (low, high) pairs and the boundary edges
+/// directed as their face traverses them.
+type EdgeLists = (Vec<(u32, u32)>, Vec<(u32, u32)>);
+fn check_edges(faces: &[[u32; 3]]) -> Result<EdgeLists, MeshError> {
     // Edge incidence and orientation.
     let mut undirected: HashMap<(u32, u32), Vec<(usize, bool)>> =
         HashMap::with_capacity_and_hasher(faces.len() * 3 / 2, Default::default());
@@ -312,16 +342,11 @@ fn check_edges(faces: &[[u32; 3]]) -> Result<Vec<(u32, u32)>, MeshError> {
     }
     let mut edge_keys: Vec<_> = undirected.keys().copied().collect();
     edge_keys.sort_unstable();
+    let mut boundary = Vec::new();
     for &(a, b) in &edge_keys {
         let uses = &undirected[&(a, b)];
         match uses.len() {
-            1 => {
-                return Err(MeshError::OpenEdge {
-                    a,
-                    b,
-                    face: uses[0].0,
-                });
-            }
+            1 => boundary.push(if uses[0].1 { (a, b) } else { (b, a) }),
             2 => {
                 if uses[0].1 == uses[1].1 {
                     let (a, b) = if uses[0].1 { (a, b) } else { (b, a) };
@@ -337,13 +362,16 @@ fn check_edges(faces: &[[u32; 3]]) -> Result<Vec<(u32, u32)>, MeshError> {
         }
     }
 
-    Ok(edge_keys)
+    Ok((edge_keys, boundary))
 }
 
-/// Every vertex in a face, its faces one closed fan; returns the valences.
-fn check_vertex_links(n: usize, faces: &[[u32; 3]]) -> Result<Vec<u32>, MeshError> {
-    // Vertex manifoldness: the link of every vertex is a single cycle.
-    // link[v] holds (a, b) for each face (v, a, b) in counter-clockwise order.
+/// Every vertex in a face, its faces one fan (closed, or open between two
+/// boundary edges); returns the valences (neighbour counts) and whether
+/// each vertex is on the boundary.
+fn check_vertex_links(n: usize, faces: &[[u32; 3]]) -> Result<(Vec<u32>, Vec<bool>), MeshError> {
+    // Vertex manifoldness: the link of every vertex is a single cycle or a
+    // single path. link[v] holds (a, b) for each face (v, a, b) in
+    // counter-clockwise order.
     let mut link: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
     for f in faces {
         for k in 0..3 {
@@ -351,21 +379,24 @@ fn check_vertex_links(n: usize, faces: &[[u32; 3]]) -> Result<Vec<u32>, MeshErro
         }
     }
     let mut valences = vec![0u32; n];
+    let mut on_boundary = vec![false; n];
     for (vertex, l) in link.iter().enumerate() {
         if l.is_empty() {
             return Err(MeshError::IsolatedVertex { vertex });
         }
-        // Edge-manifold + orientable guarantee each neighbour appears once as
-        // a start; count the cycles of the successor map (a link has a
-        // handful of pairs: searched, not hashed).
+        // Edge-manifold + orientable guarantee each neighbour appears at
+        // most once as a start and once as an end; count the paths (from
+        // starts that are no end) and then the cycles of the successor map
+        // (a link has a handful of pairs: searched, not hashed).
         let next = |a: u32| l.iter().find(|(s, _)| *s == a).map(|&(_, b)| b);
+        let heads: Vec<u32> = l
+            .iter()
+            .map(|&(s, _)| s)
+            .filter(|&s| !l.iter().any(|&(_, e)| e == s))
+            .collect();
         let mut visited: Vec<u32> = Vec::with_capacity(l.len());
-        let mut fans = 0;
-        for &(start, _) in l {
-            if visited.contains(&start) {
-                continue;
-            }
-            fans += 1;
+        let mut fans = heads.len();
+        let walk = |start: u32, visited: &mut Vec<u32>| {
             let mut cur = start;
             while !visited.contains(&cur) {
                 visited.push(cur);
@@ -374,23 +405,37 @@ fn check_vertex_links(n: usize, faces: &[[u32; 3]]) -> Result<Vec<u32>, MeshErro
                     None => break,
                 }
             }
+        };
+        for &h in &heads {
+            walk(h, &mut visited);
+        }
+        for &(start, _) in l {
+            if !visited.contains(&start) {
+                fans += 1;
+                walk(start, &mut visited);
+            }
         }
         if fans != 1 {
             return Err(MeshError::NonManifoldVertex { vertex, fans });
         }
-        valences[vertex] = l.len() as u32;
+        valences[vertex] = (l.len() + heads.len()) as u32;
+        on_boundary[vertex] = !heads.is_empty();
     }
 
-    Ok(valences)
+    Ok((valences, on_boundary))
 }
 
-/// Every connected component a sphere (χ = 2) enclosing a positive volume;
-/// returns how many components there are.
+/// Every connected component a sphere with b holes (χ = 2 − b, b its
+/// boundary loops), a closed one enclosing a positive volume; returns how
+/// many components and boundary loops there are. `boundary` holds the
+/// boundary edges directed as their faces traverse them (each boundary
+/// vertex starts exactly one: the links were checked first).
 fn check_components(
     positions: &[DVec3],
     faces: &[[u32; 3]],
     edge_keys: &[(u32, u32)],
-) -> Result<usize, MeshError> {
+    boundary: &[(u32, u32)],
+) -> Result<(usize, usize), MeshError> {
     let n = positions.len();
     // Connected components (union-find over vertices through faces).
     let mut parent: Vec<u32> = (0..n as u32).collect();
@@ -439,15 +484,19 @@ fn check_components(
         let [a, b, d] = f.map(|v| positions[v as usize] - o);
         volume[c] += a.dot(b.cross(d)) / 6.0;
     }
+    let loops = count_boundary_loops(boundary, &comp, components);
     for c in 0..components {
-        if chi[c] != 2 {
+        if chi[c] + loops[c] as i64 != 2 {
             return Err(MeshError::WrongEulerCharacteristic {
                 component: c,
                 vertex: roots[c],
                 chi: chi[c],
+                boundary_loops: loops[c],
             });
         }
-        if volume[c].is_nan() || volume[c] <= 0.0 {
+        // An open component encloses no volume: its orientation is the
+        // one its faces agree on.
+        if loops[c] == 0 && (volume[c].is_nan() || volume[c] <= 0.0) {
             return Err(MeshError::InwardOrientation {
                 component: c,
                 vertex: roots[c],
@@ -456,5 +505,29 @@ fn check_components(
         }
     }
 
-    Ok(components)
+    Ok((components, loops.iter().sum()))
+}
+
+/// The number of boundary loops of each component: the cycles of the
+/// successor map of the directed boundary edges.
+fn count_boundary_loops(boundary: &[(u32, u32)], comp: &[usize], components: usize) -> Vec<usize> {
+    let mut loops = vec![0usize; components];
+    if boundary.is_empty() {
+        return loops;
+    }
+    let next: HashMap<u32, u32> = boundary.iter().copied().collect();
+    let mut starts: Vec<u32> = boundary.iter().map(|&(a, _)| a).collect();
+    starts.sort_unstable();
+    let mut seen: rustc_hash::FxHashSet<u32> = Default::default();
+    for s in starts {
+        if !seen.insert(s) {
+            continue;
+        }
+        loops[comp[s as usize]] += 1;
+        let mut cur = next[&s];
+        while seen.insert(cur) {
+            cur = next[&cur];
+        }
+    }
+    loops
 }

@@ -1,4 +1,5 @@
-//! [`Membrane`]: the hecs world holding one closed membrane, its structure
+//! [`Membrane`]: the hecs world holding one membrane (closed, or open with
+//! boundary loops), its structure
 //! epoch and the derived caches (topology, dense position mirror).
 
 use crate::mesh::SurfaceMesh;
@@ -30,8 +31,10 @@ impl Membrane {
     /// Spawns vertex, edge and face entities for `mesh`. With `lipid_density`
     /// every vertex also gets [`LipidDensity`]`(1.0)`.
     ///
-    /// The mesh must be a valid closed triangulation (see
-    /// [`crate::mesh::check_mesh`]); this is not re-checked here.
+    /// The mesh must be a valid triangulation (see
+    /// [`crate::mesh::check_mesh`]); this is not re-checked here. A boundary
+    /// edge's missing right face is [`Entity::DANGLING`] (its slot in the
+    /// topology is [`crate::mesh::topology::NO_SLOT`]).
     pub fn from_mesh(mesh: &SurfaceMesh, lipid_density: bool) -> Result<Self, TopologyError> {
         let mut world = World::new();
         let vertices: Vec<Entity> = mesh
@@ -66,13 +69,15 @@ impl Membrane {
                     continue;
                 }
                 let left = half_edge_face[&(a, b)];
-                let right = half_edge_face.get(&(b, a)).copied().unwrap_or(left);
+                let right = half_edge_face
+                    .get(&(b, a))
+                    .map_or(Entity::DANGLING, |&r| faces[r]);
                 let e = world.reserve_entity();
                 edges.push((
                     e,
                     Edge {
                         vertices: [vertices[a as usize], vertices[b as usize]],
-                        faces: [faces[left], faces[right]],
+                        faces: [faces[left], right],
                     },
                 ));
                 edge_of.insert(key, e);

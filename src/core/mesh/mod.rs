@@ -17,6 +17,7 @@ mod icosphere;
 pub mod invariants;
 pub mod io;
 pub mod membrane;
+pub mod patch;
 pub mod quality;
 mod revolution;
 pub mod topology;
@@ -30,6 +31,7 @@ pub use icosphere::{
     vertex_count_for_level,
 };
 pub use invariants::{MeshError, MeshReport, ValenceRange, check_mesh};
+pub use patch::{disc, spherical_cap};
 pub use revolution::{ProfileError, revolution, revolution_vertex_count};
 
 use glam::DVec3;

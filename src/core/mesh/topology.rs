@@ -8,6 +8,17 @@
 //! Each vertex's ordered 1-ring lives in a fixed-size block of the ring
 //! arrays (`ring_stride` entries, `valence` of them used), so an edit that
 //! changes a valence rewrites that block alone.
+//!
+//! ## Open meshes
+//!
+//! A mesh may have boundary loops. A boundary edge has one face: it is
+//! always the left one, `edge_faces[e] = [f, NO_SLOT]`, and `edges[e]` runs
+//! the way `f` traverses it. A boundary vertex's ring is the ordered fan
+//! from its outgoing boundary edge to its incoming one: `ring[0]` is the
+//! next vertex along the boundary loop, `ring[valence − 1]` the previous
+//! one, and the last ring face (which would close the fan) is `NO_SLOT`.
+//! A vertex's valence is its number of neighbours in both cases. On a
+//! closed mesh nothing here differs from before: every face slot is real.
 
 use crate::mesh::components::{Edge, Face, Position};
 use hecs::{Entity, World};
@@ -30,7 +41,8 @@ pub struct Topology {
     pub slot_of: Vec<u32>,
     /// Edge end vertices (slots).
     pub edges: Vec<[u32; 2]>,
-    /// Edge incident faces (slots): `[left, right]` as in [`Edge`].
+    /// Edge incident faces (slots): `[left, right]` as in [`Edge`]; a
+    /// boundary edge's right face is [`NO_SLOT`].
     pub edge_faces: Vec<[u32; 2]>,
     /// Face corner vertices (slots), counter-clockwise from outside.
     pub faces: Vec<[u32; 3]>,
@@ -45,7 +57,8 @@ pub struct Topology {
     pub(crate) ring: Vec<u32>,
     /// Entry `k` of a block: the edge to the ring's vertex `k`.
     pub(crate) ring_edges: Vec<u32>,
-    /// Entry `k` of a block: the face (v, `ring[k]`, `ring[k+1]`).
+    /// Entry `k` of a block: the face (v, `ring[k]`, `ring[k+1]`); the last
+    /// entry of a boundary vertex's block is [`NO_SLOT`].
     pub(crate) ring_faces: Vec<u32>,
 }
 
@@ -56,7 +69,8 @@ fn ring_stride_for(max_valence: usize) -> usize {
     (max_valence + 4).max(10)
 }
 
-/// The world's mesh entities do not form a valid closed triangulation.
+/// The world's mesh entities do not form a valid triangulation (closed, or
+/// open with manifold boundary loops).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum TopologyError {
     /// A face or edge refers to an entity that is not a vertex.
@@ -77,8 +91,9 @@ pub enum TopologyError {
         /// The missing edge.
         edge: Entity,
     },
-    /// The faces around a vertex do not form one closed fan.
-    #[error("vertex slot {vertex} has a broken face fan (non-manifold or open)")]
+    /// The faces around a vertex do not form one fan (closed, or open
+    /// between two boundary edges).
+    #[error("vertex slot {vertex} has a broken face fan (not manifold)")]
     BrokenFan {
         /// The vertex slot.
         vertex: u32,
@@ -119,10 +134,58 @@ impl Topology {
     }
 
     /// The faces around vertex `v` in ring order: entry `k` is the face
-    /// (v, `ring[k]`, `ring[k+1]`).
+    /// (v, `ring[k]`, `ring[k+1]`). A boundary vertex's last entry is
+    /// [`NO_SLOT`] (see the module docs).
     #[inline]
     pub fn ring_faces_of(&self, v: usize) -> &[u32] {
         &self.ring_faces[self.ring_range(v)]
+    }
+
+    /// Whether vertex `v` lies on a boundary loop.
+    #[inline]
+    pub fn is_boundary_vertex(&self, v: usize) -> bool {
+        self.ring_faces_of(v).last() == Some(&NO_SLOT)
+    }
+
+    /// Whether edge `e` has one face (lies on a boundary loop).
+    #[inline]
+    pub fn is_boundary_edge(&self, e: usize) -> bool {
+        self.edge_faces[e][1] == NO_SLOT
+    }
+
+    /// Whether the mesh has a boundary (any edge with one face).
+    pub fn is_open(&self) -> bool {
+        self.edge_faces.iter().any(|f| f[1] == NO_SLOT)
+    }
+
+    /// Per vertex slot: whether it lies on a boundary loop.
+    pub fn boundary_mask(&self) -> Vec<bool> {
+        (0..self.vertex_count())
+            .map(|v| self.is_boundary_vertex(v))
+            .collect()
+    }
+
+    /// The boundary loops as vertex slots, each in the direction of its
+    /// edges (the faces on its left seen from outside), starting at its
+    /// lowest slot; loops in order of their first vertex. Empty for a
+    /// closed mesh.
+    pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
+        let mut seen = vec![false; self.vertex_count()];
+        let mut loops = Vec::new();
+        for v in 0..self.vertex_count() {
+            if seen[v] || !self.is_boundary_vertex(v) {
+                continue;
+            }
+            let mut l = Vec::new();
+            let mut cur = v;
+            while !seen[cur] {
+                seen[cur] = true;
+                l.push(cur as u32);
+                cur = self.neighbours(cur)[0] as usize;
+            }
+            loops.push(l);
+        }
+        loops
     }
 
     /// Dense slot of a mesh entity, if it is a live vertex, edge or face.
@@ -263,7 +326,19 @@ impl Topology {
                 fill[v as usize] += 1;
             }
         }
-        let max_valence = (0..n).map(|v| count[v + 1] - count[v]).max().unwrap_or(0);
+        // A boundary vertex has one neighbour more than faces.
+        let mut on_boundary = vec![0u32; n];
+        for (e, f) in self.edge_faces.iter().enumerate() {
+            if f[1] == NO_SLOT {
+                for v in self.edges[e] {
+                    on_boundary[v as usize] = 1;
+                }
+            }
+        }
+        let max_valence = (0..n)
+            .map(|v| count[v + 1] - count[v] + on_boundary[v])
+            .max()
+            .unwrap_or(0);
         self.ring_stride = ring_stride_for(max_valence as usize);
         self.ring_len = vec![0; n];
         self.ring = vec![0; n * self.ring_stride];
@@ -278,8 +353,9 @@ impl Topology {
 
     /// Writes vertex `v`'s ring block from its incident faces `fan` (face
     /// slots in ascending order; `faces` and `face_edges` must be current).
-    /// The ring starts at the first face of `fan` and follows the faces
-    /// counter-clockwise.
+    /// An interior vertex's ring starts at the first face of `fan` and
+    /// follows the faces counter-clockwise; a boundary vertex's starts at
+    /// its outgoing boundary edge (see the module docs).
     pub(crate) fn write_ring(&mut self, v: usize, fan: &[u32]) -> Result<(), TopologyError> {
         let broken = TopologyError::BrokenFan { vertex: v as u32 };
         if fan.is_empty() || fan.len() > self.ring_stride {
@@ -296,9 +372,28 @@ impl Topology {
                 (self.faces[f as usize][(k + 1) % 3] == a).then_some((f, k))
             })
         };
+        // A fan that is open starts where no face steps onto its first
+        // neighbour: (v, a, b) with no face (v, x, a).
+        let steps_onto = |a: u32| {
+            fan.iter()
+                .any(|&f| corner_of(f).is_some_and(|k| self.faces[f as usize][(k + 2) % 3] == a))
+        };
+        let mut open_start = None;
+        for &f in fan {
+            let k = corner_of(f).ok_or(broken.clone())?;
+            let a = self.faces[f as usize][(k + 1) % 3];
+            if !steps_onto(a) {
+                open_start = Some(a);
+                break;
+            }
+        }
         let f0 = fan[0];
         let k0 = corner_of(f0).ok_or(broken.clone())?;
-        let start = self.faces[f0 as usize][(k0 + 1) % 3];
+        let start = open_start.unwrap_or(self.faces[f0 as usize][(k0 + 1) % 3]);
+        let len = fan.len() + usize::from(open_start.is_some());
+        if len > self.ring_stride {
+            return Err(broken);
+        }
         let lo = v * self.ring_stride;
         let mut cur = start;
         for slot in lo..lo + fan.len() {
@@ -310,10 +405,27 @@ impl Topology {
             self.ring_edges[slot] = self.face_edges[fi as usize][k];
             cur = face[(k + 2) % 3];
         }
-        if cur != start {
-            return Err(broken);
+        match open_start {
+            None if cur != start => return Err(broken),
+            None => {}
+            Some(_) => {
+                // The fan must end on a boundary edge: no face steps on from
+                // the last neighbour (else the faces form more than one fan).
+                if next_of(cur).is_some() {
+                    return Err(broken);
+                }
+                let last = lo + fan.len();
+                let (fi, k) = {
+                    let f = self.ring_faces[last - 1];
+                    (f, corner_of(f).ok_or(broken.clone())?)
+                };
+                self.ring[last] = cur;
+                self.ring_faces[last] = NO_SLOT;
+                // Edge from the last neighbour to v is the face edge (k+2, k).
+                self.ring_edges[last] = self.face_edges[fi as usize][(k + 2) % 3];
+            }
         }
-        self.ring_len[v] = fan.len() as u32;
+        self.ring_len[v] = len as u32;
         Ok(())
     }
 }

@@ -1,17 +1,20 @@
 //! Scene parameters: one serde struct per energy term ([`energy`]), the
 //! dynamics and constraints ([`dynamics`]), remeshing ([`remesh`]), lipid
-//! diffusion ([`diffusion`]) and the membrane model ([`model`]), each field
+//! diffusion ([`diffusion`]), the membrane model ([`model`]) and an open
+//! membrane's boundary conditions ([`boundary`]), each field
 //! with its unit, default and meaning. Defaults are SPEC's as-run set
 //! (natural units: energy Ē = 10 k_BT, length l̄ = 1 µm, time 1 s).
 
 use serde::{Deserialize, Serialize};
 
+pub mod boundary;
 pub mod diffusion;
 pub mod dynamics;
 pub mod energy;
 pub mod model;
 pub mod remesh;
 
+pub use boundary::*;
 pub use diffusion::*;
 pub use dynamics::*;
 pub use energy::*;

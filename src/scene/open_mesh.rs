@@ -1,0 +1,86 @@
+//! What a scene with an open membrane (boundary loops) may declare: every
+//! energy term, constraint, remeshing and flip option that is not correct
+//! on open meshes is refused here, at build time, naming the field, the
+//! term and the reason (issue 32). What runs: the terms whose
+//! `open_mesh_support` says so (V_in, cotangent bending, area, tension,
+//! local tension, springs, self-avoidance, walls, adhesion), the dynamics
+//! and the minimiser, lipid diffusion, and penalty smoothing (an average
+//! over each vertex's ring, a boundary vertex's being its fan).
+
+use super::{Scene, SceneError, SystemDecl};
+use std::path::Path;
+
+impl Scene {
+    /// Refuses what this scene declares that is not correct on its open
+    /// membrane of `loops` boundary loops (reads the scene only).
+    pub(super) fn refuse_on_open_mesh(
+        &self,
+        scene_path: &Path,
+        loops: usize,
+    ) -> Result<(), SceneError> {
+        let refuse = |field: String, what: &str, reason: &str| SceneError::Invalid {
+            path: scene_path.to_owned(),
+            field,
+            reason: format!(
+                "{what} is refused on an open membrane ({loops} boundary loop{}): {reason}",
+                if loops == 1 { "" } else { "s" }
+            ),
+        };
+        for (i, term) in self.energy.iter().enumerate() {
+            if let Err(reason) = term.open_mesh_support() {
+                return Err(refuse(format!("energy[{i}]"), term.kind(), &reason));
+            }
+        }
+        if let Some(c) = &self.constraints {
+            if c.volume.is_some() {
+                return Err(refuse(
+                    "constraints.volume".into(),
+                    "the volume constraint",
+                    "an open mesh encloses no volume",
+                ));
+            }
+            return Err(refuse(
+                "constraints".into(),
+                "the area constraint",
+                "its projection moves every vertex, the boundary's included, and is not \
+                 boundary-aware yet (use the Area penalty or a Tension term)",
+            ));
+        }
+        if self.remesh.mode != crate::params::RemeshMode::Off {
+            return Err(refuse(
+                "remesh.mode".into(),
+                "split/merge remeshing",
+                "its patches and triangulations assume every edge has two faces; declare \
+                 `remesh: (mode: Off)` until remeshing is boundary-aware",
+            ));
+        }
+        if self.edge_flips.is_some() {
+            return Err(refuse(
+                "edge_flips".into(),
+                "edge flips",
+                "a boundary edge has one face and cannot be flipped; flips next to the \
+                 boundary are not boundary-aware yet",
+            ));
+        }
+        if let crate::params::MembraneModel::Fluid(_) = self.model {
+            return Err(refuse(
+                "model".into(),
+                "the fluid model",
+                "its tangent planes come from closed vertex fans; not boundary-aware yet",
+            ));
+        }
+        if let Some((i, _)) = self
+            .systems
+            .iter()
+            .enumerate()
+            .find(|(_, s)| matches!(s, SystemDecl::Custom(_)))
+        {
+            return Err(refuse(
+                format!("systems[{i}]"),
+                "a plugin system",
+                "plugin systems do not declare whether they are correct on open meshes",
+            ));
+        }
+        Ok(())
+    }
+}

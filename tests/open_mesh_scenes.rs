@@ -1,0 +1,274 @@
+//! Scenes with an open membrane (issue 32): the generated disc and cap
+//! build and run with the terms that are correct on open meshes, and
+//! every term or option that is not is refused at build time, naming the
+//! file, the field, the term and the reason; a bad open mesh file exits 2
+//! with no output.
+
+use remembrane::scene::{Scene, SceneError};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const DISC: &str = r#"Scene(
+    name: "patch",
+    membrane: Disc(radius: 4.0),
+    energy: [
+        Vin(form: Exact),
+        Bending(kappa: 1.0),
+        Tension(sigma: 0.1),
+        Area(k: 8.0, target: OfInitial(1.0)),
+        Springs(),
+    ],
+    control_points: [(position: (0.0, 0.0, 1.0))],
+    dynamics: (iterations: 20, frames: 2),
+)"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn build(text: &str) -> Result<remembrane::engine::simulation::Simulation, SceneError> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "open.ron", text);
+    Scene::load(&path)?.build(&path)
+}
+
+#[test]
+fn generated_open_patches_build_and_run() {
+    for membrane in [
+        "Disc(radius: 4.0)",
+        "SphericalCap(sphere_radius: 5.0, opening_angle: 60.0)",
+    ] {
+        let text = DISC.replace("Disc(radius: 4.0)", membrane);
+        let mut sim = build(&text).unwrap_or_else(|e| panic!("{membrane}: {e}"));
+        for _ in 0..20 {
+            sim.tick().unwrap();
+        }
+    }
+}
+
+#[test]
+fn terms_and_options_not_correct_on_open_meshes_are_refused() {
+    let cases = [
+        (
+            DISC.replace(
+                "Area(k: 8.0, target: OfInitial(1.0)),",
+                "Volume(k: 4.0, target: OfInitial(1.0)),",
+            ),
+            "energy[3]",
+            "Volume",
+            "encloses no volume",
+        ),
+        (
+            DISC.replace(
+                "Bending(kappa: 1.0),",
+                "Bending(kappa: 1.0, discretisation: Dihedral),",
+            ),
+            "energy[1]",
+            "Bending",
+            "boundary edge has one",
+        ),
+        (
+            DISC.replace(
+                "    dynamics:",
+                "    remesh: (mode: FreeEnergy),\n    dynamics:",
+            ),
+            "remesh.mode",
+            "remeshing",
+            "two faces",
+        ),
+        (
+            DISC.replace(
+                "    dynamics:",
+                "    edge_flips: (attempts_per_edge: 0.01),\n    dynamics:",
+            ),
+            "edge_flips",
+            "edge flips",
+            "one face",
+        ),
+        (
+            DISC.replace("    dynamics:", "    model: Fluid(),\n    dynamics:")
+                .replace("Springs()", "Springs(coupling: Gaussian(radius: 1.2))"),
+            "model",
+            "fluid model",
+            "closed vertex fans",
+        ),
+        (
+            DISC.replace("Area(k: 8.0, target: OfInitial(1.0)),", "")
+                .replace(
+                    "    dynamics:",
+                    "    constraints: (area: OfInitial(1.0)),\n    dynamics:",
+                ),
+            "constraints",
+            "area constraint",
+            "boundary",
+        ),
+    ];
+    for (text, field, what, reason) in cases {
+        let msg = match build(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            msg.contains("open.ron")
+                && msg.contains(&format!("field `{field}`"))
+                && msg.contains(what)
+                && msg.contains("open membrane")
+                && msg.contains(reason),
+            "{msg}"
+        );
+    }
+    // A bad cap angle is a field error.
+    let text = DISC.replace(
+        "Disc(radius: 4.0)",
+        "SphericalCap(sphere_radius: 5.0, opening_angle: 120.0)",
+    );
+    let msg = build(&text).err().unwrap().to_string();
+    assert!(msg.contains("membrane.opening_angle"), "{msg}");
+}
+
+#[test]
+fn a_bad_open_mesh_file_exits_2_naming_the_file_and_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two discs whose rims touch at one vertex.
+    let mut a = remembrane::mesh::disc(2.0, 1.0);
+    let b = remembrane::mesh::disc(2.0, 1.0);
+    let rim = (0..a.positions.len())
+        .max_by(|&i, &j| a.positions[i].x.total_cmp(&a.positions[j].x))
+        .unwrap() as u32;
+    let other = (0..b.positions.len())
+        .min_by(|&i, &j| b.positions[i].x.total_cmp(&b.positions[j].x))
+        .unwrap() as u32;
+    let shift = a.positions[rim as usize] - b.positions[other as usize];
+    let off = a.positions.len() as u32;
+    a.positions.extend(b.positions.iter().map(|&p| p + shift));
+    a.faces.extend(
+        b.faces
+            .iter()
+            .map(|f| f.map(|v| if v == other { rim } else { v + off })),
+    );
+    // b's touching vertex is now unused: put the last vertex in its place.
+    let unused = (other + off) as usize;
+    let last = a.positions.len() - 1;
+    a.positions.swap(unused, last);
+    a.positions.pop();
+    for f in &mut a.faces {
+        for v in f.iter_mut() {
+            if *v as usize == last {
+                *v = unused as u32;
+            }
+        }
+    }
+    let mesh_path = dir.path().join("touching.ply");
+    remembrane::mesh::io::write_mesh(&mesh_path, &a).unwrap();
+    let scene = write(
+        dir.path(),
+        "s.ron",
+        &DISC.replace("Disc(radius: 4.0)", "File(path: \"touching.ply\")"),
+    );
+    let out_dir = dir.path().join("out");
+    let out = Command::new(env!("CARGO_BIN_EXE_remembrane"))
+        .args(["run", scene.to_str().unwrap(), "--out"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("s.ron")
+            && err.contains("field `membrane`")
+            && err.contains("touching.ply")
+            && err.contains("not manifold"),
+        "{err}"
+    );
+    assert!(!out_dir.exists(), "no partial output");
+}
+
+/// The positions of boundary loop 0 and the rest, by dense slot.
+fn rim_and_interior(sim: &remembrane::engine::simulation::Simulation) -> (Vec<u32>, Vec<u32>) {
+    let t = sim.membrane().cached_topology().clone();
+    let rim = t.boundary_loops()[0].clone();
+    let inner = (0..t.vertex_count() as u32)
+        .filter(|v| !rim.contains(v))
+        .collect();
+    (rim, inner)
+}
+
+#[test]
+fn a_pinned_rim_stays_put_under_noise_and_the_minimiser() {
+    let noisy = DISC
+        .replace(
+            "dynamics: (iterations: 20, frames: 2)",
+            "dynamics: (iterations: 200, frames: 2, temperature: 0.05)",
+        )
+        .replace(
+            "    dynamics:",
+            "    boundary: [Pinned(loop: 0)],\n    dynamics:",
+        );
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/flat_patch.ron");
+    let bundled = std::fs::read_to_string(&path).unwrap();
+    for (text, ticks) in [(noisy, 200), (bundled, 20000)] {
+        let mut sim = build(&text).unwrap();
+        let positions = |sim: &remembrane::engine::simulation::Simulation| {
+            let mut p = Vec::new();
+            sim.membrane().gather_positions(&mut p);
+            p
+        };
+        let before = positions(&sim);
+        let (rim, inner) = rim_and_interior(&sim);
+        sim.start().unwrap();
+        for _ in 0..ticks {
+            if sim
+                .resource::<remembrane::engine::simulation::StopRequest>()
+                .0
+                .is_some()
+            {
+                break;
+            }
+            sim.tick().unwrap();
+        }
+        let after = positions(&sim);
+        for &v in &rim {
+            assert_eq!(
+                after[v as usize], before[v as usize],
+                "rim vertex {v} moved"
+            );
+        }
+        let moved = inner
+            .iter()
+            .map(|&v| after[v as usize].distance(before[v as usize]))
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-2, "the interior did not move ({moved})");
+    }
+}
+
+#[test]
+fn boundary_conditions_name_a_loop_that_exists() {
+    let with = |membrane: &str, boundary: &str| {
+        DISC.replace("Disc(radius: 4.0)", membrane).replace(
+            "    dynamics:",
+            &format!("    boundary: {boundary},\n    dynamics:"),
+        )
+    };
+    for (text, reason) in [
+        (
+            with("Disc(radius: 4.0)", "[Pinned(loop: 1)]"),
+            "1 boundary loops (0..=0), not loop 1",
+        ),
+        (
+            with("Disc(radius: 4.0)", "[Pinned(loop: 0), Pinned(loop: 0)]"),
+            "already has a condition",
+        ),
+        (with("Icosphere(level: 1)", "[Pinned(loop: 0)]"), "closed"),
+    ] {
+        let msg = match build(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            msg.contains("open.ron") && msg.contains("field `boundary`") && msg.contains(reason),
+            "{msg}"
+        );
+    }
+}
