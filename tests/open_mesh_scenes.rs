@@ -217,7 +217,6 @@ fn a_pinned_rim_stays_put_under_noise_and_the_minimiser() {
         };
         let before = positions(&sim);
         let (rim, inner) = rim_and_interior(&sim);
-        sim.start().unwrap();
         for _ in 0..ticks {
             if sim
                 .resource::<remembrane::engine::simulation::StopRequest>()
