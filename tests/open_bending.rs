@@ -2,10 +2,11 @@
 //! bending energy of their own and the interior discretisation is
 //! unchanged, so a flat patch has zero bending force and a cap cut from a
 //! sphere has the sphere's forces at every vertex two rings or more from
-//! its rim.
+//! its rim; in the cotangent and the dihedral form.
 
 use glam::DVec3;
 use remembrane::energy::bending::{BendingScratch, bending, bending_open};
+use remembrane::energy::bending_dihedral::bending_dihedral;
 use remembrane::mesh::geometry::Corners;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::{SurfaceMesh, check_mesh, disc, icosphere};
@@ -18,6 +19,24 @@ fn geometry(m: &SurfaceMesh) -> Vec<Corners> {
             Corners::new(a, b, c)
         })
         .collect()
+}
+
+/// Energy and forces of the dihedral bending on `m` (open or closed).
+fn dihedral_forces(m: &SurfaceMesh, kappa: f64, c0: f64) -> (f64, Vec<DVec3>) {
+    let mut membrane = Membrane::from_mesh(m, false).unwrap();
+    let t = membrane.topology().unwrap().clone();
+    assert_eq!(t.faces, m.faces);
+    let mut f = vec![DVec3::ZERO; m.vertex_count()];
+    let e = bending_dihedral(
+        &m.positions,
+        &t,
+        &geometry(m),
+        kappa,
+        c0,
+        &mut Default::default(),
+        Some(&mut f),
+    );
+    (e, f)
 }
 
 /// Energy and forces of the cotangent bending on `m` (open or closed).
@@ -43,10 +62,11 @@ fn forces(m: &SurfaceMesh, kappa: f64, c0: f64) -> (f64, Vec<DVec3>) {
 #[test]
 fn a_flat_patch_has_no_bending_energy_or_force() {
     let m = disc(5.0, 1.0);
-    let (e, f) = forces(&m, 5.0, 0.0);
-    let max = f.iter().map(|v| v.length()).fold(0.0, f64::max);
-    assert!(e.abs() < 1e-20, "{e}");
-    assert!(max < 1e-12, "max |F| = {max}");
+    for (e, f) in [forces(&m, 5.0, 0.0), dihedral_forces(&m, 5.0, 0.0)] {
+        let max = f.iter().map(|v| v.length()).fold(0.0, f64::max);
+        assert!(e.abs() < 1e-20, "{e}");
+        assert!(max < 1e-12, "max |F| = {max}");
+    }
     // Without the boundary rule the rim's Laplacians point across the rim:
     // the same patch would have energy and force.
     let mut closed_rule = vec![DVec3::ZERO; m.vertex_count()];
@@ -95,25 +115,32 @@ fn a_cap_cut_from_a_sphere_has_the_sphere_forces_inside() {
         })
         .collect();
     assert!(deep.len() > cap.vertex_count() / 2, "{}", deep.len());
-    for c0 in [0.0, 0.15] {
-        let (_, f_cap) = forces(&cap, 5.0, c0);
-        let mut f_sphere = vec![DVec3::ZERO; sphere.vertex_count()];
-        bending(
-            sphere.vertex_count(),
-            &sphere.faces,
-            &geometry(&sphere),
-            5.0,
-            c0,
-            &mut BendingScratch::default(),
-            Some(&mut f_sphere),
-        );
+    for (c0, dihedral) in [(0.0, false), (0.15, false), (0.0, true), (0.15, true)] {
+        let (f_cap, f_sphere) = if dihedral {
+            (
+                dihedral_forces(&cap, 5.0, c0).1,
+                dihedral_forces(&sphere, 5.0, c0).1,
+            )
+        } else {
+            let mut f_sphere = vec![DVec3::ZERO; sphere.vertex_count()];
+            bending(
+                sphere.vertex_count(),
+                &sphere.faces,
+                &geometry(&sphere),
+                5.0,
+                c0,
+                &mut BendingScratch::default(),
+                Some(&mut f_sphere),
+            );
+            (forces(&cap, 5.0, c0).1, f_sphere)
+        };
         let scale = f_sphere.iter().map(|v| v.length()).fold(0.0, f64::max);
         assert!(scale > 1e-3);
         let worst = deep
             .iter()
             .map(|&v| (f_cap[v] - f_sphere[used[v] as usize]).length())
             .fold(0.0, f64::max);
-        println!("c0 {c0}: max |ΔF| {worst:.2e} of max |F| {scale:.3e}");
+        println!("c0 {c0} dihedral {dihedral}: max |ΔF| {worst:.2e} of max |F| {scale:.3e}");
         assert!(worst <= 1e-12 * scale.max(1.0), "{worst}");
         // And the rim's neighbours differ: the test can fail.
         let rim_next = (0..cap.vertex_count())

@@ -20,7 +20,7 @@ use remembrane::mesh::SurfaceMesh;
 use remembrane::mesh::components::ControlPoint;
 use remembrane::mesh::geometry::total_area;
 use remembrane::mesh::membrane::Membrane;
-use remembrane::params::{BendingParams, SpringCoupling};
+use remembrane::params::{BendingDiscretisation, BendingParams, SpringCoupling};
 use std::sync::Arc;
 
 fn opts(abs_floor: f64) -> FdOptions {
@@ -94,6 +94,20 @@ fn bending_on_open_patches() {
                     mesh,
                     &mut term,
                     options,
+                );
+            }
+            // The dihedral form's signed h has no kink: c0 ≠ 0 on both.
+            for c0 in [0.0, 0.3] {
+                let mut term = BendingForces::new(BendingParams {
+                    kappa: 5.0,
+                    c0,
+                    discretisation: BendingDiscretisation::Dihedral,
+                });
+                check(
+                    &format!("bending dihedral {shape} c0 {c0}"),
+                    mesh,
+                    &mut term,
+                    opts(1e-9),
                 );
             }
         }

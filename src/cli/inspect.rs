@@ -113,11 +113,16 @@ pub(super) fn check(path: &Path) -> Result<(), String> {
     );
     say!("  seed         {}", scene.seed);
     say!("  membrane     {:?}", scene.membrane);
+    let loops = t.boundary_loops().len();
     say!(
-        "  mesh         {} vertices, {} edges, {} faces",
+        "  mesh         {} vertices, {} edges, {} faces{}",
         t.vertex_count(),
         t.edges.len(),
-        t.faces.len()
+        t.faces.len(),
+        match loops {
+            0 => String::new(),
+            n => format!(", open: {n} boundary loop{}", if n == 1 { "" } else { "s" }),
+        }
     );
     say!(
         "  valence      {}..={}",

@@ -2,7 +2,7 @@
 //! energy term, constraint, remeshing and flip option that is not correct
 //! on open meshes is refused here, at build time, naming the field, the
 //! term and the reason (issue 32). What runs: the terms whose
-//! `open_mesh_support` says so (V_in, cotangent bending, area, tension,
+//! `open_mesh_support` says so (V_in, bending in both forms, area, tension,
 //! local tension, springs, self-avoidance, walls, adhesion), the dynamics
 //! and the minimiser, lipid diffusion, and penalty smoothing (an average
 //! over each vertex's ring, a boundary vertex's being its fan).

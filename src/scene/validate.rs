@@ -53,6 +53,7 @@ impl Scene {
 
     /// The membrane source's sizes.
     fn validate_membrane(&self, path: &Path) -> Result<(), SceneError> {
+        self.validate_open_patch(path)?;
         let invalid = |field: &str, reason: String| invalid_field(path, field, reason);
         match &self.membrane {
             MembraneSource::Icosphere { level, .. }
@@ -86,46 +87,6 @@ impl Scene {
                     format!(
                         "a capsule of radius {radius} and length {length} with edges of \
                          {mean_edge_length} has more than {MAX_CAPSULE_VERTICES} vertices"
-                    ),
-                ));
-            }
-            MembraneSource::SphericalCap { opening_angle, .. }
-                if !crate::mesh::patch::valid_cap_angle(*opening_angle) =>
-            {
-                return Err(invalid(
-                    "membrane.opening_angle",
-                    format!("must be in (0, 90] degrees (got {opening_angle})"),
-                ));
-            }
-            MembraneSource::Disc {
-                radius,
-                mean_edge_length,
-            } if crate::mesh::patch::patch_vertex_count_for(*radius, *mean_edge_length)
-                > MAX_CAPSULE_VERTICES =>
-            {
-                return Err(invalid(
-                    "membrane",
-                    format!(
-                        "a disc of radius {radius} with edges of {mean_edge_length} has more \
-                         than {MAX_CAPSULE_VERTICES} vertices"
-                    ),
-                ));
-            }
-            MembraneSource::SphericalCap {
-                sphere_radius,
-                opening_angle,
-                mean_edge_length,
-            } if crate::mesh::patch::patch_vertex_count_for(
-                sphere_radius * opening_angle.to_radians(),
-                *mean_edge_length,
-            ) > MAX_CAPSULE_VERTICES =>
-            {
-                return Err(invalid(
-                    "membrane",
-                    format!(
-                        "a cap of sphere radius {sphere_radius} and opening {opening_angle}° \
-                         with edges of {mean_edge_length} has more than \
-                         {MAX_CAPSULE_VERTICES} vertices"
                     ),
                 ));
             }
@@ -179,6 +140,55 @@ impl Scene {
                     "membrane.jitter",
                     format!(
                         "must be below 0.5 of the mean edge length, or faces may fold (got {jitter})"
+                    ),
+                ));
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The generated open patches' cap angle and size.
+    fn validate_open_patch(&self, path: &Path) -> Result<(), SceneError> {
+        let invalid = |field: &str, reason: String| invalid_field(path, field, reason);
+        match &self.membrane {
+            MembraneSource::SphericalCap { opening_angle, .. }
+                if !crate::mesh::patch::valid_cap_angle(*opening_angle) =>
+            {
+                return Err(invalid(
+                    "membrane.opening_angle",
+                    format!("must be in (0, 90] degrees (got {opening_angle})"),
+                ));
+            }
+            MembraneSource::Disc {
+                radius,
+                mean_edge_length,
+            } if crate::mesh::patch::patch_vertex_count_for(*radius, *mean_edge_length)
+                > MAX_CAPSULE_VERTICES =>
+            {
+                return Err(invalid(
+                    "membrane",
+                    format!(
+                        "a disc of radius {radius} with edges of {mean_edge_length} has more \
+                         than {MAX_CAPSULE_VERTICES} vertices"
+                    ),
+                ));
+            }
+            MembraneSource::SphericalCap {
+                sphere_radius,
+                opening_angle,
+                mean_edge_length,
+            } if crate::mesh::patch::patch_vertex_count_for(
+                sphere_radius * opening_angle.to_radians(),
+                *mean_edge_length,
+            ) > MAX_CAPSULE_VERTICES =>
+            {
+                return Err(invalid(
+                    "membrane",
+                    format!(
+                        "a cap of sphere radius {sphere_radius} and opening {opening_angle}° \
+                         with edges of {mean_edge_length} has more than \
+                         {MAX_CAPSULE_VERTICES} vertices"
                     ),
                 ));
             }

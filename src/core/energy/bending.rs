@@ -17,7 +17,8 @@
 //! interior neighbours' L_j and A_j, so it feels their bending forces. This
 //! is the interior discretisation unchanged: a flat patch has zero energy
 //! and force, and a cap cut from a sphere has the sphere's forces at every
-//! vertex two rings or more from its rim (`tests/open_bending.rs`). It
+//! vertex two rings or more from its rim (`tests/open_bending.rs`; the
+//! dihedral form does the same, [`crate::energy::bending_dihedral`]). It
 //! suits pinned boundaries, whose vertices do not move; a free boundary's
 //! own bending (a geodesic-curvature or clamped term) is not modelled.
 //!
@@ -471,19 +472,11 @@ pub fn plugin(params: BendingParams) -> impl Plugin {
 }
 
 impl crate::energy::builtin::BuiltinTerm for BendingParams {
-    /// The cotangent form is correct on open meshes (boundary vertices carry
-    /// no bending energy of their own, see the module docs); the dihedral
-    /// form is refused: its per-edge angle needs two faces on every edge.
+    /// Both forms are correct on open meshes: boundary vertices carry no
+    /// bending energy of their own (see the module docs and
+    /// [`crate::energy::bending_dihedral`]).
     fn open_mesh_support(&self) -> Result<(), String> {
-        match self.discretisation {
-            BendingDiscretisation::Cotangent => Ok(()),
-            BendingDiscretisation::Dihedral => Err(
-                "the Dihedral discretisation measures an angle between two faces on every \
-                 edge, and a boundary edge has one; it is not boundary-aware yet (use the \
-                 Cotangent form)"
-                    .into(),
-            ),
-        }
+        Ok(())
     }
 
     fn add_to(

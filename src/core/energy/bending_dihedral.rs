@@ -17,9 +17,15 @@
 //! The force is the analytic gradient: an edge pass measures ℓ_e and θ_e,
 //! a vertex pass forms M_i, A_i and the adjoints ∂H/∂M_i, ∂H/∂A_i, and an
 //! edge pass and a face pass pull them back onto the positions.
+//!
+//! On an open mesh, as in the cotangent form ([`crate::energy::bending`]),
+//! the sum runs over interior vertices: a boundary vertex carries no energy
+//! of its own. A boundary edge has no dihedral angle (θ_e = 0, its quad's
+//! second face standing in for the missing one); it is in no interior
+//! vertex's ring, so it enters no energy.
 
 use crate::mesh::geometry::Corners;
-use crate::mesh::topology::Topology;
+use crate::mesh::topology::{NO_SLOT, Topology};
 use glam::DVec3;
 
 /// Reusable buffers for [`bending_dihedral`].
@@ -53,8 +59,8 @@ fn dihedral(na: DVec3, nb: DVec3, e_hat: DVec3) -> f64 {
 }
 
 impl DihedralScratch {
-    /// Fills the per-edge quads from the topology (every edge needs two
-    /// faces: a closed mesh).
+    /// Fills the per-edge quads from the topology. A boundary edge's quad
+    /// repeats its face (x3 = x2, face B = face A): its angle is 0.
     fn orient(&mut self, topology: &Topology) {
         let ne = topology.edges.len();
         let key = (topology.epoch, ne, topology.faces.len());
@@ -76,6 +82,11 @@ impl DihedralScratch {
                 })
                 .expect("an edge is a side of its face");
             let (x0, x1, x2) = (face[k], face[(k + 1) % 3], face[(k + 2) % 3]);
+            if f2 == NO_SLOT {
+                self.quads[e] = [x0, x1, x2, x2];
+                self.quad_faces[e] = [f1, f1];
+                continue;
+            }
             let x3 = topology.faces[f2 as usize]
                 .into_iter()
                 .find(|&v| v != x0 && v != x1)
@@ -125,6 +136,7 @@ pub fn bending_dihedral(
         topology
             .ring_faces_of(i)
             .iter()
+            .filter(|&&f| f != NO_SLOT)
             .map(|&f| geometry[f as usize].twice_area)
             .sum::<f64>()
             / 6.0
@@ -133,6 +145,11 @@ pub fn bending_dihedral(
     s.g_a.resize(n, 0.0);
     let mut energy = 0.0;
     for i in 0..n {
+        if topology.is_boundary_vertex(i) {
+            s.g_m[i] = 0.0;
+            s.g_a[i] = 0.0;
+            continue;
+        }
         let a = s.a[i];
         let h = 2.0 * s.m[i] / a;
         let dh = h - c0;
