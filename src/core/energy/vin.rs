@@ -8,8 +8,6 @@
 //!
 //! ## The force term
 //!
-//! V_in edge forces.
-//!
 //! Stage: Forces. Reads: positions, topology (edges). Writes: force
 //! accumulator. Units: Ē, Ē/l̄. One V_in per edge: E_in = Σ_edges V_in(l_e);
 //! the force on an edge's end points is ∓V_in'(l) along the edge, with V_in'
@@ -690,14 +688,10 @@ impl System for VinEdgeSampling {
         (membrane, positions, segmentation, mut inputs): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let (edges, segmentation) = (&membrane.cached_topology().edges, &segmentation.0);
-        let segment_of = |l| segmentation.segment_of(l);
-        match inputs.get_mut::<VinEdgeSamples>() {
-            Some(samples) => samples.measure(edges, &positions.0, segment_of),
-            None => {
-                let mut samples = VinEdgeSamples::default();
-                samples.measure(edges, &positions.0, segment_of);
-                inputs.insert(samples);
-            }
+        // The plugin published them; were they taken away, the force and
+        // the time step would measure the edges themselves.
+        if let Some(samples) = inputs.get_mut::<VinEdgeSamples>() {
+            samples.measure(edges, &positions.0, |l| segmentation.segment_of(l));
         }
         Ok(())
     }
