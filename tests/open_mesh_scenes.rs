@@ -89,7 +89,7 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
                 .replace("Springs()", "Springs(coupling: Gaussian(radius: 1.2))"),
             "model",
             "fluid model",
-            "closed vertex fans",
+            "net force and torque",
         ),
         (
             DISC.replace("Area(k: 8.0, target: OfInitial(1.0)),", "")
