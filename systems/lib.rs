@@ -12,7 +12,6 @@
 
 pub mod adaptive_time_step;
 pub mod barrier_check;
-pub mod boundary_pinning;
 pub mod constraint_projection;
 pub mod constraint_reactions;
 pub mod control_point_schedule;
@@ -26,5 +25,7 @@ pub mod gather_state;
 pub mod langevin_integration;
 pub mod lipid_diffusion;
 pub mod maintenance_flips;
+pub mod pin_forces;
+pub mod pin_positions;
 pub mod remesh;
 pub mod vertex_normals;

@@ -89,7 +89,7 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
                 .replace("Springs()", "Springs(coupling: Gaussian(radius: 1.2))"),
             "model",
             "fluid model",
-            "closed vertex fans",
+            "net force and torque",
         ),
         (
             DISC.replace("Area(k: 8.0, target: OfInitial(1.0)),", "")
@@ -267,4 +267,41 @@ fn boundary_conditions_name_a_loop_that_exists() {
             "{msg}"
         );
     }
+}
+
+#[test]
+fn a_free_loop_with_line_tension_adds_its_energy() {
+    let text = DISC.replace(
+        "    dynamics:",
+        "    boundary: [Free(loop: 0, line_tension: 0.2)],\n    dynamics:",
+    );
+    let mut sim = build(&text).unwrap();
+    let (rim, _) = rim_and_interior(&sim);
+    // The tick's energies are those of the positions before its step.
+    let mut p = Vec::new();
+    sim.membrane().gather_positions(&mut p);
+    sim.tick().unwrap();
+    let length: f64 = (0..rim.len())
+        .map(|i| p[rim[i] as usize].distance(p[rim[(i + 1) % rim.len()] as usize]))
+        .sum();
+    let buffers = sim.resource::<remembrane::engine::force::ForceBuffers>();
+    let k = buffers
+        .names()
+        .iter()
+        .position(|n| n == "line_tension")
+        .expect("a line_tension term");
+    let e = buffers.evaluation.energies[k];
+    assert!(
+        (e - 0.2 * length).abs() < 1e-9 * e,
+        "{e} vs {}",
+        0.2 * length
+    );
+    drop(buffers);
+    // A negative line tension is a field error.
+    let bad = text.replace("line_tension: 0.2", "line_tension: -1.0");
+    let msg = build(&bad).err().unwrap().to_string();
+    assert!(
+        msg.contains("boundary[0]") && msg.contains("line_tension"),
+        "{msg}"
+    );
 }

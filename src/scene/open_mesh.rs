@@ -66,7 +66,9 @@ impl Scene {
             return Err(refuse(
                 "model".into(),
                 "the fluid model",
-                "its tangent planes come from closed vertex fans; not boundary-aware yet",
+                "its vertex normals read closed fans, it removes the net force and torque \
+                 (a pinned rim balances them), and its maintenance flips and edits are not \
+                 boundary-aware yet",
             ));
         }
         if let Some((i, _)) = self

@@ -14,7 +14,7 @@
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
 //! | [`recorders`] | `FrameSchedule`, `CurrentFrame` | `frame_clock` and a `record_<name>` system per recorder (Observe) |
-//! | [`boundary_conditions`] | `PinnedVertices` | `pin_forces` (Forces), `pin_positions` (Integrate) |
+//! | [`boundary_conditions`] | `PinnedVertices` | `pin_forces` (Forces), `pin_positions` (Integrate); the `line_tension` term (Forces) |
 //! | [`crate::io::output::frame_output`] (added last) | `OpenOutput` | `frames` (Output) |
 
 use crate::engine::force::{FaceGeometry, ForceBuffers};
@@ -266,13 +266,15 @@ pub fn diffusion(params: DiffusionParams) -> impl Plugin {
 
 /// An open membrane's boundary conditions, one per boundary loop (loops
 /// numbered as [`crate::mesh::topology::Topology::boundary_loops`] lists
-/// them): a `Pinned` loop's vertices keep their initial positions. Inserts
-/// `PinnedVertices`; adds `pin_forces` (Forces, after `force_total`) and
-/// `pin_positions` (Integrate, after the integrator or minimiser). Errors
-/// name the condition (`[i].loop`).
+/// them): a `Pinned` loop's vertices keep their initial positions; a `Free`
+/// loop with a line tension adds the `line_tension` force term. With a
+/// pinned loop, inserts `PinnedVertices` and adds `pin_forces` (Forces,
+/// after `force_total`) and `pin_positions` (Integrate, after the
+/// integrator or minimiser). Errors name the condition (`[i].loop`).
 pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::systems::boundary_pinning::{PinForces, PinPositions, PinnedVertices};
+        use crate::systems::pin_forces::{PinForces, PinnedVertices};
+        use crate::systems::pin_positions::PinPositions;
         let invalid = |field: String, reason: String| BuildError::Invalid { field, reason };
         let membrane = b
             .resource_mut::<Membrane>()
@@ -285,6 +287,7 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
         membrane.gather_positions(&mut positions);
         let mut pinned = PinnedVertices::default();
         let mut seen = vec![false; loops.len()];
+        let mut line = Vec::new();
         for (i, c) in conditions.iter().enumerate() {
             let l = c.loop_index();
             let Some(vertices) = loops.get(l) else {
@@ -303,11 +306,25 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
                     format!("loop {l} already has a condition"),
                 ));
             }
-            let crate::params::BoundaryCondition::Pinned { .. } = c;
-            pinned.vertices.extend_from_slice(vertices);
-            pinned
-                .positions
-                .extend(vertices.iter().map(|&v| positions[v as usize]));
+            match *c {
+                crate::params::BoundaryCondition::Pinned { .. } => {
+                    pinned.vertices.extend_from_slice(vertices);
+                    pinned
+                        .positions
+                        .extend(vertices.iter().map(|&v| positions[v as usize]));
+                }
+                crate::params::BoundaryCondition::Free { line_tension, .. } => {
+                    if line_tension > 0.0 {
+                        line.push((l, line_tension));
+                    }
+                }
+            }
+        }
+        if !line.is_empty() {
+            b.add_force_term(crate::energy::line_tension::LineTensionForces::new(line))?;
+        }
+        if pinned.vertices.is_empty() {
+            return Ok(());
         }
         b.insert_resource(pinned);
         b.add_system(Stage::Forces, PinForces)

@@ -5,7 +5,8 @@
 //! (the BAR-domain example). V_in's plugin also adds the Gather system that
 //! measures its edges ([`vin_edge_samples`]). [`builtin`] says what makes a
 //! term built in, and the list below generates the scene's [`EnergyTerm`].
-//! Shared kernels: the penalty machinery
+//! The line tension of free boundary loops ([`line_tension`]) is added by
+//! the boundary conditions, not listed here. Shared kernels: the penalty machinery
 //! ([`penalty`]: volume, area and local-tension kernels, 1-ring
 //! smoothing), the dihedral form of bending ([`bending_dihedral`]); and the in-plane
 //! elasticity V_in gives a fixed mesh ([`vin_elasticity`], a measurement,
@@ -14,6 +15,7 @@
 pub mod builtin;
 
 pub mod bending_dihedral;
+pub mod line_tension;
 pub mod penalty;
 pub mod vin_edge_samples;
 pub mod vin_elasticity;

@@ -1,0 +1,45 @@
+//! [`PinPositions`] (Integrate, after the integrator) puts the pinned
+//! vertices of an open membrane's `Pinned` loops back where they were
+//! pinned, undoing the thermal noise's move. Reads
+//! [`PinnedVertices`] (see [`crate::pin_forces`]), the total force in
+//! [`ForceBuffers`] (written back with the positions). Writes
+//! [`DensePositions`] and the world's positions (in [`Membrane`]).
+
+use crate::pin_forces::PinnedVertices;
+use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{DensePositions, SimError};
+use remembrane_core::mesh::membrane::Membrane;
+
+/// Puts the pinned vertices back at their positions.
+pub struct PinPositions;
+
+impl System for PinPositions {
+    type Data<'a> = (
+        Res<'a, PinnedVertices>,
+        Res<'a, ForceBuffers>,
+        ResMut<'a, DensePositions>,
+        ResMut<'a, Membrane>,
+    );
+
+    fn name(&self) -> &str {
+        "pin_positions"
+    }
+
+    fn run(
+        &mut self,
+        (pinned, buffers, mut positions, mut membrane): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let mut moved = false;
+        for (&v, &x) in pinned.vertices.iter().zip(&pinned.positions) {
+            let p = &mut positions.0[v as usize];
+            moved |= *p != x;
+            *p = x;
+        }
+        if moved {
+            membrane.scatter_positions_and_forces(&positions.0, &buffers.evaluation.total);
+        }
+        Ok(())
+    }
+}
