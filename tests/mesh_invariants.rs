@@ -7,40 +7,15 @@ use remembrane::mesh::io::{MeshIoError, read_mesh, write_mesh};
 use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::{MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere};
 
+mod support;
+use support::torus;
+
 fn sphere() -> SurfaceMesh {
     icosphere(1, 1.0)
 }
 
 fn check(m: &SurfaceMesh) -> Result<remembrane::mesh::MeshReport, MeshError> {
     check_mesh(&m.positions, &m.faces, None)
-}
-
-/// A closed torus (χ = 0): `n` × `m` grid of quads, two triangles each.
-fn torus(n: u32, m: u32) -> SurfaceMesh {
-    let (big, small) = (3.0, 1.0);
-    let mut positions = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            let (u, v) = (
-                i as f64 / n as f64 * std::f64::consts::TAU,
-                j as f64 / m as f64 * std::f64::consts::TAU,
-            );
-            positions.push(DVec3::new(
-                (big + small * v.cos()) * u.cos(),
-                (big + small * v.cos()) * u.sin(),
-                small * v.sin(),
-            ));
-        }
-    }
-    let id = |i: u32, j: u32| (i % n) * m + (j % m);
-    let mut faces = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    SurfaceMesh { positions, faces }
 }
 
 #[test]

@@ -12,6 +12,9 @@ use remembrane::mesh::{
     MeshError, SurfaceMesh, ValenceRange, check_mesh, disc, icosphere, spherical_cap,
 };
 
+mod support;
+use support::torus;
+
 fn check(m: &SurfaceMesh) -> Result<remembrane::mesh::MeshReport, MeshError> {
     check_mesh(&m.positions, &m.faces, None)
 }
@@ -156,29 +159,10 @@ fn broken_open_meshes_are_rejected() {
 #[test]
 fn a_holed_torus_is_not_a_sphere_with_holes() {
     // A torus with one face removed: χ = −1 with one loop.
-    let (n, m) = (8u32, 6u32);
-    let mut positions = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            let (u, v) = (
-                i as f64 / n as f64 * std::f64::consts::TAU,
-                j as f64 / m as f64 * std::f64::consts::TAU,
-            );
-            positions.push(DVec3::new(
-                (3.0 + v.cos()) * u.cos(),
-                (3.0 + v.cos()) * u.sin(),
-                v.sin(),
-            ));
-        }
-    }
-    let id = |i: u32, j: u32| (i % n) * m + (j % m);
-    let mut faces = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
+    let SurfaceMesh {
+        positions,
+        mut faces,
+    } = torus(8, 6);
     faces.pop();
     match check(&SurfaceMesh { positions, faces }).unwrap_err() {
         MeshError::WrongEulerCharacteristic {
