@@ -305,3 +305,55 @@ fn a_free_loop_with_line_tension_adds_its_energy() {
         "{msg}"
     );
 }
+
+#[test]
+fn a_roller_rim_keeps_its_height_and_slides_in_its_plane() {
+    // Under tension the disc shrinks: a rim held only along z slides
+    // inward in its plane, while the tip lifts the interior out of it.
+    for dynamics in [
+        "dynamics: (iterations: 300, frames: 2, temperature: 0.05)",
+        "dynamics: (method: Minimise(force_tolerance: 1e-4), iterations: 300, frames: 2)",
+    ] {
+        let text = DISC
+            .replace("dynamics: (iterations: 20, frames: 2)", dynamics)
+            .replace("Area(k: 8.0, target: OfInitial(1.0)),", "")
+            .replace(
+                "    dynamics:",
+                "    boundary: [Roller(loop: 0, direction: (0.0, 0.0, 2.0))],\n    dynamics:",
+            );
+        let mut sim = build(&text).unwrap_or_else(|e| panic!("{dynamics}: {e}"));
+        let mut before = Vec::new();
+        sim.membrane().gather_positions(&mut before);
+        let (rim, inner) = rim_and_interior(&sim);
+        for _ in 0..300 {
+            sim.tick().unwrap();
+        }
+        let mut after = Vec::new();
+        sim.membrane().gather_positions(&mut after);
+        let mut slid = 0.0f64;
+        for &v in &rim {
+            let (a, b) = (after[v as usize], before[v as usize]);
+            assert_eq!(a.z, b.z, "{dynamics}: rim vertex {v} left its plane");
+            slid = slid.max(a.truncate().distance(b.truncate()));
+        }
+        assert!(slid > 1e-3, "{dynamics}: the rim did not slide ({slid})");
+        let lifted = inner
+            .iter()
+            .map(|&v| after[v as usize].z)
+            .fold(0.0, f64::max);
+        assert!(
+            lifted > 1e-2,
+            "{dynamics}: the interior did not lift ({lifted})"
+        );
+    }
+    // A roller needs a direction.
+    let bad = DISC.replace(
+        "    dynamics:",
+        "    boundary: [Roller(loop: 0, direction: (0.0, 0.0, 0.0))],\n    dynamics:",
+    );
+    let msg = build(&bad).err().unwrap().to_string();
+    assert!(
+        msg.contains("boundary") && msg.contains("direction") && msg.contains("non-zero"),
+        "{msg}"
+    );
+}
