@@ -357,3 +357,34 @@ fn a_roller_rim_keeps_its_height_and_slides_in_its_plane() {
         "{msg}"
     );
 }
+
+#[test]
+fn an_open_membrane_reports_no_enclosed_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.ron", DISC);
+    let out_dir = dir.path().join("out");
+    let out = Command::new(env!("CARGO_BIN_EXE_remembrane"))
+        .args(["run", scene.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert!(summary["area"].as_f64().unwrap() > 40.0, "{summary}");
+    assert!(
+        summary["volume"].is_null() && summary["reduced_volume"].is_null(),
+        "{summary}"
+    );
+    let series = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();
+    let header = series.lines().next().unwrap();
+    assert!(
+        header.contains(",area,") && !header.contains("volume"),
+        "{header}"
+    );
+}
