@@ -388,3 +388,54 @@ fn an_open_membrane_reports_no_enclosed_volume() {
         "{header}"
     );
 }
+
+#[test]
+fn an_inflated_patch_closed_by_its_base_plane_obeys_laplace() {
+    use remembrane::energy::penalty::volume_above_plane;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/inflated_patch.ron");
+    let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
+    for _ in 0..20000 {
+        if sim
+            .resource::<remembrane::engine::simulation::StopRequest>()
+            .0
+            .is_some()
+        {
+            break;
+        }
+        sim.tick().unwrap();
+    }
+    let mut p = Vec::new();
+    sim.membrane().gather_positions(&mut p);
+    let t = sim.membrane().cached_topology().clone();
+    let (k, target, sigma) = (20.0, 938.29, 0.5);
+    let v = volume_above_plane(&p, &t.faces, glam::DVec3::ZERO, glam::DVec3::Z);
+    let pressure = 2.0 * k * (target - v) / target;
+    // The cap's radius: a least-squares sphere |x − c|² = R² through the
+    // vertices more than 3 l̄ from the rim, |x|² = 2c·x + d.
+    let inner: Vec<glam::DVec3> = p
+        .iter()
+        .copied()
+        .filter(|x| x.truncate().length() < 9.0)
+        .collect();
+    let (mut m, mut rhs) = (glam::DMat4::ZERO, glam::DVec4::ZERO);
+    for x in &inner {
+        let row = glam::DVec4::new(2.0 * x.x, 2.0 * x.y, 2.0 * x.z, 1.0);
+        m += glam::DMat4::from_cols(row * row.x, row * row.y, row * row.z, row * row.w);
+        rhs += row * x.length_squared();
+    }
+    let s = m.inverse() * rhs;
+    let c = s.truncate();
+    let r = (s.w + c.length_squared()).sqrt();
+    let off = inner
+        .iter()
+        .map(|x| (x.distance(c) - r).abs())
+        .fold(0.0, f64::max);
+    let laplace = 2.0 * sigma / r;
+    println!("R = {r:.3} l̄ (sphere fit within {off:.1e}), p = {pressure:.5}, 2σ/R = {laplace:.5}");
+    assert!(off < 0.02 * r, "not a spherical cap: {off}");
+    assert!((4.0..4.5).contains(&p.iter().map(|x| x.z).fold(0.0, f64::max)));
+    assert!(
+        (pressure / laplace - 1.0).abs() < 0.02,
+        "p = {pressure} vs 2σ/R = {laplace}"
+    );
+}
