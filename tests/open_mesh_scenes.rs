@@ -439,3 +439,39 @@ fn an_inflated_patch_closed_by_its_base_plane_obeys_laplace() {
         "p = {pressure} vs 2σ/R = {laplace}"
     );
 }
+
+#[test]
+fn a_closing_plane_needs_a_positive_target_and_a_normal() {
+    let with = |volume: &str| DISC.replace("Springs(),", &format!("Springs(),\n        {volume},"));
+    let plane = "closing: Plane(point: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 1.0))";
+    // The flat disc lies in its closing plane: no volume to hold a fraction of.
+    for (text, field, reason) in [
+        (
+            with(&format!("Volume(k: 1.0, target: OfInitial(0.9), {plane})")),
+            "target",
+            "must be positive",
+        ),
+        (
+            with(
+                "Volume(k: 1.0, target: Absolute(10.0), closing: Plane(point: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 0.0)))",
+            ),
+            "closing",
+            "non-zero normal",
+        ),
+        (
+            with("Volume(k: 1.0, target: Absolute(10.0))"),
+            "energy",
+            "declare a closing plane",
+        ),
+    ] {
+        let msg = match build(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(msg.contains(field) && msg.contains(reason), "{msg}");
+    }
+    build(&with(&format!(
+        "Volume(k: 1.0, target: Absolute(10.0), {plane})"
+    )))
+    .unwrap();
+}
