@@ -11,10 +11,15 @@
 //! - an edge entity whose two vertices still share faces is **reused**
 //!   (its `faces` refreshed); an edge left without faces is despawned; an
 //!   edge that did not exist is spawned;
-//! - after the edit every affected edge has exactly one face on each side,
-//!   every affected vertex has a single closed fan and a valence in range,
-//!   and no new face is degenerate or folded over against the patch it
-//!   replaces.
+//! - after the edit every affected edge has exactly one face on each side
+//!   (on an open mesh, a boundary edge has one: an edge on a boundary stays
+//!   there, an interior one stays inside, a new one-face edge joins two
+//!   boundary vertices; its missing face is [`Entity::DANGLING`]), every
+//!   affected vertex has a single fan, closed inside or open on a boundary
+//!   as it was before (a new vertex either), with a valence in range
+//!   ([`ValenceRange::for_boundary`] on a boundary), and no new face is
+//!   degenerate or folded over against the patch it replaces (on an open
+//!   mesh, neither is a kept face of a moved vertex).
 //!
 //! A patch that would break any of these is rejected with an [`EditError`]
 //! and the world is unchanged. A successful edit updates the topology

@@ -1,7 +1,8 @@
 //! The checks of a [`PatchEdit`] against the module contract of
 //! [`crate::mesh::edit`]: new faces well formed and not folded over, every
-//! affected vertex with one closed fan and a valence in range, every
-//! affected edge with one face on each side.
+//! affected vertex with one fan (closed inside, open on a boundary, as
+//! before the edit) and a valence in range, every affected edge with one
+//! face on each side (or one, on a boundary, as before the edit).
 //!
 //! A patch touches a few dozen entities, so its sets here are small vectors
 //! searched linearly, not hash sets (the checks run for every candidate
