@@ -1,7 +1,8 @@
 //! Fuzzing on stable Rust, in process: a seeded mutation fuzzer over every
 //! input reader (scene, protocol, sweep, state.json, checkpoint, PLY, OBJ;
 //! a checkpoint is also restored into a membrane), and random
-//! split/merge sequences on random meshes with every invariant checked.
+//! split/merge sequences on random closed and open meshes with every
+//! invariant checked.
 //!
 //! Mutations: byte and bit flips, truncation, splicing of two corpus files,
 //! deleted and duplicated spans, numbers replaced by huge, tiny,
@@ -20,7 +21,7 @@ mod common;
 
 use rand::{RngExt, SeedableRng};
 use remembrane::mesh::io::{VertexScalar, read_mesh, write_obj_to, write_ply_to};
-use remembrane::mesh::{ValenceRange, check_mesh, docked_pair, icosphere};
+use remembrane::mesh::{ValenceRange, check_mesh, disc, docked_pair, icosphere, spherical_cap};
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -121,8 +122,9 @@ fn checkpoint_corpus(root: &Path) -> Vec<u8> {
 }
 
 /// The corpus: every bundled scene, protocol and sweep file, and a state,
-/// binary and ASCII PLY and OBJ files of small meshes. The scenes are
-/// copied into `root/scenes` so that mutated files can sit beside them.
+/// binary and ASCII PLY and OBJ files of small meshes, closed and open (a
+/// disc and a cap: no state). The scenes are copied into `root/scenes` so
+/// that mutated files can sit beside them.
 fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let mut out = Vec::new();
@@ -135,6 +137,7 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
         "minimise",
         "minimise/shape_diagram",
         "fluid",
+        "open",
     ] {
         let dir = scenes.join(sub);
         std::fs::create_dir_all(root.join("scenes").join(sub)).unwrap();
@@ -167,10 +170,20 @@ fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
     out.push((Kind::Checkpoint, checkpoint_corpus(root)));
     let small = icosphere(1, 1.0);
     let pair = docked_pair(1);
-    for mesh in [&small, &pair] {
+    // Open meshes (boundary loops): a flat disc and a cap, as mesh files.
+    let open_disc = disc(2.0, 1.0);
+    let cap = spherical_cap(3.0, 60.0, 1.0);
+    for (mesh, closed) in [
+        (&small, true),
+        (&pair, true),
+        (&open_disc, false),
+        (&cap, false),
+    ] {
         let lipid = vec![1.0; mesh.positions.len()];
-        let state = remembrane::io::state::SavedState::new("fuzz", 1, 10, 0.5, mesh, &lipid);
-        out.push((Kind::State, state.to_json().into_bytes()));
+        if closed {
+            let state = remembrane::io::state::SavedState::new("fuzz", 1, 10, 0.5, mesh, &lipid);
+            out.push((Kind::State, state.to_json().into_bytes()));
+        }
         let mut ply = Vec::new();
         let scalars = [VertexScalar {
             name: "density",
@@ -406,7 +419,7 @@ fn seed() -> u64 {
 }
 
 /// Random split/merge sequences on random meshes (jittered icospheres of
-/// levels 1-3 and docked pairs); after every operation the whole mesh is
+/// levels 1-3, docked pairs, and open discs and caps); after every operation the whole mesh is
 /// checked (and, in debug builds, the incremental topology against a full
 /// rebuild). Returns (applied, rejected).
 fn fuzz_remesh(operations: usize, seed: u64) -> (usize, usize) {
@@ -417,14 +430,17 @@ fn fuzz_remesh(operations: usize, seed: u64) -> (usize, usize) {
     let mut rng = FuzzRng::seed_from_u64(seed);
     let (mut applied, mut rejected, mut done) = (0, 0, 0);
     while done < operations {
-        let mut mesh = match rng.random_range(0..4u32) {
+        let mut mesh = match rng.random_range(0..6u32) {
             0 => docked_pair(1),
+            4 => disc(rng.random_range(2.0..4.0), 1.0),
+            5 => spherical_cap(4.0, rng.random_range(30.0..90.0), 1.0),
             level => icosphere(level, 1.0),
         };
         mesh.jitter(rng.random_range(0.0..0.3), rng.random());
         // The mesh starts valid under the valence range the edits keep.
-        check_mesh(&mesh.positions, &mesh.faces, Some(range))
-            .unwrap_or_else(|err| panic!("seed {seed}: the generated mesh: {err}"));
+        let loops = check_mesh(&mesh.positions, &mesh.faces, Some(range))
+            .unwrap_or_else(|err| panic!("seed {seed}: the generated mesh: {err}"))
+            .boundary_loops;
         let mut m = Membrane::from_mesh(&mesh, true).unwrap();
         m.topology().unwrap();
         // A few hundred edits per mesh, then a fresh one.
@@ -447,8 +463,9 @@ fn fuzz_remesh(operations: usize, seed: u64) -> (usize, usize) {
             };
             let before = euler(&mut m);
             let checked = m.to_mesh().unwrap();
-            check_mesh(&checked.positions, &checked.faces, Some(range))
+            let report = check_mesh(&checked.positions, &checked.faces, Some(range))
                 .unwrap_or_else(|err| panic!("seed {seed}, operation {done}: {err}"));
+            assert_eq!(report.boundary_loops, loops, "an edit changed the loops");
             assert_eq!(
                 euler(&mut m),
                 before,

@@ -73,7 +73,7 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
             ),
             "remesh.mode",
             "remeshing",
-            "two faces",
+            "boundary conditions",
         ),
         (
             DISC.replace(
@@ -82,7 +82,7 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
             ),
             "edge_flips",
             "edge flips",
-            "one face",
+            "energy changes",
         ),
         (
             DISC.replace("    dynamics:", "    model: Fluid(),\n    dynamics:")

@@ -50,16 +50,21 @@ impl Scene {
             return Err(refuse(
                 "remesh.mode".into(),
                 "split/merge remeshing",
-                "its patches and triangulations assume every edge has two faces; declare \
-                 `remesh: (mode: Off)` until remeshing is boundary-aware",
+                "splits and merges work on and next to the boundary in the mesh-edit layer, \
+                 but the remesh system does not keep the boundary conditions through its \
+                 edits yet (pinned vertices are named by dense slots, which an edit renumbers; \
+                 its relaxations and push-backs move rim vertices; a split pinned edge's new \
+                 vertex is not pinned); declare `remesh: (mode: Off)`",
             ));
         }
         if self.edge_flips.is_some() {
             return Err(refuse(
                 "edge_flips".into(),
                 "edge flips",
-                "a boundary edge has one face and cannot be flipped; flips next to the \
-                 boundary are not boundary-aware yet",
+                "the mesh layer never flips a boundary edge and flips the interior edges next \
+                 to it, but the flip system's energy changes are not checked on open meshes \
+                 yet (a boundary vertex carries no bending energy), and pinned vertices are \
+                 named by dense slots",
             ));
         }
         if let crate::params::MembraneModel::Fluid(_) = self.model {

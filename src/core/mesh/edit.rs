@@ -11,10 +11,15 @@
 //! - an edge entity whose two vertices still share faces is **reused**
 //!   (its `faces` refreshed); an edge left without faces is despawned; an
 //!   edge that did not exist is spawned;
-//! - after the edit every affected edge has exactly one face on each side,
-//!   every affected vertex has a single closed fan and a valence in range,
-//!   and no new face is degenerate or folded over against the patch it
-//!   replaces.
+//! - after the edit every affected edge has exactly one face on each side
+//!   (on an open mesh, a boundary edge has one: an edge on a boundary stays
+//!   there, an interior one stays inside, a new one-face edge joins two
+//!   boundary vertices; its missing face is [`Entity::DANGLING`]), every
+//!   affected vertex has a single fan, closed inside or open on a boundary
+//!   as it was before (a new vertex either), with a valence in range
+//!   ([`ValenceRange::for_boundary`] on a boundary), and no new face is
+//!   degenerate or folded over against the patch it replaces (on an open
+//!   mesh, neither is a kept face of a moved vertex).
 //!
 //! A patch that would break any of these is rejected with an [`EditError`]
 //! and the world is unchanged. A successful edit updates the topology
@@ -25,6 +30,7 @@ mod check;
 use crate::mesh::ValenceRange;
 use crate::mesh::components::{Edge, Face, Force, Position};
 use crate::mesh::membrane::Membrane;
+use crate::mesh::topology::NO_SLOT;
 use crate::mesh::topology_update::WorldChange;
 use glam::DVec3;
 use hecs::Entity;
@@ -126,7 +132,7 @@ impl Membrane {
             self,
             &edit.add_faces,
             &edit.remove_vertices,
-            |v, n| {
+            |v, n, _| {
                 valences.insert(v, n);
             },
         );
@@ -261,6 +267,9 @@ impl Membrane {
             let start = faces_after.len();
             if let Some(slot) = t.vertex_slot(a) {
                 for &f in t.ring_faces_of(slot as usize) {
+                    if f == NO_SLOT {
+                        continue; // a boundary vertex's open end
+                    }
                     let e = t.face_entities[f as usize];
                     let tri = t.faces[f as usize].map(|s| t.vertex_entities[s as usize]);
                     if !removed.contains(&e) && tri.contains(&b) {
@@ -321,10 +330,8 @@ impl Membrane {
                 }
                 continue;
             }
-            let edge = Edge {
-                vertices: [a, b],
-                faces: edge_sides(a, b, list),
-            };
+            let (vertices, faces) = edge_sides(a, b, list);
+            let edge = Edge { vertices, faces };
             let e = match existing {
                 Some(e) => {
                     if let Ok(mut c) = self.world.get::<&mut Edge>(e) {
@@ -419,20 +426,24 @@ struct EdgeFaces {
     ranges: Vec<(usize, usize)>,
 }
 
-/// The faces on the two sides of edge `a`-`b` among its faces after the
-/// edit (`list`): the one traversing a → b, then the one traversing b → a.
+/// The vertices and the faces on the two sides of edge `a`-`b` among its
+/// faces after the edit (`list`): `[a, b]` with the face traversing a → b,
+/// then the one traversing b → a. A boundary edge (one face) runs the way
+/// its face traverses it, and its missing face is [`Entity::DANGLING`].
 #[inline]
-fn edge_sides(a: Entity, b: Entity, list: &[FaceRef]) -> [Entity; 2] {
+fn edge_sides(a: Entity, b: Entity, list: &[FaceRef]) -> ([Entity; 2], [Entity; 2]) {
     let left = list
         .iter()
         .find(|(_, f)| (0..3).any(|m| f[m] == a && f[(m + 1) % 3] == b));
     let right = list
         .iter()
         .find(|(_, f)| (0..3).any(|m| f[m] == b && f[(m + 1) % 3] == a));
-    let (Some(left), Some(right)) = (left, right) else {
-        unreachable!("checked: one face per side");
-    };
-    [left.0, right.0]
+    match (left, right) {
+        (Some(left), Some(right)) => ([a, b], [left.0, right.0]),
+        (Some(left), None) => ([a, b], [left.0, Entity::DANGLING]),
+        (None, Some(right)) => ([b, a], [right.0, Entity::DANGLING]),
+        (None, None) => unreachable!("checked: an edge kept has a face"),
+    }
 }
 
 /// How many of its faces each vertex keeps when a set of faces is removed:
@@ -466,26 +477,37 @@ impl KeptFaces {
         })
     }
 
-    /// Calls `visit(v, valence after the edit)` for every vertex of a face
-    /// that an edit removing these counts' faces removes or adds
-    /// (`add_faces`), once each in first-seen order (removed faces first),
-    /// except the vertices it removes (`remove_vertices`). A vertex's faces
-    /// after the edit are its valence (one face per neighbour in a closed
-    /// fan): the faces it keeps plus the added faces that use it.
+    /// Calls `visit(v, valence after the edit, on a boundary)` for every
+    /// vertex of a face that an edit removing these counts' faces removes
+    /// or adds (`add_faces`), once each in first-seen order (removed faces
+    /// first), except the vertices it removes (`remove_vertices`). A
+    /// vertex's valence after the edit is its faces (one per neighbour in a
+    /// closed fan, one fewer in an open one): the faces it keeps plus the
+    /// added faces that use it, plus one on a boundary. A vertex stays on
+    /// the boundary or inside (the edit layer refuses anything else); a new
+    /// vertex is on a boundary if its new faces form an open fan.
     pub fn for_each_valence(
         &self,
         m: &Membrane,
         add_faces: &[[Entity; 3]],
         remove_vertices: &[Entity],
-        mut visit: impl FnMut(Entity, usize),
+        mut visit: impl FnMut(Entity, usize, bool),
     ) {
+        let t = m.cached_topology();
         let added = |v: Entity| add_faces.iter().filter(|f| f.contains(&v)).count();
+        let open = |v: Entity| match t.vertex_slot(v) {
+            Some(s) => t.is_boundary_vertex(s as usize),
+            None => opens_a_fan(v, add_faces),
+        };
+        let mut visit = |v: Entity, faces: usize| {
+            let open = open(v);
+            visit(v, faces + usize::from(open), open);
+        };
         for &(v, kept) in &self.kept {
             if !remove_vertices.contains(&v) {
                 visit(v, kept + added(v));
             }
         }
-        let t = m.cached_topology();
         let corners = || add_faces.iter().flatten();
         for (i, &v) in corners().enumerate() {
             let seen = self.kept.iter().any(|&(x, _)| x == v) || corners().take(i).any(|&x| x == v);
@@ -505,6 +527,19 @@ fn kept_count(m: &Membrane, s: u32, remove_faces: &[Entity]) -> usize {
     let t = m.cached_topology();
     t.ring_faces_of(s as usize)
         .iter()
-        .filter(|&&f| !remove_faces.contains(&t.face_entities[f as usize]))
+        .filter(|&&f| f != NO_SLOT && !remove_faces.contains(&t.face_entities[f as usize]))
         .count()
+}
+
+/// Whether the faces of `faces` around the new vertex `v` leave its fan
+/// open: a face (v, a, b) with no face (v, x, a) before it.
+fn opens_a_fan(v: Entity, faces: &[[Entity; 3]]) -> bool {
+    let step = |f: &[Entity; 3]| {
+        let k = f.iter().position(|&x| x == v)?;
+        Some((f[(k + 1) % 3], f[(k + 2) % 3]))
+    };
+    faces
+        .iter()
+        .filter_map(step)
+        .any(|(a, _)| !faces.iter().filter_map(step).any(|(_, b)| b == a))
 }

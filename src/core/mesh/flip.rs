@@ -1,5 +1,7 @@
-//! An edge flip: the geometry of flipping one edge of a closed
-//! triangulation, and the flip applied to the topology cache in place.
+//! An edge flip: the geometry of flipping one edge of a triangulation, and
+//! the flip applied to the topology cache in place. A boundary edge (one
+//! face) has no flip ([`Flip::of`] is `None`); an interior edge next to a
+//! boundary flips like any other.
 //!
 //! A flip replaces the edge a–b, shared by faces (a, b, c) and (b, a, d),
 //! with the edge c–d: faces (a, d, c) and (d, b, c). No vertex moves.
@@ -7,7 +9,7 @@
 //! terms; the fluid model's maintenance flips take it when it makes the
 //! mesh more Delaunay.
 
-use crate::mesh::topology::{Topology, TopologyError};
+use crate::mesh::topology::{NO_SLOT, Topology, TopologyError};
 use glam::DVec3;
 
 /// A flip of one edge, in dense slots.
@@ -224,7 +226,7 @@ impl Topology {
                 .ring_faces_of(v as usize)
                 .iter()
                 .copied()
-                .filter(|&x| Some(x) != drop)
+                .filter(|&x| x != NO_SLOT && Some(x) != drop)
                 .chain(add)
                 .collect();
             f.sort_unstable();

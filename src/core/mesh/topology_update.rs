@@ -40,7 +40,7 @@ pub enum WorldChange {
 /// Why an edit could not be applied incrementally (the caller rebuilds).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum UpdateError {
-    /// The edited world is not a valid closed triangulation.
+    /// The edited world is not a valid triangulation.
     #[error(transparent)]
     Topology(#[from] TopologyError),
     /// A vertex's valence outgrew its ring block.
@@ -163,6 +163,7 @@ impl Topology {
                 fan_faces.extend(
                     self.ring_faces_of(s as usize)
                         .iter()
+                        .filter(|&&f| f != NO_SLOT)
                         .map(|&f| self.face_entities[f as usize])
                         .filter(|f| !removed_faces.contains(f)),
                 );
@@ -250,7 +251,13 @@ impl Topology {
             if fan.len() > self.ring_stride {
                 return Err(UpdateError::RingOverflow(s));
             }
-            self.write_ring(s as usize, &fan)?;
+            match self.write_ring(s as usize, &fan) {
+                // An open fan needs one entry more than its faces.
+                Err(_) if fan.len() == self.ring_stride => {
+                    return Err(UpdateError::RingOverflow(s));
+                }
+                result => result?,
+            }
         }
         Ok(())
     }
@@ -399,6 +406,9 @@ impl Topology {
     fn rename_ring_face(&mut self, v: usize, len: usize, from: u32, to: u32) {
         let block = v * self.ring_stride..v * self.ring_stride + len;
         rename(&mut self.ring_faces[block.clone()], from, to);
+        if self.ring_faces[block.clone()].last() == Some(&NO_SLOT) {
+            return; // an open fan starts at its outgoing boundary edge
+        }
         let first = self.ring_faces[block.clone()]
             .iter()
             .enumerate()

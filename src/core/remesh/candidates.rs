@@ -76,59 +76,105 @@ impl Candidates {
     }
 }
 
-/// The 16 split candidates for region `r` with new vertex `n` at `position`.
+/// The faces of region `r` that exist (a boundary's missing ones left out).
+fn region_faces(r: &EdgeRegion) -> Vec<Entity> {
+    r.central
+        .iter()
+        .chain(&r.outer)
+        .copied()
+        .filter(|&f| f != Entity::DANGLING)
+        .collect()
+}
+
+/// Sorts quadrilaterals into `Candidates`: a quadrilateral whose far apex
+/// is missing (`None`, beyond a boundary edge) is the one face left of it,
+/// the same in every candidate, added to `base`.
+fn candidates_of(mut base: PatchEdit, quads: Vec<(Quad, Option<[Entity; 3]>)>) -> Candidates {
+    let mut kept = Vec::with_capacity(quads.len());
+    for (quad, fixed) in quads {
+        match fixed {
+            None => kept.push(quad),
+            Some(face) => base.add_faces.push(face),
+        }
+    }
+    Candidates { base, quads: kept }
+}
+
+/// The split candidates for region `r` with new vertex `n` at `position`:
+/// 16 inside, fewer next to a boundary (see [`EdgeRegion`]).
 pub fn split_candidates(r: &EdgeRegion, n: Entity, position: DVec3) -> Candidates {
     let [i1, i2] = r.i;
     let [j1, j2] = r.j;
     let [k1, k2, k3, k4] = r.k;
+    let missing = |k: Entity| k == Entity::DANGLING;
     // Per quadrilateral: (old-diagonal faces, new-diagonal faces, old and
-    // new diagonal).
-    let quads = vec![
+    // new diagonal), and its one face if its far apex is missing.
+    let mut quads = vec![
         (
-            [[i1, n, j1], [i1, j1, k1]],
-            [[n, j1, k1], [n, k1, i1]],
-            (i1, j1),
-            (n, k1),
+            (
+                [[i1, n, j1], [i1, j1, k1]],
+                [[n, j1, k1], [n, k1, i1]],
+                (i1, j1),
+                (n, k1),
+            ),
+            missing(k1).then_some([i1, n, j1]),
         ),
         (
-            [[n, i2, j1], [j1, i2, k2]],
-            [[n, i2, k2], [n, k2, j1]],
-            (i2, j1),
-            (n, k2),
-        ),
-        (
-            [[i2, n, j2], [i2, j2, k3]],
-            [[n, j2, k3], [n, k3, i2]],
-            (i2, j2),
-            (n, k3),
-        ),
-        (
-            [[n, i1, j2], [j2, i1, k4]],
-            [[n, i1, k4], [n, k4, j2]],
-            (i1, j2),
-            (n, k4),
+            (
+                [[n, i2, j1], [j1, i2, k2]],
+                [[n, i2, k2], [n, k2, j1]],
+                (i2, j1),
+                (n, k2),
+            ),
+            missing(k2).then_some([n, i2, j1]),
         ),
     ];
+    if !r.on_boundary() {
+        quads.extend([
+            (
+                (
+                    [[i2, n, j2], [i2, j2, k3]],
+                    [[n, j2, k3], [n, k3, i2]],
+                    (i2, j2),
+                    (n, k3),
+                ),
+                missing(k3).then_some([i2, n, j2]),
+            ),
+            (
+                (
+                    [[n, i1, j2], [j2, i1, k4]],
+                    [[n, i1, k4], [n, k4, j2]],
+                    (i1, j2),
+                    (n, k4),
+                ),
+                missing(k4).then_some([n, i1, j2]),
+            ),
+        ]);
+    }
     let base = PatchEdit {
-        remove_faces: [r.central.as_slice(), r.outer.as_slice()].concat(),
+        remove_faces: region_faces(r),
         add_vertices: vec![(n, position)],
         ..Default::default()
     };
-    Candidates { base, quads }
+    candidates_of(base, quads)
 }
 
-/// The 4 merge candidates: i1 survives as i at `mid`, i2 is removed.
-pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Candidates {
+/// The merge candidates: i1 survives as i at `at`, i2 is removed. Inside,
+/// 4; next to a boundary fewer (see [`EdgeRegion`]).
+pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, at: DVec3) -> Candidates {
     let [i, i2] = r.i;
     let [j1, j2] = r.j;
     let [k1, k2, k3, k4] = r.k;
     // Other faces of i2's fan, relabelled to i.
     let t = m.cached_topology();
-    let patch: Vec<Entity> = [r.central.as_slice(), r.outer.as_slice()].concat();
+    let patch = region_faces(r);
     let s2 = t.slot(i2).expect("live vertex") as usize;
     let mut relabelled_remove = Vec::new();
     let mut relabelled_add = Vec::new();
     for &f in t.ring_faces_of(s2) {
+        if f == NO_SLOT {
+            continue; // the open end of a boundary vertex's fan
+        }
         let fe = t.face_entities[f as usize];
         if patch.contains(&fe) {
             continue;
@@ -137,27 +183,29 @@ pub fn merge_candidates(m: &Membrane, r: &EdgeRegion, mid: DVec3) -> Candidates 
         let tri = t.faces[f as usize].map(|v| t.vertex_entities[v as usize]);
         relabelled_add.push(tri.map(|v| if v == i2 { i } else { v }));
     }
-    let quads = vec![
-        (
-            [[i, j1, k1], [j1, i, k2]],
-            [[k1, i, k2], [k2, j1, k1]],
-            (i, j1),
-            (k1, k2),
-        ),
-        (
-            [[i, j2, k3], [j2, i, k4]],
-            [[k3, i, k4], [k4, j2, k3]],
-            (i, j2),
-            (k3, k4),
-        ),
-    ];
-    let base = PatchEdit {
+    let mut base = PatchEdit {
         remove_faces: [patch.as_slice(), relabelled_remove.as_slice()].concat(),
         add_faces: relabelled_add,
         remove_vertices: vec![i2],
-        move_vertices: vec![(i, mid)],
+        move_vertices: vec![(i, at)],
         ..Default::default()
     };
+    let mut quads = Vec::with_capacity(2);
+    let sides = [(j1, k1, k2), (j2, k3, k4)];
+    for (q, &(j, ka, kb)) in sides.iter().enumerate() {
+        if q == 1 && r.on_boundary() {
+            break;
+        }
+        let old = [[i, j, ka], [j, i, kb]];
+        match (ka == Entity::DANGLING, kb == Entity::DANGLING) {
+            (false, false) => quads.push((old, [[ka, i, kb], [kb, j, ka]], (i, j), (ka, kb))),
+            (true, false) => base.add_faces.push(old[1]),
+            (false, true) => base.add_faces.push(old[0]),
+            // Both sides on the boundary: j is left without faces, which
+            // the edit layer refuses.
+            (true, true) => {}
+        }
+    }
     Candidates { base, quads }
 }
 
@@ -248,7 +296,11 @@ pub(super) fn choose_checked(
             faces.extend_from_slice(&base.add_faces);
             candidates.push_quad_faces(bits, &mut faces);
             let mut valences = ValenceSums::default();
-            kept.for_each_valence(m, &faces, &base.remove_vertices, |_, v| valences.add(v));
+            // A boundary vertex counts as its interior equivalent (a fan of
+            // half a turn has two neighbours fewer).
+            kept.for_each_valence(m, &faces, &base.remove_vertices, |_, v, open| {
+                valences.add(v + 2 * usize::from(open))
+            });
             for (l, (a, b)) in lengths.iter_mut().zip(candidates.diagonal_edges(bits)) {
                 *l = position_of(a).distance(position_of(b));
             }

@@ -12,6 +12,16 @@
 //! with the least valence variance over the affected vertices wins, ties
 //! broken by the most uniform lengths of the quadrilaterals' diagonals.
 //!
+//! On an open mesh (issue 32) a region stops at the boundary: a boundary
+//! edge has one face, so its split re-triangulates two quadrilaterals and
+//! its merge one, and a quadrilateral beyond a boundary edge is just the
+//! face left of it. The edit layer keeps every vertex inside or on the
+//! boundary as it was and every boundary a loop, so a merge that would
+//! pinch the boundary (two loops at one vertex), join two boundary
+//! vertices across the interior or close a loop of three is refused. A
+//! merge of an edge from the boundary inward keeps the boundary end in
+//! place ([`merge_region`]).
+//!
 //! Every per-vertex field follows its transfer policy
 //! ([`crate::mesh::vertex_field`]); lipid density is conserved: split ρ_i1, ρ_i2
 //! ×= 2/3 and ρ_n = (ρ_i1 + ρ_i2)/3; merge ρ_i = ρ_i1 + ρ_i2.
@@ -23,6 +33,7 @@ use crate::mesh::ValenceRange;
 use crate::mesh::components::Position;
 use crate::mesh::edit::{EditError, KeptFaces, PatchEdit};
 use crate::mesh::membrane::Membrane;
+use crate::mesh::topology::NO_SLOT;
 use crate::mesh::vertex_field::TransferPolicy;
 use glam::DVec3;
 use hecs::Entity;
@@ -34,7 +45,10 @@ mod stats;
 pub use candidates::*;
 pub use stats::*;
 
-/// The vertices and faces around an edge.
+/// The vertices and faces around an edge. On an open mesh a part beyond
+/// a boundary edge is missing, [`Entity::DANGLING`]: for a boundary edge
+/// (i1, i2) its second face and apex j2, with k3, k4 and their faces; for a
+/// boundary edge i1–j1 (say) the far apex k1 and its face.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EdgeRegion {
     /// The edge's end points.
@@ -47,6 +61,31 @@ pub struct EdgeRegion {
     pub central: [Entity; 2],
     /// Faces (i1, j1, k1), (j1, i2, k2), (i2, j2, k3), (j2, i1, k4).
     pub outer: [Entity; 4],
+}
+
+impl EdgeRegion {
+    /// Whether the edge is a boundary edge (one face).
+    pub fn on_boundary(&self) -> bool {
+        self.j[1] == Entity::DANGLING
+    }
+
+    /// The region of the same edge run the other way, i2 → i1 (its j, k
+    /// and faces relabelled); `None` for a boundary edge, whose one face
+    /// fixes its direction.
+    pub fn reversed(&self) -> Option<EdgeRegion> {
+        if self.on_boundary() {
+            return None;
+        }
+        let [k1, k2, k3, k4] = self.k;
+        let [o1, o2, o3, o4] = self.outer;
+        Some(EdgeRegion {
+            i: [self.i[1], self.i[0]],
+            j: [self.j[1], self.j[0]],
+            k: [k3, k4, k1, k2],
+            central: [self.central[1], self.central[0]],
+            outer: [o3, o4, o1, o2],
+        })
+    }
 }
 
 /// A candidate re-triangulation, built in full ([`Candidates::get`]).
@@ -76,7 +115,8 @@ pub enum RemeshError {
     NoSuchEdge(u32),
 }
 
-/// Finds the region around edge slot `edge` of the current topology.
+/// Finds the region around edge slot `edge` of the current topology (see
+/// [`EdgeRegion`] for what is missing next to a boundary).
 pub fn edge_region(m: &Membrane, edge: u32) -> Result<EdgeRegion, RemeshError> {
     let t = m.cached_topology();
     let (Some(&[a, b]), Some(&[fl, fr])) =
@@ -84,43 +124,67 @@ pub fn edge_region(m: &Membrane, edge: u32) -> Result<EdgeRegion, RemeshError> {
     else {
         return Err(RemeshError::NoSuchEdge(edge));
     };
-    let ent = |v: u32| t.vertex_entities[v as usize];
+    let ent = |v: u32| {
+        if v == NO_SLOT {
+            Entity::DANGLING
+        } else {
+            t.vertex_entities[v as usize]
+        }
+    };
     // Apex of face f opposite the directed edge x → y.
     let apex = |f: u32, x: u32, y: u32| -> Option<u32> {
-        let tri = t.faces[f as usize];
+        let tri = t.faces.get(f as usize)?;
         (0..3)
             .find(|&m| tri[m] == x && tri[(m + 1) % 3] == y)
             .map(|m| tri[(m + 2) % 3])
     };
-    // Face across the directed edge x → y (the one traversing y → x).
+    // Face across the directed edge x → y (the one traversing y → x) and
+    // its apex; (NO_SLOT, NO_SLOT) if x → y is a boundary edge.
     let across = |x: u32, y: u32| -> Option<(u32, u32)> {
-        let k = t.neighbours(y as usize).iter().position(|&w| w == x);
-        k.map(|k| {
-            // Ring face k of y is (y, x, next): it traverses y → x.
-            let f = t.ring_faces_of(y as usize)[k];
-            (f, apex(f, y, x).unwrap_or(u32::MAX))
-        })
+        let k = t.neighbours(y as usize).iter().position(|&w| w == x)?;
+        // Ring face k of y is (y, x, next): it traverses y → x.
+        let f = t.ring_faces_of(y as usize)[k];
+        if f == NO_SLOT {
+            return Some((NO_SLOT, NO_SLOT));
+        }
+        Some((f, apex(f, y, x)?))
     };
     let j1 = apex(fl, a, b).ok_or(RemeshError::DegenerateRegion)?;
-    let j2 = apex(fr, b, a).ok_or(RemeshError::DegenerateRegion)?;
+    let j2 = if fr == NO_SLOT {
+        NO_SLOT
+    } else {
+        apex(fr, b, a).ok_or(RemeshError::DegenerateRegion)?
+    };
     if j1 == j2 {
         return Err(RemeshError::DegenerateRegion);
     }
     // Outer faces: (i1, j1, k1) traverses i1 → j1, i.e. the face across j1 → i1.
     let (o1, k1) = across(j1, a).ok_or(RemeshError::DegenerateRegion)?;
     let (o2, k2) = across(b, j1).ok_or(RemeshError::DegenerateRegion)?;
-    let (o3, k3) = across(j2, b).ok_or(RemeshError::DegenerateRegion)?;
-    let (o4, k4) = across(a, j2).ok_or(RemeshError::DegenerateRegion)?;
+    let ((o3, k3), (o4, k4)) = if j2 == NO_SLOT {
+        ((NO_SLOT, NO_SLOT), (NO_SLOT, NO_SLOT))
+    } else {
+        (
+            across(j2, b).ok_or(RemeshError::DegenerateRegion)?,
+            across(a, j2).ok_or(RemeshError::DegenerateRegion)?,
+        )
+    };
     let ks = [k1, k2, k3, k4];
     let faces = [fl, fr, o1, o2, o3, o4];
     let distinct = faces
         .iter()
         .enumerate()
-        .all(|(x, f)| !faces[..x].contains(f));
-    if ks.contains(&u32::MAX) || !distinct || ks.iter().any(|k| [a, b].contains(k)) {
+        .all(|(x, f)| *f == NO_SLOT || !faces[..x].contains(f));
+    if !distinct || ks.iter().any(|k| *k != NO_SLOT && [a, b].contains(k)) {
         return Err(RemeshError::DegenerateRegion);
     }
-    let fe = |f: u32| t.face_entities[f as usize];
+    let fe = |f: u32| {
+        if f == NO_SLOT {
+            Entity::DANGLING
+        } else {
+            t.face_entities[f as usize]
+        }
+    };
     Ok(EdgeRegion {
         i: [ent(a), ent(b)],
         j: [ent(j1), ent(j2)],
@@ -211,12 +275,11 @@ pub fn check_feasible(
     op: EdgeOp,
     valence: ValenceRange,
 ) -> Result<(), RemeshError> {
-    let r = edge_region(m, edge)?;
     // Positions do not matter to the topological check; the new vertex of a
     // split is not spawned, so a placeholder entity stands for it.
     let candidates = match op {
-        EdgeOp::Split => split_candidates(&r, Entity::DANGLING, DVec3::ZERO),
-        EdgeOp::Merge => merge_candidates(m, &r, DVec3::ZERO),
+        EdgeOp::Split => split_candidates(&edge_region(m, edge)?, Entity::DANGLING, DVec3::ZERO),
+        EdgeOp::Merge => merge_candidates(m, &merge_region(m, edge)?.0, DVec3::ZERO),
     };
     let mut last_error = EditError::BrokenFan(Entity::DANGLING);
     let mut edit = candidates.base.clone();
@@ -266,24 +329,50 @@ pub fn split_edge(
 }
 
 /// Merges edge slot `edge`: i1 moves to the midpoint, i2 is removed, with
-/// the best valid triangulation. The world is unchanged on error.
+/// the best valid triangulation; on an edge from the boundary inward the
+/// boundary end survives in place ([`merge_region`]). The world is
+/// unchanged on error.
 pub fn merge_edge(
     m: &mut Membrane,
     edge: u32,
     valence: ValenceRange,
 ) -> Result<RemeshOutcome, RemeshError> {
-    let r = edge_region(m, edge)?;
+    let (r, at) = merge_region(m, edge)?;
     let [i1, i2] = r.i;
-    let mid = 0.5 * (position(m, i1) + position(m, i2));
     let values = EdgeValues::read(m, [i1, i2]);
-    let candidates = merge_candidates(m, &r, mid);
-    let pos = |v: Entity| if v == i1 { mid } else { position(m, v) };
+    let candidates = merge_candidates(m, &r, at);
+    let pos = |v: Entity| if v == i1 { at } else { position(m, v) };
     let (best, edit) = choose_checked(m, &candidates, valence, pos)?;
     m.apply_checked_patch(&edit, valence);
     values.apply_merge(m, i1);
     Ok(RemeshOutcome {
         vertex: i1,
-        position: mid,
+        position: at,
         diagonals: candidates.diagonals(best),
     })
+}
+
+/// The region of a merge of edge slot `edge`, its survivor first, and
+/// where the survivor goes: the midpoint, except on an edge from the
+/// boundary inward, whose boundary end survives in place (the rim keeps
+/// its shape; a merge never moves a boundary vertex off the boundary).
+pub fn merge_region(m: &Membrane, edge: u32) -> Result<(EdgeRegion, DVec3), RemeshError> {
+    let r = edge_region(m, edge)?;
+    let t = m.cached_topology();
+    let on_boundary = |v: Entity| {
+        t.vertex_slot(v)
+            .is_some_and(|s| t.is_boundary_vertex(s as usize))
+    };
+    let [a, b] = r.i.map(on_boundary);
+    let r = match (a, b, r.reversed()) {
+        (false, true, Some(reversed)) => reversed,
+        _ => r,
+    };
+    let [i1, i2] = r.i;
+    let at = if a != b {
+        position(m, i1)
+    } else {
+        0.5 * (position(m, i1) + position(m, i2))
+    };
+    Ok((r, at))
 }

@@ -1,7 +1,8 @@
 //! The checks of a [`PatchEdit`] against the module contract of
 //! [`crate::mesh::edit`]: new faces well formed and not folded over, every
-//! affected vertex with one closed fan and a valence in range, every
-//! affected edge with one face on each side.
+//! affected vertex with one fan (closed inside, open on a boundary, as
+//! before the edit) and a valence in range, every affected edge with one
+//! face on each side (or one, on a boundary, as before the edit).
 //!
 //! A patch touches a few dozen entities, so its sets here are small vectors
 //! searched linearly, not hash sets (the checks run for every candidate
@@ -11,6 +12,7 @@ use super::{EditError, MIN_FACE_SHAPE, PatchEdit};
 use crate::mesh::ValenceRange;
 use crate::mesh::components::Position;
 use crate::mesh::membrane::Membrane;
+use crate::mesh::topology::NO_SLOT;
 use glam::DVec3;
 use hecs::Entity;
 use rustc_hash::FxHashMap as HashMap;
@@ -26,6 +28,9 @@ struct PatchFans {
     after: Vec<[Entity; 3]>,
     /// Ranges into `after`, one per affected vertex.
     fans: Vec<(usize, usize)>,
+    /// Per affected vertex: whether it is on a boundary before the edit
+    /// (`None`: a vertex the edit adds).
+    open_before: Vec<Option<bool>>,
 }
 
 impl PatchFans {
@@ -126,11 +131,14 @@ impl Membrane {
         let affected = affected_vertices(&removed_triples, &edit.add_faces);
         let mut after: Vec<[Entity; 3]> = Vec::with_capacity(8 * affected.len());
         let mut fans: Vec<(usize, usize)> = Vec::with_capacity(affected.len());
+        let mut open_before: Vec<Option<bool>> = Vec::with_capacity(affected.len());
         for &v in &affected {
             let start = after.len();
-            if let Some(slot) = t.vertex_slot(v) {
+            let slot = t.vertex_slot(v);
+            open_before.push(slot.map(|s| t.is_boundary_vertex(s as usize)));
+            if let Some(slot) = slot {
                 for &f in t.ring_faces_of(slot as usize) {
-                    if !removed.contains(&t.face_entities[f as usize]) {
+                    if f != NO_SLOT && !removed.contains(&t.face_entities[f as usize]) {
                         after.push(t.faces[f as usize].map(|s| t.vertex_entities[s as usize]));
                     }
                 }
@@ -143,6 +151,7 @@ impl Membrane {
             affected,
             after,
             fans,
+            open_before,
         })
     }
 
@@ -168,7 +177,8 @@ impl Membrane {
         }
         let removing = &edit.remove_vertices;
         let mut link: Vec<(Entity, Entity)> = Vec::with_capacity(16);
-        for &v in &patch.affected {
+        let mut open_after: Vec<(Entity, bool)> = Vec::with_capacity(patch.affected.len());
+        for (&v, &open_before) in patch.affected.iter().zip(&patch.open_before) {
             let faces = patch.fan_of(v);
             if removing.contains(&v) {
                 if !faces.is_empty() {
@@ -176,16 +186,27 @@ impl Membrane {
                 }
                 continue;
             }
-            let steps = closed_fan_valence(v, faces, &mut link)?;
-            if steps < valence.min as usize || steps > valence.max as usize {
+            let (steps, open) = fan_valence(v, faces, &mut link)?;
+            // A vertex stays inside or on the boundary: an edit neither
+            // punches a hole nor closes one.
+            if open_before.is_some_and(|before| before != open) {
+                return Err(EditError::BrokenFan(v));
+            }
+            let range = if open {
+                valence.for_boundary()
+            } else {
+                valence
+            };
+            if steps < range.min as usize || steps > range.max as usize {
                 return Err(EditError::Valence {
                     vertex: v,
                     valence: steps,
                 });
             }
+            open_after.push((v, open));
             valence_of(v, steps);
         }
-        check_edge_sides(edit, &patch)
+        self.check_edge_sides(edit, &patch, &open_after)
     }
 
     /// Geometry of `edit`'s new faces: not degenerate, not folded over
@@ -249,19 +270,51 @@ impl Membrane {
                 return Err(EditError::FoldOver(*f));
             }
         }
+        // On an open mesh a vertex that moves (a merge's survivor) keeps
+        // faces outside the patch: they must not degenerate or turn over
+        // (a rim is often straight, where the move can line them up). A
+        // closed mesh's edits are left as they were (the paper's results
+        // stay bit for bit).
+        if edit.move_vertices.is_empty() || !self.cached_topology().is_open() {
+            return Ok(());
+        }
+        for &(v, _) in &edit.move_vertices {
+            if !affected.contains(&v) {
+                continue;
+            }
+            for f in patch.fan_of(v) {
+                if edit.add_faces.contains(f) {
+                    continue;
+                }
+                let (n, [a, b, c]) = normal(f);
+                let longest = a
+                    .distance_squared(b)
+                    .max(b.distance_squared(c))
+                    .max(c.distance_squared(a));
+                let shape = n.length() / longest;
+                if shape.is_nan() || shape < MIN_FACE_SHAPE {
+                    return Err(EditError::DegenerateGeometry(*f));
+                }
+                let [a, b, c] = f.map(|x| world_at(x).unwrap_or(DVec3::ZERO));
+                if n.dot((b - a).cross(c - a)) <= 0.0 {
+                    return Err(EditError::FoldOver(*f));
+                }
+            }
+        }
         Ok(())
     }
 }
 
-/// The valence of `v` after the edit, if its faces after the edit (`faces`)
-/// form one closed fan, else [`EditError::BrokenFan`]. `link` is scratch
-/// space for the fan's link.
-fn closed_fan_valence(
+/// The valence (neighbour count) of `v` after the edit and whether its
+/// fan is open, if its faces after the edit (`faces`) form one fan: a
+/// closed one, or an open one between two boundary edges. Else
+/// [`EditError::BrokenFan`]. `link` is scratch space for the fan's link.
+fn fan_valence(
     v: Entity,
     faces: &[[Entity; 3]],
     link: &mut Vec<(Entity, Entity)>,
-) -> Result<usize, EditError> {
-    // Link of v: for face (v, a, b) the step a → b; one closed cycle.
+) -> Result<(usize, bool), EditError> {
+    // Link of v: for face (v, a, b) the step a → b; one cycle or one path.
     link.clear();
     for f in faces {
         let k = f.iter().position(|&x| x == v).expect("face contains v");
@@ -271,56 +324,92 @@ fn closed_fan_valence(
         }
         link.push((from, to));
     }
-    let Some(&(start, _)) = link.first() else {
+    let Some(&(first, _)) = link.first() else {
         return Err(EditError::BrokenFan(v));
     };
-    // The walk closes after |faces| steps from any start iff the
-    // link is one cycle through every face.
+    // An open fan starts at the one neighbour that no step reaches.
+    let open_start = link
+        .iter()
+        .map(|&(a, _)| a)
+        .find(|&a| !link.iter().any(|&(_, b)| b == a));
+    let start = open_start.unwrap_or(first);
+    // The walk covers every face once iff the link is one cycle (closed)
+    // or one path (open).
     let mut cur = start;
     let mut steps = 0;
-    loop {
-        cur = link
-            .iter()
-            .find(|&&(a, _)| a == cur)
-            .map(|&(_, b)| b)
-            .ok_or(EditError::BrokenFan(v))?;
+    while let Some(next) = link.iter().find(|&&(a, _)| a == cur).map(|&(_, b)| b) {
+        cur = next;
         steps += 1;
         if cur == start || steps > faces.len() {
             break;
         }
     }
-    if cur != start || steps != faces.len() {
-        return Err(EditError::BrokenFan(v));
+    match open_start {
+        None if cur == start && steps == faces.len() => Ok((steps, false)),
+        Some(_) if cur != start && steps == faces.len() => Ok((steps + 1, true)),
+        _ => Err(EditError::BrokenFan(v)),
     }
-    Ok(steps)
 }
 
-/// Each edge of a removed or added face that stays (neither end removed)
-/// has exactly one face per direction after the edit, or none (it
-/// disappears).
-fn check_edge_sides(edit: &PatchEdit, patch: &PatchFans) -> Result<(), EditError> {
-    let removing = &edit.remove_vertices;
-    for tri in patch.removed_triples.iter().chain(&edit.add_faces) {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            if removing.contains(&a) || removing.contains(&b) {
-                continue;
-            }
-            let (forward, backward) = (patch.faces_traversing(a, b), patch.faces_traversing(b, a));
-            if forward + backward == 0 {
-                continue; // the edge disappears
-            }
-            if forward != 1 || backward != 1 {
-                return Err(EditError::EdgeFaces {
+impl Membrane {
+    /// Each edge of a removed or added face that stays (neither end
+    /// removed) has one face per direction after the edit, or none (it
+    /// disappears), or, on a boundary, one face: an edge that was on a
+    /// boundary stays there, an interior one stays inside, and a new
+    /// boundary edge joins two vertices whose fans are open after the edit
+    /// (`open_after`).
+    fn check_edge_sides(
+        &self,
+        edit: &PatchEdit,
+        patch: &PatchFans,
+        open_after: &[(Entity, bool)],
+    ) -> Result<(), EditError> {
+        let removing = &edit.remove_vertices;
+        for tri in patch.removed_triples.iter().chain(&edit.add_faces) {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                if removing.contains(&a) || removing.contains(&b) {
+                    continue;
+                }
+                let (forward, backward) =
+                    (patch.faces_traversing(a, b), patch.faces_traversing(b, a));
+                if forward + backward == 0 {
+                    continue; // the edge disappears
+                }
+                let error = EditError::EdgeFaces {
                     a,
                     b,
                     forward,
                     backward,
-                });
+                };
+                let open = |x: Entity| open_after.iter().any(|&(y, o)| y == x && o);
+                if forward > 1 || backward > 1 {
+                    return Err(error);
+                }
+                let both_open = open(a) && open(b);
+                // Only an edge between boundary vertices can change sides.
+                let was_boundary = both_open.then(|| self.boundary_edge_before(a, b));
+                let inside = forward == 1 && backward == 1;
+                let fine = match was_boundary {
+                    None => inside,
+                    Some(before) => before.is_none_or(|before| before != inside),
+                };
+                if !fine {
+                    return Err(error);
+                }
             }
         }
+        Ok(())
     }
-    Ok(())
+
+    /// Whether the edge `a`-`b` is on a boundary before the edit (`None`:
+    /// there is no such edge).
+    fn boundary_edge_before(&self, a: Entity, b: Entity) -> Option<bool> {
+        let t = self.cached_topology();
+        let (sa, sb) = (t.vertex_slot(a)?, t.vertex_slot(b)?);
+        t.edge_between(sa, sb)
+            .map(|e| t.is_boundary_edge(e as usize))
+    }
 }
 
 /// Every vertex of the removed and the added faces, once each, in
