@@ -205,9 +205,12 @@ impl crate::energy::builtin::BuiltinTerm for AdhesionParams {
         Ok(())
     }
 
+    /// The range ρ is written for h = 1 and scales with the mesh (× h), so
+    /// a refinement ladder also takes ρ → 0, the limit in which the contact
+    /// curvature is √(2W/κ); the substrate is a physical position and stays
+    /// where the scene puts it.
     fn at_resolution(&mut self, h: f64) {
         self.range *= h;
-        self.shape.scale(h);
     }
 }
 
