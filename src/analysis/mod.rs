@@ -1,6 +1,8 @@
 //! Measuring a run: shape classes and dimensions, tube radii at probe
-//! planes, and flicker spectra of fluctuating vesicles.
+//! planes, flicker spectra of fluctuating vesicles, and the contact
+//! curvature of an adhered vesicle.
 
+pub mod contact_curvature;
 pub mod shape;
 pub mod spectrum;
 pub mod tube_radius;

@@ -15,6 +15,8 @@
 //!   vertex) and `energy_change` of the FIRE minimiser.
 //! - [`ControlPointForce`]: `force_<name>` and `force_<name>_x`, `_y`, `_z`,
 //!   the force one named control point's springs exert on the membrane.
+//! - [`ContactCurvatureColumn`]: `<name>_contact_curvature` (1/l̄) of one
+//!   adhesive substrate ([`crate::analysis::contact_curvature`]).
 
 use crate::analysis::tube_radius::TubeProbe;
 use crate::engine::force::ForceBuffers;
@@ -320,6 +322,45 @@ impl Recorder for MinimiserColumns {
         let residual = buffers.evaluation.largest_force();
         frame.column("force_residual", residual);
         frame.column("energy_change", status.energy_change.unwrap_or(f64::NAN));
+        Ok(())
+    }
+}
+
+/// The contact curvature of the membrane on one adhesive substrate: the
+/// fit of [`crate::analysis::contact_curvature`] over the vertices above
+/// the substrate's range ρ with a tilt up to
+/// [`MAX_TILT`](crate::analysis::contact_curvature::MAX_TILT). NaN when
+/// there is no contact line to fit.
+pub struct ContactCurvatureColumn {
+    params: crate::energy::adhesion::AdhesionParams,
+    column: String,
+}
+
+impl ContactCurvatureColumn {
+    /// The column of the substrate `params` (at the scene's resolution).
+    pub fn new(params: crate::energy::adhesion::AdhesionParams) -> Self {
+        let column = format!("{}_contact_curvature", params.name);
+        Self { params, column }
+    }
+}
+
+impl Recorder for ContactCurvatureColumn {
+    type Data<'a> = (Res<'a, Membrane>, Res<'a, DensePositions>);
+
+    fn name(&self) -> &str {
+        &self.column
+    }
+
+    fn record(
+        &mut self,
+        (membrane, positions): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
+        use crate::analysis::contact_curvature::{MAX_TILT, contact_curvature};
+        let faces = &membrane.cached_topology().faces;
+        let p = &self.params;
+        let fit = contact_curvature(&positions.0, faces, &p.shape, p.range, MAX_TILT);
+        frame.column(self.column.clone(), fit.map_or(f64::NAN, |f| f.curvature));
         Ok(())
     }
 }

@@ -191,6 +191,13 @@ impl Scene {
                     .enumerate()
                     .filter_map(|(i, cp)| Some((cp.name.clone()?, i as u32)))
                     .collect(),
+                self.energy
+                    .iter()
+                    .filter_map(|t| match t {
+                        EnergyTerm::Adhesion(p) => Some(p.clone()),
+                        _ => None,
+                    })
+                    .collect(),
             ))
             .map_err(build_err)?;
         let spring_stiffness = self.add_energy_terms(&mut builder, scene_path)?;

@@ -226,10 +226,12 @@ pub fn edge_flips(params: crate::params::EdgeFlipParams, valence: ValenceRange) 
 /// The built-in recorders (state columns, force, mean curvature, lipid
 /// density; the constraints' multipliers and the minimiser's progress
 /// when the [`constraints`] plugin and the minimiser were added before),
-/// and one tube-radius recorder per probe.
+/// one tube-radius recorder per probe, and one contact-curvature column per
+/// adhesive substrate.
 pub fn recorders(
     probes: Vec<crate::analysis::tube_radius::TubeProbe>,
     named_points: Vec<(String, u32)>,
+    substrates: Vec<crate::energy::adhesion::AdhesionParams>,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {
         use crate::io::recorders::*;
@@ -248,6 +250,9 @@ pub fn recorders(
         }
         for (name, index) in named_points {
             b.add_recorder(ControlPointForce::new(name, index));
+        }
+        for params in substrates {
+            b.add_recorder(ContactCurvatureColumn::new(params));
         }
         Ok(())
     }

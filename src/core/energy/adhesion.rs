@@ -17,7 +17,10 @@
 //! same shape and a range below ρ (`scenes/open/adhesion.ron`).
 //!
 //! The term's recorder writes, per frame, `<name>_contact_area`
-//! (Σ_f A_f φ(d_f), l̄²) and the point data `<name>_distance`.
+//! (Σ_f A_f φ(d_f), l̄²) and the point data `<name>_distance`; a scene's
+//! recorders add `<name>_contact_curvature`, the free membrane's curvature
+//! where it leaves the substrate (the main crate's
+//! `analysis::contact_curvature`).
 //!
 //! Stage: Forces. Reads: positions, faces. Writes: force accumulator.
 //! Units: W in Ē/l̄², ρ in l̄.
@@ -205,9 +208,12 @@ impl crate::energy::builtin::BuiltinTerm for AdhesionParams {
         Ok(())
     }
 
+    /// The range ρ is written for h = 1 and scales with the mesh (× h), so
+    /// a refinement ladder also takes ρ → 0, the limit in which the contact
+    /// curvature is √(2W/κ); the substrate is a physical position and stays
+    /// where the scene puts it.
     fn at_resolution(&mut self, h: f64) {
         self.range *= h;
-        self.shape.scale(h);
     }
 }
 

@@ -108,23 +108,6 @@ impl WallShape {
             }
         }
     }
-
-    /// Scales every length by `h`.
-    pub(crate) fn scale(&mut self, h: f64) {
-        let s = |v: (f64, f64, f64)| (v.0 * h, v.1 * h, v.2 * h);
-        match self {
-            WallShape::Plane { point, .. } => *point = s(*point),
-            WallShape::SphereOutside { center, radius }
-            | WallShape::SphereInside { center, radius } => {
-                *center = s(*center);
-                *radius *= h;
-            }
-            WallShape::CylinderInside { point, radius, .. } => {
-                *point = s(*point);
-                *radius *= h;
-            }
-        }
-    }
 }
 
 impl crate::util::validate::Validate for WallShape {
@@ -350,9 +333,10 @@ impl crate::energy::builtin::BuiltinTerm for WallParams {
         Ok(())
     }
 
+    /// The range is a mesh-scale length (× h); the wall's surface is a
+    /// physical position and stays where the scene puts it.
     fn at_resolution(&mut self, h: f64) {
         self.range *= h;
-        self.shape.scale(h);
     }
 }
 
