@@ -1,10 +1,11 @@
-//! Pinned boundary loops (an open membrane's `Pinned` boundary condition):
-//! their vertices keep their initial positions. This system and
+//! Held boundary loops (an open membrane's `Pinned` and `Roller` boundary
+//! conditions): their vertices keep their initial positions, in every
+//! direction (pinned) or along one (roller). This system and
 //! `pin_positions` ([`crate::pin_positions`]) share the [`PinnedVertices`]
 //! resource.
 //!
-//! [`PinForces`] (Forces, after `force_total`) zeroes the total force on
-//! every pinned vertex, so the time step, the integrator's drift and the
+//! [`PinForces`] (Forces, after `force_total`) removes the held part of the
+//! total force on every held vertex (all of it when pinned), so the time step, the integrator's drift and the
 //! minimiser see a membrane whose rim does not move. Reads
 //! [`PinnedVertices`]. Writes the total force in [`ForceBuffers`] (the
 //! energies keep every term's whole value).
@@ -17,20 +18,24 @@ use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::SimError;
+use remembrane_core::params::HeldDirections;
 
-/// The pinned vertices (dense slots) and their fixed positions (l̄).
+/// The held vertices (dense slots), their initial positions (l̄) and the
+/// directions in which each is held.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PinnedVertices {
-    /// Dense slots of the pinned vertices.
+    /// Dense slots of the held vertices.
     pub vertices: Vec<u32>,
-    /// Their positions (l̄), in the same order.
+    /// Their initial positions (l̄), in the same order.
     pub positions: Vec<DVec3>,
+    /// The directions each is held in, in the same order.
+    pub held: Vec<HeldDirections>,
 }
 
 /// Name of [`PinForces`] in the schedule.
 pub const PIN_FORCES: &str = "pin_forces";
 
-/// Zeroes the total force on the pinned vertices.
+/// Removes the held part of the total force on the held vertices.
 pub struct PinForces;
 
 impl System for PinForces {
@@ -42,8 +47,9 @@ impl System for PinForces {
 
     fn run(&mut self, (pinned, mut buffers): Self::Data<'_>) -> Result<(), SimError> {
         let total = &mut buffers.evaluation.total;
-        for &v in &pinned.vertices {
-            total[v as usize] = DVec3::ZERO;
+        for (&v, &held) in pinned.vertices.iter().zip(&pinned.held) {
+            let f = &mut total[v as usize];
+            *f = held.release(*f);
         }
         Ok(())
     }

@@ -1,6 +1,7 @@
-//! [`PinPositions`] (Integrate, after the integrator) puts the pinned
-//! vertices of an open membrane's `Pinned` loops back where they were
-//! pinned, undoing the thermal noise's move. Reads
+//! [`PinPositions`] (Integrate, after the integrator) puts the held
+//! vertices of an open membrane's `Pinned` and `Roller` loops back where
+//! they were held (a roller's only along its direction), undoing the
+//! thermal noise's move. Reads
 //! [`PinnedVertices`] (see [`crate::pin_forces`]), the total force in
 //! [`ForceBuffers`] (written back with the positions). Writes
 //! [`DensePositions`] and the world's positions (in [`Membrane`]).
@@ -12,7 +13,7 @@ use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{DensePositions, SimError};
 use remembrane_core::mesh::membrane::Membrane;
 
-/// Puts the pinned vertices back at their positions.
+/// Puts the held vertices back at their positions, in the held directions.
 pub struct PinPositions;
 
 impl System for PinPositions {
@@ -32,10 +33,12 @@ impl System for PinPositions {
         (pinned, buffers, mut positions, mut membrane): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let mut moved = false;
-        for (&v, &x) in pinned.vertices.iter().zip(&pinned.positions) {
+        let held = pinned.positions.iter().zip(&pinned.held);
+        for (&v, (&x, &h)) in pinned.vertices.iter().zip(held) {
             let p = &mut positions.0[v as usize];
-            moved |= *p != x;
-            *p = x;
+            let back = h.restore(*p, x);
+            moved |= *p != back;
+            *p = back;
         }
         if moved {
             membrane.scatter_positions_and_forces(&positions.0, &buffers.evaluation.total);

@@ -208,3 +208,51 @@ fn wall_and_adhesion_on_open_patches() {
         );
     }
 }
+
+#[test]
+fn volume_above_a_closing_plane_on_open_patches() {
+    use remembrane::energy::penalty::volume_above_plane;
+    use remembrane::energy::volume::VolumeForces;
+    // A tilted plane below the patches, and one through them.
+    let planes = [
+        (
+            DVec3::new(0.3, -0.2, -1.5),
+            DVec3::new(0.1, -0.2, 1.0).normalize(),
+        ),
+        (DVec3::new(0.0, 0.0, 0.4), DVec3::Z),
+    ];
+    for (mesh, shape) in perturbed_patches(5).iter().zip(["cap", "disc"]) {
+        for (k, &(point, normal)) in planes.iter().enumerate() {
+            let v = volume_above_plane(&mesh.positions, &mesh.faces, point, normal);
+            let mut term = VolumeForces::closed_by_plane(4.0, 0.7 * v.abs() + 1.0, point, normal);
+            check(
+                &format!("volume {shape} plane {k}"),
+                mesh,
+                &mut term,
+                opts(1e-8),
+            );
+        }
+    }
+    // On a closed membrane it is the enclosed volume, whatever the plane.
+    let sphere = remembrane::fd::perturbed_icosphere(2, 9);
+    let enclosed =
+        remembrane::mesh::geometry::enclosed_volume(&sphere.positions, &sphere.faces, DVec3::ZERO);
+    for &(point, normal) in &planes {
+        let v = volume_above_plane(&sphere.positions, &sphere.faces, point, normal);
+        assert!((v - enclosed).abs() < 1e-12 * enclosed, "{v} vs {enclosed}");
+    }
+    // A flat disc h = 0.25 above the plane holds A h.
+    let disc = remembrane::mesh::disc(3.0, 0.5);
+    let area = total_area(&disc.positions, &disc.faces);
+    let v = volume_above_plane(
+        &disc.positions,
+        &disc.faces,
+        DVec3::new(0.0, 0.0, -0.25),
+        DVec3::Z,
+    );
+    assert!(
+        (v - 0.25 * area).abs() < 1e-12 * area,
+        "{v} vs {}",
+        0.25 * area
+    );
+}

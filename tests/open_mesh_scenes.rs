@@ -305,3 +305,173 @@ fn a_free_loop_with_line_tension_adds_its_energy() {
         "{msg}"
     );
 }
+
+#[test]
+fn a_roller_rim_keeps_its_height_and_slides_in_its_plane() {
+    // Under tension the disc shrinks: a rim held only along z slides
+    // inward in its plane, while the tip lifts the interior out of it.
+    for dynamics in [
+        "dynamics: (iterations: 300, frames: 2, temperature: 0.05)",
+        "dynamics: (method: Minimise(force_tolerance: 1e-4), iterations: 300, frames: 2)",
+    ] {
+        let text = DISC
+            .replace("dynamics: (iterations: 20, frames: 2)", dynamics)
+            .replace("Area(k: 8.0, target: OfInitial(1.0)),", "")
+            .replace(
+                "    dynamics:",
+                "    boundary: [Roller(loop: 0, direction: (0.0, 0.0, 2.0))],\n    dynamics:",
+            );
+        let mut sim = build(&text).unwrap_or_else(|e| panic!("{dynamics}: {e}"));
+        let mut before = Vec::new();
+        sim.membrane().gather_positions(&mut before);
+        let (rim, inner) = rim_and_interior(&sim);
+        for _ in 0..300 {
+            sim.tick().unwrap();
+        }
+        let mut after = Vec::new();
+        sim.membrane().gather_positions(&mut after);
+        let mut slid = 0.0f64;
+        for &v in &rim {
+            let (a, b) = (after[v as usize], before[v as usize]);
+            assert_eq!(a.z, b.z, "{dynamics}: rim vertex {v} left its plane");
+            slid = slid.max(a.truncate().distance(b.truncate()));
+        }
+        assert!(slid > 1e-3, "{dynamics}: the rim did not slide ({slid})");
+        let lifted = inner
+            .iter()
+            .map(|&v| after[v as usize].z)
+            .fold(0.0, f64::max);
+        assert!(
+            lifted > 1e-2,
+            "{dynamics}: the interior did not lift ({lifted})"
+        );
+    }
+    // A roller needs a direction.
+    let bad = DISC.replace(
+        "    dynamics:",
+        "    boundary: [Roller(loop: 0, direction: (0.0, 0.0, 0.0))],\n    dynamics:",
+    );
+    let msg = build(&bad).err().unwrap().to_string();
+    assert!(
+        msg.contains("boundary") && msg.contains("direction") && msg.contains("non-zero"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn an_open_membrane_reports_no_enclosed_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.ron", DISC);
+    let out_dir = dir.path().join("out");
+    let out = Command::new(env!("CARGO_BIN_EXE_remembrane"))
+        .args(["run", scene.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    assert!(summary["area"].as_f64().unwrap() > 40.0, "{summary}");
+    assert!(
+        summary["volume"].is_null() && summary["reduced_volume"].is_null(),
+        "{summary}"
+    );
+    let series = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();
+    let header = series.lines().next().unwrap();
+    assert!(
+        header.contains(",area,") && !header.contains("volume"),
+        "{header}"
+    );
+}
+
+#[test]
+fn an_inflated_patch_closed_by_its_base_plane_obeys_laplace() {
+    use remembrane::energy::penalty::volume_above_plane;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/inflated_patch.ron");
+    let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
+    for _ in 0..20000 {
+        if sim
+            .resource::<remembrane::engine::simulation::StopRequest>()
+            .0
+            .is_some()
+        {
+            break;
+        }
+        sim.tick().unwrap();
+    }
+    let mut p = Vec::new();
+    sim.membrane().gather_positions(&mut p);
+    let t = sim.membrane().cached_topology().clone();
+    let (k, target, sigma) = (20.0, 938.29, 0.5);
+    let v = volume_above_plane(&p, &t.faces, glam::DVec3::ZERO, glam::DVec3::Z);
+    let pressure = 2.0 * k * (target - v) / target;
+    // The cap's radius: a least-squares sphere |x − c|² = R² through the
+    // vertices more than 3 l̄ from the rim, |x|² = 2c·x + d.
+    let inner: Vec<glam::DVec3> = p
+        .iter()
+        .copied()
+        .filter(|x| x.truncate().length() < 9.0)
+        .collect();
+    let (mut m, mut rhs) = (glam::DMat4::ZERO, glam::DVec4::ZERO);
+    for x in &inner {
+        let row = glam::DVec4::new(2.0 * x.x, 2.0 * x.y, 2.0 * x.z, 1.0);
+        m += glam::DMat4::from_cols(row * row.x, row * row.y, row * row.z, row * row.w);
+        rhs += row * x.length_squared();
+    }
+    let s = m.inverse() * rhs;
+    let c = s.truncate();
+    let r = (s.w + c.length_squared()).sqrt();
+    let off = inner
+        .iter()
+        .map(|x| (x.distance(c) - r).abs())
+        .fold(0.0, f64::max);
+    let laplace = 2.0 * sigma / r;
+    println!("R = {r:.3} l̄ (sphere fit within {off:.1e}), p = {pressure:.5}, 2σ/R = {laplace:.5}");
+    assert!(off < 0.02 * r, "not a spherical cap: {off}");
+    assert!((4.0..4.5).contains(&p.iter().map(|x| x.z).fold(0.0, f64::max)));
+    assert!(
+        (pressure / laplace - 1.0).abs() < 0.02,
+        "p = {pressure} vs 2σ/R = {laplace}"
+    );
+}
+
+#[test]
+fn a_closing_plane_needs_a_positive_target_and_a_normal() {
+    let with = |volume: &str| DISC.replace("Springs(),", &format!("Springs(),\n        {volume},"));
+    let plane = "closing: Plane(point: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 1.0))";
+    // The flat disc lies in its closing plane: no volume to hold a fraction of.
+    for (text, field, reason) in [
+        (
+            with(&format!("Volume(k: 1.0, target: OfInitial(0.9), {plane})")),
+            "target",
+            "must be positive",
+        ),
+        (
+            with(
+                "Volume(k: 1.0, target: Absolute(10.0), closing: Plane(point: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 0.0)))",
+            ),
+            "closing",
+            "non-zero normal",
+        ),
+        (
+            with("Volume(k: 1.0, target: Absolute(10.0))"),
+            "energy",
+            "declare a closing plane",
+        ),
+    ] {
+        let msg = match build(&text) {
+            Ok(_) => panic!("accepted:\n{text}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(msg.contains(field) && msg.contains(reason), "{msg}");
+    }
+    build(&with(&format!(
+        "Volume(k: 1.0, target: Absolute(10.0), {plane})"
+    )))
+    .unwrap();
+}

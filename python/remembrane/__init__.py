@@ -58,14 +58,17 @@ __all__ = [
     "SweepResult",
     "check_force",
     "collect",
+    "disc",
     "from_meshio",
     "icosphere",
     "load_run",
     "perturbed_icosphere",
     "read_frame",
     "read_mesh",
+    "spherical_cap",
     "sweep",
     "to_meshio",
+    "write_mesh",
     "__version__",
 ]
 
@@ -88,6 +91,15 @@ class Mesh:
             raise ValueError(f"points must be N×3, got shape {self.points.shape}")
         if self.faces.ndim != 2 or self.faces.shape[1] != 3:
             raise ValueError(f"faces must be F×3 triangles, got shape {self.faces.shape}")
+
+    @property
+    def boundary_edges(self) -> np.ndarray:
+        """The edges (E×2, as the faces traverse them) that lie in one face
+        only: empty for a closed mesh."""
+        e = np.concatenate([self.faces[:, [0, 1]], self.faces[:, [1, 2]], self.faces[:, [2, 0]]])
+        key = np.sort(e, axis=1)
+        _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        return e[counts[inverse.ravel()] == 1]
 
     def to_meshio(self):
         """This mesh as a `meshio.Mesh` (needs meshio)."""
@@ -128,9 +140,33 @@ def perturbed_icosphere(level: int = 2, seed: int = 1) -> Mesh:
     return Mesh(*_core.perturbed_icosphere(level, seed))
 
 
+def disc(radius: float, edge_length: float = 1.0) -> Mesh:
+    """A flat open disc in z = 0 of `radius` (l̄) with mean edge near
+    `edge_length` (l̄), normal +z, one boundary loop (the scene's `Disc`)."""
+    return Mesh(*_core.disc(radius, edge_length))
+
+
+def spherical_cap(sphere_radius: float, opening_angle: float, edge_length: float = 1.0) -> Mesh:
+    """The open cap of a sphere of `sphere_radius` (l̄) within `opening_angle`
+    degrees (0, 90] of its +z pole, one boundary loop (the scene's
+    `SphericalCap`)."""
+    return Mesh(*_core.spherical_cap(sphere_radius, opening_angle, edge_length))
+
+
 def read_mesh(path: Union[str, os.PathLike]) -> Mesh:
-    """Reads a `.ply` or `.obj` mesh (e.g. a run's `final.ply`)."""
+    """Reads a `.ply` or `.obj` mesh, closed or open (e.g. a run's
+    `final.ply`)."""
     return Mesh(*_core.read_mesh(os.fspath(path)))
+
+
+def write_mesh(path: Union[str, os.PathLike], mesh: Any) -> None:
+    """Writes a mesh (a Mesh, a (points, faces) pair, a Simulation or a
+    meshio.Mesh), closed or open, to a `.ply` or `.obj` file. It must pass
+    the engine's invariant check (manifold, consistently oriented; a
+    closed one outward), or `ValueError` says why and nothing is
+    written."""
+    m = _as_mesh(mesh)
+    _core.write_mesh(os.fspath(path), m.points, m.faces)
 
 
 def read_frame(path: Union[str, os.PathLike]) -> Mesh:

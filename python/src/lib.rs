@@ -30,6 +30,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tools::perturbed_icosphere, m)?)?;
     m.add_function(wrap_pyfunction!(tools::read_vtp, m)?)?;
     m.add_function(wrap_pyfunction!(tools::read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::write_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::disc, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::spherical_cap, m)?)?;
     m.add_function(wrap_pyfunction!(tools::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(tools::collect, m)?)?;
     m.add_function(wrap_pyfunction!(tools::check_run_dir, m)?)?;

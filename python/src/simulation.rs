@@ -7,7 +7,7 @@ use crate::force_term::{PyForceTerm, TermErrors};
 use crate::interrupt::run_detached;
 use crate::scene::PyScene;
 use glam::DVec3;
-use numpy::PyArray2;
+use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyFileExistsError, PyKeyError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -527,6 +527,18 @@ impl PySimulation {
     fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
         let mut inner = self.lock()?;
         index_array(py, &inner.topology()?.faces)
+    }
+
+    /// The boundary loops of an open membrane, each an int64 array of
+    /// vertex indices in the direction of its edges (empty when closed).
+    #[getter]
+    fn boundary_loops<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyArray1<i64>>>> {
+        let mut inner = self.lock()?;
+        let loops = inner.topology()?.boundary_loops();
+        Ok(loops
+            .iter()
+            .map(|l| PyArray1::from_iter(py, l.iter().map(|&v| i64::from(v))))
+            .collect())
     }
 
     /// Edges, E×2 int64 vertex indices.

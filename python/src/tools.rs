@@ -141,12 +141,86 @@ fn check_level(level: u32) -> PyResult<()> {
     Ok(())
 }
 
-/// Reads a `.ply` or `.obj` mesh: `(points, faces)`.
+/// Reads a `.ply` or `.obj` mesh, closed or open: `(points, faces)`.
 #[pyfunction]
 pub fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<MeshArrays<'_>> {
     let mesh =
         remembrane::mesh::io::read_mesh(&path).map_err(|e| PyOSError::new_err(e.to_string()))?;
     mesh_arrays(py, &mesh)
+}
+
+/// Writes a mesh (`points` N×3, `faces` F×3) to a `.ply` or `.obj` file,
+/// after the engine's invariant check: closed or open (boundary loops),
+/// consistently oriented, manifold. A mesh that fails it raises
+/// `ValueError` with the reason, and nothing is written.
+#[pyfunction]
+pub fn write_mesh(
+    path: PathBuf,
+    points: PyReadonlyArray2<'_, f64>,
+    faces: PyReadonlyArray2<'_, i64>,
+) -> PyResult<()> {
+    let positions = points_from(&points, "points")?;
+    let faces = faces_from(&faces, positions.len(), "faces")?;
+    remembrane::mesh::check_mesh(&positions, &faces, None)
+        .map_err(|e| PyValueError::new_err(format!("{}: invalid mesh: {e}", path.display())))?;
+    let mesh = SurfaceMesh { positions, faces };
+    remembrane::mesh::io::write_mesh(&path, &mesh).map_err(|e| PyOSError::new_err(e.to_string()))
+}
+
+/// A flat open disc in the plane z = 0 of `radius` (l̄), rings of a
+/// hexagonal lattice with mean edge near `edge_length` (l̄), normal +z, one
+/// boundary loop: `(points, faces)` (the scene's `Disc`).
+#[pyfunction]
+#[pyo3(signature = (radius, edge_length=1.0))]
+pub fn disc(py: Python<'_>, radius: f64, edge_length: f64) -> PyResult<MeshArrays<'_>> {
+    check_patch("radius", radius, edge_length)?;
+    mesh_arrays(py, &remembrane::mesh::disc(radius, edge_length))
+}
+
+/// The open cap of a sphere of `sphere_radius` (l̄) centred at the origin
+/// within `opening_angle` degrees (0, 90] of its +z pole, normal outward,
+/// one boundary loop: `(points, faces)` (the scene's `SphericalCap`).
+#[pyfunction]
+#[pyo3(signature = (sphere_radius, opening_angle, edge_length=1.0))]
+pub fn spherical_cap(
+    py: Python<'_>,
+    sphere_radius: f64,
+    opening_angle: f64,
+    edge_length: f64,
+) -> PyResult<MeshArrays<'_>> {
+    if !remembrane::mesh::patch::valid_cap_angle(opening_angle) {
+        return Err(PyValueError::new_err(format!(
+            "opening_angle must be in (0, 90] degrees (got {opening_angle})"
+        )));
+    }
+    check_patch(
+        "sphere_radius",
+        sphere_radius * opening_angle.to_radians(),
+        edge_length,
+    )?;
+    mesh_arrays(
+        py,
+        &remembrane::mesh::spherical_cap(sphere_radius, opening_angle, edge_length),
+    )
+}
+
+/// A generated patch's size `length` (l̄, along its surface) and edge:
+/// positive, finite, and at most a million vertices.
+fn check_patch(name: &str, length: f64, edge_length: f64) -> PyResult<()> {
+    for (what, x) in [(name, length), ("edge_length", edge_length)] {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "{what} must be positive and finite (got {x})"
+            )));
+        }
+    }
+    let n = remembrane::mesh::patch::patch_vertex_count_for(length, edge_length);
+    if n > 1_000_000 {
+        return Err(PyValueError::new_err(format!(
+            "the patch would have {n} vertices (at most 1000000)"
+        )));
+    }
+    Ok(())
 }
 
 /// Reads a frame (`frames/frame_NNNNNN.vtp`): `(points, faces,

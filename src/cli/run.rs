@@ -195,16 +195,18 @@ pub(super) fn report_run(
                 eprintln!("warning: {}: {caution}", path.display());
             }
             if !quiet {
+                let volume = match (summary.last.volume, summary.last.reduced_volume) {
+                    (Some(v), Some(rv)) => format!(", V = {v:.3}, v = {rv:.4}"),
+                    _ => String::new(),
+                };
                 eprintln!(
-                    "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}, V = {:.3}, v = {:.4}",
+                    "{}: {} iterations, t = {:.4} s, {:.1} s wall; E = {:.6} Ē, A = {:.3}{volume}",
                     summary.last.scene,
                     summary.iterations,
                     summary.simulated_time,
                     summary.wall_time_s,
                     summary.last.total_energy,
                     summary.last.area,
-                    summary.last.volume,
-                    summary.last.reduced_volume
                 );
                 if let Some(m) = &summary.minimiser {
                     eprintln!(

@@ -52,7 +52,6 @@ impl Recorder for StateColumns {
         let t = membrane.cached_topology();
         let p = &positions.0;
         let area = crate::mesh::geometry::total_area(p, &t.faces);
-        let volume = crate::mesh::geometry::enclosed_volume(p, &t.faces, p[0]);
         let (mut lmin, mut lmax) = (f64::INFINITY, 0.0f64);
         for &[a, b] in &t.edges {
             let l = p[a as usize].distance(p[b as usize]);
@@ -68,11 +67,15 @@ impl Recorder for StateColumns {
         }
         frame.column("energy_total", buffers.evaluation.total_energy());
         frame.column("area", area);
-        frame.column("volume", volume);
-        frame.column(
-            "reduced_volume",
-            crate::mesh::geometry::reduced_volume(volume, area),
-        );
+        // An open membrane encloses no volume: its rows have no such columns.
+        if !t.is_open() {
+            let volume = crate::mesh::geometry::enclosed_volume(p, &t.faces, p[0]);
+            frame.column("volume", volume);
+            frame.column(
+                "reduced_volume",
+                crate::mesh::geometry::reduced_volume(volume, area),
+            );
+        }
         frame.column("edge_min", lmin);
         frame.column("edge_max", lmax);
         frame.count("abnormal_edges", abnormal.0.len() as u64);

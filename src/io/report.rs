@@ -44,10 +44,11 @@ pub struct EnergyReport {
     pub total_energy: f64,
     /// Total area (l̄²).
     pub area: f64,
-    /// Enclosed volume (l̄³).
-    pub volume: f64,
-    /// Reduced volume 6√π V / A^{3/2}.
-    pub reduced_volume: f64,
+    /// Enclosed volume (l̄³); `None` (null in JSON) for an open membrane,
+    /// which encloses none.
+    pub volume: Option<f64>,
+    /// Reduced volume 6√π V / A^{3/2}; `None` for an open membrane.
+    pub reduced_volume: Option<f64>,
     /// Mesh quality.
     pub quality: MeshQuality,
 }
@@ -61,7 +62,7 @@ impl EnergyReport {
         let positions = sim.resource::<DensePositions>();
         let p = &positions.0;
         let area = total_area(p, &t.faces);
-        let volume = enclosed_volume(p, &t.faces, p[0]);
+        let volume = (!t.is_open()).then(|| enclosed_volume(p, &t.faces, p[0]));
         let energies = term_energies(&sim.resource::<ForceBuffers>());
         Self {
             scene: scene.to_string(),
@@ -72,7 +73,7 @@ impl EnergyReport {
             energies,
             area,
             volume,
-            reduced_volume: reduced_volume(volume, area),
+            reduced_volume: volume.map(|v| reduced_volume(v, area)),
             quality: MeshQuality::measure(t, p),
         }
     }
@@ -91,11 +92,15 @@ impl EnergyReport {
             let _ = writeln!(s, "  {:<16} {:>16.9}", e.term, e.energy);
         }
         let _ = writeln!(s, "  {:<16} {:>16.9}", "total", self.total_energy);
-        let _ = writeln!(
-            s,
-            "area {:.6} l̄²   volume {:.6} l̄³   reduced volume {:.6}",
-            self.area, self.volume, self.reduced_volume
-        );
+        match (self.volume, self.reduced_volume) {
+            (Some(v), Some(rv)) => writeln!(
+                s,
+                "area {:.6} l̄²   volume {v:.6} l̄³   reduced volume {rv:.6}",
+                self.area
+            ),
+            _ => writeln!(s, "area {:.6} l̄²   (open: no enclosed volume)", self.area),
+        }
+        .ok();
         let _ = writeln!(
             s,
             "edges min/mean/max/std {:.4} / {:.4} / {:.4} / {:.4} l̄   min angle {:.2}°",

@@ -266,9 +266,10 @@ pub fn diffusion(params: DiffusionParams) -> impl Plugin {
 
 /// An open membrane's boundary conditions, one per boundary loop (loops
 /// numbered as [`crate::mesh::topology::Topology::boundary_loops`] lists
-/// them): a `Pinned` loop's vertices keep their initial positions; a `Free`
+/// them): a `Pinned` loop's vertices keep their initial positions, a
+/// `Roller` loop's their initial coordinate along its direction; a `Free`
 /// loop with a line tension adds the `line_tension` force term. With a
-/// pinned loop, inserts `PinnedVertices` and adds `pin_forces` (Forces,
+/// pinned or roller loop, inserts `PinnedVertices` and adds `pin_forces` (Forces,
 /// after `force_total`) and `pin_positions` (Integrate, after the
 /// integrator or minimiser). Errors name the condition (`[i].loop`).
 pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) -> impl Plugin {
@@ -306,18 +307,20 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
                     format!("loop {l} already has a condition"),
                 ));
             }
-            match *c {
-                crate::params::BoundaryCondition::Pinned { .. } => {
-                    pinned.vertices.extend_from_slice(vertices);
-                    pinned
-                        .positions
-                        .extend(vertices.iter().map(|&v| positions[v as usize]));
-                }
-                crate::params::BoundaryCondition::Free { line_tension, .. } => {
-                    if line_tension > 0.0 {
-                        line.push((l, line_tension));
-                    }
-                }
+            let held = c
+                .held()
+                .map_err(|r| invalid(format!("[{i}].direction"), r))?;
+            if let Some(held) = held {
+                pinned.vertices.extend_from_slice(vertices);
+                pinned
+                    .positions
+                    .extend(vertices.iter().map(|&v| positions[v as usize]));
+                pinned.held.extend(vertices.iter().map(|_| held));
+            }
+            if let crate::params::BoundaryCondition::Free { line_tension, .. } = *c
+                && line_tension > 0.0
+            {
+                line.push((l, line_tension));
             }
         }
         if !line.is_empty() {

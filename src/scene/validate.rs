@@ -42,6 +42,10 @@ impl Scene {
         self.validate_method(path)?;
         self.validate_constraints(path)?;
         self.validate_model(path)?;
+        for (i, c) in self.boundary.iter().enumerate() {
+            c.held()
+                .map_err(|reason| invalid(&format!("boundary[{i}].direction"), reason))?;
+        }
         if self.penalty_smoothing > 64 {
             return Err(invalid(
                 "penalty_smoothing",

@@ -47,6 +47,60 @@ pub fn volume_penalty(
     k * (volume - target).powi(2) / target
 }
 
+/// The volume between the membrane and the plane through `point` with unit
+/// `normal`: Σ_f h̄_f (A_f n̂_f · n), h̄_f the mean height of the face's
+/// corners above the plane (see [`crate::energy::volume`]).
+pub fn volume_above_plane(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    point: DVec3,
+    normal: DVec3,
+) -> f64 {
+    let mut six = 0.0;
+    for f in faces {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        let h = (a + b + c - 3.0 * point).dot(normal);
+        six += h * (b - a).cross(c - a).dot(normal);
+    }
+    six / 6.0
+}
+
+/// The volume penalty on [`volume_above_plane`]; with `force`, adds −∇E_V.
+/// `gradient` is scratch.
+pub fn volume_above_plane_penalty(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    (point, normal): (DVec3, DVec3),
+    (k, target): (f64, f64),
+    gradient: &mut Vec<DVec3>,
+    force: Option<&mut [DVec3]>,
+) -> f64 {
+    let Some(force) = force else {
+        let volume = volume_above_plane(positions, faces, point, normal);
+        return k * (volume - target).powi(2) / target;
+    };
+    // 6 V_f = H S2 with H = Σ corner heights and S2 = n·((b − a) × (c − a)):
+    // ∂H/∂a = n, ∂S2/∂a = (b − c) × n, cyclically.
+    gradient.clear();
+    gradient.resize(positions.len(), DVec3::ZERO);
+    let mut six_volume = 0.0;
+    for f in faces {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        let h = (a + b + c - 3.0 * point).dot(normal);
+        let s2 = (b - a).cross(c - a).dot(normal);
+        six_volume += h * s2;
+        gradient[f[0] as usize] += s2 * normal + h * (b - c).cross(normal);
+        gradient[f[1] as usize] += s2 * normal + h * (c - a).cross(normal);
+        gradient[f[2] as usize] += s2 * normal + h * (a - b).cross(normal);
+    }
+    let volume = six_volume / 6.0;
+    let g = 2.0 * k * (volume - target) / target / 6.0;
+    for (f, grad) in force.iter_mut().zip(gradient.iter()) {
+        *f -= g * *grad;
+    }
+    k * (volume - target).powi(2) / target
+}
+
 /// Area penalty energy from the faces' precomputed geometry; with `force`,
 /// adds −∇E_A. `gradient` is scratch.
 pub fn area_penalty(

@@ -53,8 +53,10 @@ pub enum MeshIoError {
     },
 }
 
-/// Reads a `.ply` (ASCII or binary) or `.obj` triangle mesh and checks it is
-/// a closed, manifold, outward-oriented surface.
+/// Reads a `.ply` (ASCII or binary) or `.obj` triangle mesh and checks it
+/// with [`check_mesh`]: manifold and consistently oriented, closed
+/// (outward) or open. An OBJ's vertices come numbered in the order its
+/// faces first use them (the OBJ reader's indexing); a PLY keeps its order.
 pub fn read_mesh(path: &Path) -> Result<SurfaceMesh, MeshIoError> {
     // Report a missing or unreadable file as such, not as a parse error.
     std::fs::File::open(path).map_err(|source| MeshIoError::Read {

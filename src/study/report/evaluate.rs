@@ -181,7 +181,7 @@ fn case_measurements(
                 &dir.join("final.ply"),
                 final_bending(&d.summary),
                 d.summary.last.area,
-                d.summary.last.reduced_volume,
+                d.summary.last.reduced_volume.unwrap_or(f64::NAN),
                 kappa,
             )?;
             (measurements, note) = (m, format!("{n}; {}", equilibration(&d.rows)));

@@ -51,11 +51,11 @@ pub(super) fn final_bending(summary: &crate::workflow::run::RunSummary) -> f64 {
 
 pub(super) fn quantity(summary: &crate::workflow::run::RunSummary, q: Quantity) -> f64 {
     match q {
-        Quantity::ReducedVolume => summary.last.reduced_volume,
+        Quantity::ReducedVolume => summary.last.reduced_volume.unwrap_or(f64::NAN),
         Quantity::BendingEnergy => final_bending(summary),
         Quantity::TotalEnergy => summary.last.total_energy,
         Quantity::Area => summary.last.area,
-        Quantity::Volume => summary.last.volume,
+        Quantity::Volume => summary.last.volume.unwrap_or(f64::NAN),
     }
 }
 

@@ -372,7 +372,7 @@ pub(super) fn fill_point(point: &mut DiagramPoint, s: &RunSummary, scene: &Scene
     let r0 = (s.last.area / (4.0 * std::f64::consts::PI)).sqrt();
     point.status = "completed".into();
     point.vertices = s.last.vertices;
-    point.reduced_volume = s.last.reduced_volume;
+    point.reduced_volume = s.last.reduced_volume.unwrap_or(f64::NAN);
     point.energy = bending / (8.0 * std::f64::consts::PI * kappa);
     if let Some(c) = &s.constraints {
         point.pressure = c.reactions.pressure * r0.powi(3) / kappa;
