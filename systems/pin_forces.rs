@@ -10,8 +10,11 @@
 //! [`PinnedVertices`]. Writes the total force in [`ForceBuffers`] (the
 //! energies keep every term's whole value).
 //!
-//! Vertices are named by dense slot: the topology of an open membrane does
-//! not change (remeshing and flips are refused on it).
+//! Vertices are named by entity, the source of truth kept through remesh
+//! edits, and by dense slot, a cache of it: the remesh system
+//! ([`crate::remesh`]) re-slots the cache after its edits, adds the new
+//! vertex of a split held boundary edge and never merges a held vertex
+//! away (flips are refused on open membranes).
 
 use glam::DVec3;
 use remembrane_core::engine::force::ForceBuffers;
@@ -20,11 +23,13 @@ use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::SimError;
 use remembrane_core::params::HeldDirections;
 
-/// The held vertices (dense slots), their initial positions (l̄) and the
+/// The held vertices (entities and dense slots), their initial positions (l̄) and the
 /// directions in which each is held.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PinnedVertices {
-    /// Dense slots of the held vertices.
+    /// The held vertices' entities (kept through edits).
+    pub entities: Vec<hecs::Entity>,
+    /// Their dense slots, in the same order (a cache of `entities`).
     pub vertices: Vec<u32>,
     /// Their initial positions (l̄), in the same order.
     pub positions: Vec<DVec3>,

@@ -18,8 +18,17 @@
 //! of the tick is counted as unresolved (never dropped silently). In the
 //! fluid model every move is tangential, and with direct edits
 //! ([`remembrane_core::params::FluidEdits::Direct`]) the pre-relaxation is skipped.
+//!
+//! On an open membrane with `Pinned` or `Roller` loops it also reads and
+//! writes [`PinnedVertices`] (the held vertices, by entity): held vertices
+//! are never moveable in a relaxation or push-back, a merge with both ends
+//! held (or one held and the other on a boundary) is refused as impossible,
+//! one with a held end keeps that end where it is, a split of a boundary
+//! edge between two held vertices holds the new vertex at the split point,
+//! and the dense slots of the held vertices are re-read after the edits.
 
 use crate::barrier_check::AbnormalEdges;
+use crate::pin_forces::PinnedVertices;
 use glam::DVec3;
 use hecs::Entity;
 use rand::{RngExt, SeedableRng};
@@ -32,7 +41,7 @@ use remembrane_core::engine::simulation::{
 use remembrane_core::mesh::ValenceRange;
 use remembrane_core::mesh::components::Position;
 use remembrane_core::mesh::membrane::Membrane;
-use remembrane_core::params::{DynamicsParams, RemeshParams};
+use remembrane_core::params::{DynamicsParams, HeldDirections, RemeshParams};
 use remembrane_core::remesh::relax::{
     Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, relax, rings,
 };
@@ -72,6 +81,8 @@ struct State<'a> {
     tangential: bool,
     /// The fluid model's direct edits: no pre-relaxation.
     direct: bool,
+    /// The held vertices of an open membrane's pinned and roller loops.
+    pinned: Option<&'a mut PinnedVertices>,
 }
 
 impl System for Remesh {
@@ -93,6 +104,7 @@ impl System for Remesh {
             ResMut<'a, AbnormalEdges>,
             ResMut<'a, RemeshStats>,
             ResMut<'a, RemeshTriggered>,
+            Option<ResMut<'a, PinnedVertices>>,
         ),
     );
 
@@ -104,7 +116,15 @@ impl System for Remesh {
         &mut self,
         (
             (seg, params, valence, dynamics, seed, clock, check, model),
-            (mut membrane, mut positions, mut lipid, mut abnormal, mut stats, mut triggered),
+            (
+                mut membrane,
+                mut positions,
+                mut lipid,
+                mut abnormal,
+                mut stats,
+                mut triggered,
+                mut pinned,
+            ),
         ): Self::Data<'_>,
     ) -> Result<(), SimError> {
         triggered.0 = !abnormal.0.is_empty();
@@ -141,6 +161,7 @@ impl System for Remesh {
             check_invariants: check.0,
             tangential: model.as_ref().is_some_and(|m| m.is_fluid()),
             direct: model.is_some_and(|m| m.direct_edits()),
+            pinned: pinned.as_deref_mut(),
         };
         let mut attempted: HashSet<(Entity, Entity)> = HashSet::new();
         let mut events = 0;
@@ -172,8 +193,73 @@ impl System for Remesh {
             state.remesh_stats.unresolved_edges += left.len() as u64;
         }
         abnormal.0 = left;
+        reslot_held(state);
         Ok(())
     }
+}
+
+/// Re-reads the dense slots of the held vertices after the edits.
+fn reslot_held(state: &mut State<'_>) {
+    let t = state.membrane.cached_topology();
+    if let Some(pinned) = state.pinned.as_deref_mut() {
+        pinned.vertices = pinned
+            .entities
+            .iter()
+            .map(|&e| {
+                t.vertex_slot(e)
+                    .expect("a held vertex is never merged away")
+            })
+            .collect();
+    }
+}
+
+/// The index in [`PinnedVertices`] of the vertex at `slot`, if it is held.
+fn held_index(state: &State<'_>, slot: u32) -> Option<usize> {
+    let pinned = state.pinned.as_deref()?;
+    let e = state.membrane.cached_topology().vertex_entities[slot as usize];
+    pinned.entities.iter().position(|&x| x == e)
+}
+
+/// `slots` without the held vertices (a relaxation never moves them).
+fn unheld(state: &State<'_>, mut slots: Vec<u32>) -> Vec<u32> {
+    if state.pinned.is_some() {
+        slots.retain(|&s| held_index(state, s).is_none());
+    }
+    slots
+}
+
+/// Whether a merge of edge slot `edge` (ends at slots a, b) keeps every
+/// held vertex where it is: not both ends held, and a held end survives in
+/// place, which the mesh layer does on an edge from the boundary inward.
+fn merge_keeps_held(state: &State<'_>, edge: u32, [a, b]: [u32; 2]) -> bool {
+    let t = state.membrane.cached_topology();
+    let (survivor, other) = match (held_index(state, a), held_index(state, b)) {
+        (None, None) => return true,
+        (Some(_), Some(_)) => return false,
+        (Some(_), None) => (a, b),
+        (None, Some(_)) => (b, a),
+    };
+    let survivor = t.vertex_entities[survivor as usize];
+    !t.is_boundary_vertex(other as usize)
+        && remembrane_core::remesh::merge_region(state.membrane, edge)
+            .is_ok_and(|(r, _)| r.i[0] == survivor)
+}
+
+/// The condition a split of edge slot `edge` (ends a, b) passes to its new
+/// vertex: a boundary edge between two held vertices (one loop).
+fn split_inherits(
+    state: &State<'_>,
+    edge: u32,
+    op: EdgeOp,
+    [a, b]: [u32; 2],
+) -> Option<HeldDirections> {
+    let pinned = state.pinned.as_deref()?;
+    let t = state.membrane.cached_topology();
+    if op != EdgeOp::Split || !t.is_boundary_edge(edge as usize) {
+        return None;
+    }
+    held_index(state, b)?;
+    Some(pinned.held[held_index(state, a)?])
 }
 
 fn ordered(a: Entity, b: Entity) -> (Entity, Entity) {
@@ -265,13 +351,16 @@ fn process(
     let t = state.membrane.cached_topology();
     let [a, b] = t.edges[edge as usize];
     let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
-    if op.check_feasible(state.membrane, edge, valence).is_err() {
+    let feasible = op.check_feasible(state.membrane, edge, valence).is_ok()
+        && (op != EdgeOp::Merge || merge_keeps_held(state, edge, [a, b]));
+    if !feasible {
         state.remesh_stats.counts_mut(op).impossible += 1;
         push_back(state, a, b, seg, settings, kicks, rng);
         return Ok(());
     }
+    let inherit = split_inherits(state, edge, op, [a, b]);
     if state.direct {
-        return direct_edit(state, edge, op, seg, settings, kicks, rng);
+        return direct_edit(state, edge, op, inherit, seg, settings, kicks, rng);
     }
     // Pre-relaxation with the 1-ring moveable; under tension the fixed 2-ring
     // may leave no room, so a failure is retried with the 2-ring moveable
@@ -323,7 +412,7 @@ fn process(
     // The edge's slot is unchanged until the topology changes.
     let result = op.apply(state.membrane, edge, valence);
     match result {
-        Ok(out) => finish_edit(state, op, &out, seg, settings, kicks, rng)?,
+        Ok(out) => finish_edit(state, op, &out, inherit, seg, settings, kicks, rng)?,
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
             // Restore the pre-relaxation positions, then push the edge back.
@@ -345,12 +434,15 @@ fn process(
 }
 
 /// After a successful edit: counts and records the event, re-gathers the
-/// dense mirror, checks the invariants (when asked) and post-relaxes the
-/// new vertex's 1-ring.
+/// dense mirror, holds the new vertex of a split held boundary edge
+/// (`inherit`) at the split point, checks the invariants (when asked) and
+/// post-relaxes the new vertex's 1-ring.
+#[allow(clippy::too_many_arguments)]
 fn finish_edit(
     state: &mut State<'_>,
     op: EdgeOp,
     out: &remembrane_core::remesh::RemeshOutcome,
+    inherit: Option<HeldDirections>,
     seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
@@ -366,6 +458,11 @@ fn finish_edit(
             position: out.position.to_array(),
         });
     refresh(state)?;
+    if let (Some(held), Some(pinned)) = (inherit, state.pinned.as_deref_mut()) {
+        pinned.entities.push(out.vertex);
+        pinned.positions.push(out.position);
+        pinned.held.push(held);
+    }
     debug_check_invariants(state)?;
     post_relax(state, out.vertex, seg, settings, kicks, rng);
     Ok(())
@@ -385,6 +482,11 @@ fn post_relax(
     let v = t.vertex_slot(vertex).expect("the edit keeps this vertex");
     let mut moveable = vec![v];
     moveable.extend_from_slice(t.neighbours(v as usize));
+    let moveable = unheld(state, moveable);
+    if moveable.is_empty() {
+        return;
+    }
+    let t = state.membrane.cached_topology();
     let (mut post, post_slots) = Patch::around(
         state.membrane.cached_topology(),
         state.positions,
@@ -406,10 +508,12 @@ fn post_relax(
 /// midpoint), then its 1-ring relaxes tangentially into the normal range.
 /// An edit the mesh cannot take (valence, a fold) is counted as impossible
 /// and the edge pushed back into range, as in the paper's event.
+#[allow(clippy::too_many_arguments)]
 fn direct_edit(
     state: &mut State<'_>,
     edge: u32,
     op: EdgeOp,
+    inherit: Option<HeldDirections>,
     seg: &remembrane_core::energy::vin::Segmentation,
     settings: &RelaxSettings,
     kicks: &KickTable,
@@ -419,7 +523,7 @@ fn direct_edit(
     let [a, b] = t.edges[edge as usize];
     let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
     match op.apply(state.membrane, edge, state.valence) {
-        Ok(out) => finish_edit(state, op, &out, seg, settings, kicks, rng)?,
+        Ok(out) => finish_edit(state, op, &out, inherit, seg, settings, kicks, rng)?,
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
             let t = state.membrane.cached_topology();
@@ -477,7 +581,10 @@ fn relax_around_edge(
     let mut iterations = 0;
     let mut last = (RelaxOutcome::Failure, Patch::default(), Vec::new());
     for (depth, settings) in attempts {
-        let moveable = rings(t, &[a, b], *depth);
+        let moveable = unheld(state, rings(t, &[a, b], *depth));
+        if moveable.is_empty() {
+            continue;
+        }
         let (mut patch, slots) = Patch::around(t, state.positions, &moveable, Some([a, b]));
         if state.tangential {
             patch.freeze_normals(t, state.positions, &slots);

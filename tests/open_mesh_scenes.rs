@@ -69,15 +69,6 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
         (
             DISC.replace(
                 "    dynamics:",
-                "    remesh: (mode: FreeEnergy),\n    dynamics:",
-            ),
-            "remesh.mode",
-            "remeshing",
-            "boundary conditions",
-        ),
-        (
-            DISC.replace(
-                "    dynamics:",
                 "    edge_flips: (attempts_per_edge: 0.01),\n    dynamics:",
             ),
             "edge_flips",
@@ -116,6 +107,12 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
             "{msg}"
         );
     }
+    // Remeshing keeps the held loops through its edits.
+    let remeshed = DISC.replace(
+        "    dynamics:",
+        "    boundary: [Pinned(loop: 0)],\n    remesh: (mode: FreeEnergy),\n    dynamics:",
+    );
+    build(&remeshed).unwrap();
     // A bad cap angle is a field error.
     let text = DISC.replace(
         "Disc(radius: 4.0)",
@@ -474,4 +471,46 @@ fn a_closing_plane_needs_a_positive_target_and_a_normal() {
         "Volume(k: 1.0, target: Absolute(10.0), {plane})"
     )))
     .unwrap();
+}
+
+#[test]
+fn remeshing_is_refused_with_a_line_tension_on_several_loops() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut mesh = remembrane::mesh::disc(2.0, 1.0);
+    let other = remembrane::mesh::disc(2.0, 1.0);
+    let n = mesh.positions.len() as u32;
+    let shift = glam::DVec3::new(10.0, 0.0, 0.0);
+    mesh.positions
+        .extend(other.positions.iter().map(|&p| p + shift));
+    mesh.faces
+        .extend(other.faces.iter().map(|f| f.map(|v| v + n)));
+    remembrane::mesh::io::write_mesh(&dir.path().join("two.ply"), &mesh).unwrap();
+    let text = DISC
+        .replace("Disc(radius: 4.0)", "File(path: \"two.ply\")")
+        .replace(
+            "    dynamics:",
+            "    boundary: [Free(loop: 1, line_tension: 0.1)],\n    dynamics:",
+        );
+    let load = |text: &str| {
+        let path = write(dir.path(), "two.ron", text);
+        Scene::load(&path)?.build(&path)
+    };
+    load(&text).unwrap();
+    let remeshed = text.replace(
+        "    dynamics:",
+        "    remesh: (mode: FreeEnergy),\n    dynamics:",
+    );
+    let msg = load(&remeshed).err().unwrap().to_string();
+    assert!(
+        msg.contains("field `remesh.mode`")
+            && msg.contains("2 boundary loops")
+            && msg.contains("line tension"),
+        "{msg}"
+    );
+    // One loop with a line tension remeshes.
+    let one = DISC.replace(
+        "    dynamics:",
+        "    boundary: [Free(loop: 0, line_tension: 0.1)],\n    remesh: (mode: FreeEnergy),\n    dynamics:",
+    );
+    build(&one).unwrap();
 }

@@ -4,8 +4,11 @@
 //! term and the reason (issue 32). What runs: the terms whose
 //! `open_mesh_support` says so (V_in, bending in both forms, area, tension,
 //! local tension, springs, self-avoidance, walls, adhesion), the dynamics
-//! and the minimiser, lipid diffusion, and penalty smoothing (an average
-//! over each vertex's ring, a boundary vertex's being its fan).
+//! and the minimiser, lipid diffusion, penalty smoothing (an average
+//! over each vertex's ring, a boundary vertex's being its fan), and
+//! split/merge remeshing (which keeps the held loops' vertices, see the
+//! remesh system), except with a line tension on a membrane of several
+//! loops.
 
 use super::{Scene, SceneError, SystemDecl};
 use std::path::Path;
@@ -46,15 +49,18 @@ impl Scene {
                  boundary-aware yet (use the Area penalty or a Tension term)",
             ));
         }
-        if self.remesh.mode != crate::params::RemeshMode::Off {
+        let line_tension = self.boundary.iter().any(|c| {
+            matches!(c, crate::params::BoundaryCondition::Free { line_tension, .. }
+                if *line_tension > 0.0)
+        });
+        if self.remesh.mode != crate::params::RemeshMode::Off && line_tension && loops > 1 {
             return Err(refuse(
                 "remesh.mode".into(),
                 "split/merge remeshing",
-                "splits and merges work on and next to the boundary in the mesh-edit layer, \
-                 but the remesh system does not keep the boundary conditions through its \
-                 edits yet (pinned vertices are named by dense slots, which an edit renumbers; \
-                 its relaxations and push-backs move rim vertices; a split pinned edge's new \
-                 vertex is not pinned); declare `remesh: (mode: Off)`",
+                "a line tension names its loop by the boundary loops' numbering (by their \
+                 lowest-numbered vertex), which an edit can change when the membrane has \
+                 several loops; remesh a membrane with one loop, or declare \
+                 `remesh: (mode: Off)`",
             ));
         }
         if self.edge_flips.is_some() {
@@ -63,8 +69,7 @@ impl Scene {
                 "edge flips",
                 "the mesh layer never flips a boundary edge and flips the interior edges next \
                  to it, but the flip system's energy changes are not checked on open meshes \
-                 yet (a boundary vertex carries no bending energy), and pinned vertices are \
-                 named by dense slots",
+                 yet (a boundary vertex carries no bending energy)",
             ));
         }
         if let crate::params::MembraneModel::Fluid(_) = self.model {

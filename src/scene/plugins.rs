@@ -316,6 +316,10 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
                 .held()
                 .map_err(|r| invalid(format!("[{i}].direction"), r))?;
             if let Some(held) = held {
+                let t = membrane.cached_topology();
+                pinned
+                    .entities
+                    .extend(vertices.iter().map(|&v| t.vertex_entities[v as usize]));
                 pinned.vertices.extend_from_slice(vertices);
                 pinned
                     .positions
