@@ -7,6 +7,8 @@
 //! edge in three faces) is refused with `FILE: field: reason` and exit
 //! code 2 in `tests/open_mesh_scenes.rs` and `tests/scene_errors.rs`.
 
+mod common;
+
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
 use remembrane::mesh::components::LipidDensity;
@@ -212,16 +214,7 @@ fn one_operation(
     what
 }
 
-fn total_density(m: &Membrane) -> f64 {
-    let mut v: Vec<f64> = m
-        .world
-        .query::<&LipidDensity>()
-        .iter()
-        .map(|d| d.0)
-        .collect();
-    v.sort_by(f64::total_cmp);
-    v.iter().sum()
-}
+use common::total_density;
 
 fn assert_coverage(c: &Counts, scale: usize) {
     println!("{c:?}");

@@ -1,6 +1,8 @@
 //! Split and merge through the mesh-edit layer: hand-worked option sets,
 //! and thousands of random edits that keep every invariant and Σρ.
 
+mod common;
+
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
 use remembrane::mesh::components::LipidDensity;
@@ -175,16 +177,7 @@ fn merge_options_of_a_regular_neighbourhood_match_the_hand_count() {
     assert_eq!(m2.to_mesh().unwrap(), before);
 }
 
-fn total_density(m: &Membrane) -> f64 {
-    let mut v: Vec<f64> = m
-        .world
-        .query::<&LipidDensity>()
-        .iter()
-        .map(|d| d.0)
-        .collect();
-    v.sort_by(f64::total_cmp);
-    v.iter().sum()
-}
+use common::total_density;
 
 #[test]
 fn random_split_merge_sequences_keep_every_invariant_and_conserve_density() {

@@ -6,7 +6,7 @@ use rand::SeedableRng;
 use remembrane::energy::vin::VinSegmentation;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::engine::force::ForceBuffers;
-use remembrane::mesh::components::LipidDensity;
+mod common;
 use remembrane::remesh::RemeshStats;
 use remembrane::remesh::relax::{
     Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, Relaxed, relax, rings, stable_alpha1_beta1,
@@ -127,15 +127,7 @@ fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
     scene.lipid_density = true;
     let mut sim = scene.build(&path).unwrap();
     let total = |sim: &remembrane::engine::simulation::Simulation| -> f64 {
-        let mut v: Vec<f64> = sim
-            .membrane()
-            .world
-            .query::<&LipidDensity>()
-            .iter()
-            .map(|d| d.0)
-            .collect();
-        v.sort_by(f64::total_cmp);
-        v.iter().sum()
+        common::total_density(&sim.membrane())
     };
     let initial = total(&sim);
     let mut reported = 0;

@@ -116,3 +116,17 @@ pub fn term_energy(summary: &serde_json::Value, term: &str) -> f64 {
         .as_f64()
         .unwrap()
 }
+
+/// The total lipid density Σρ of a membrane, summed in sorted order (the
+/// same bits whatever order the world lists its vertices in).
+#[allow(dead_code)] // each test binary uses its own subset of helpers
+pub fn total_density(m: &remembrane::mesh::membrane::Membrane) -> f64 {
+    let mut v: Vec<f64> = m
+        .world
+        .query::<&remembrane::mesh::components::LipidDensity>()
+        .iter()
+        .map(|d| d.0)
+        .collect();
+    v.sort_by(f64::total_cmp);
+    v.iter().sum()
+}

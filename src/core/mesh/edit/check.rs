@@ -250,13 +250,8 @@ impl Membrane {
             })
             .sum();
         for f in &edit.add_faces {
-            let (n, [a, b, c]) = normal(f);
-            let longest = a
-                .distance_squared(b)
-                .max(b.distance_squared(c))
-                .max(c.distance_squared(a));
-            let shape = n.length() / longest;
-            if shape.is_nan() || shape < MIN_FACE_SHAPE {
+            let (n, corners) = normal(f);
+            if !well_shaped(n, corners) {
                 return Err(EditError::DegenerateGeometry(*f));
             }
             if patch
@@ -286,13 +281,8 @@ impl Membrane {
                 if edit.add_faces.contains(f) {
                     continue;
                 }
-                let (n, [a, b, c]) = normal(f);
-                let longest = a
-                    .distance_squared(b)
-                    .max(b.distance_squared(c))
-                    .max(c.distance_squared(a));
-                let shape = n.length() / longest;
-                if shape.is_nan() || shape < MIN_FACE_SHAPE {
+                let (n, corners) = normal(f);
+                if !well_shaped(n, corners) {
                     return Err(EditError::DegenerateGeometry(*f));
                 }
                 let [a, b, c] = f.map(|x| world_at(x).unwrap_or(DVec3::ZERO));
@@ -422,4 +412,16 @@ fn affected_vertices(removed: &[[Entity; 3]], added: &[[Entity; 3]]) -> Vec<Enti
         }
     }
     affected
+}
+
+/// Whether a face with (unnormalised) normal `n` and corners `[a, b, c]` is
+/// far enough from degenerate: |n| over its longest edge squared at least
+/// [`MIN_FACE_SHAPE`] (NaN fails).
+fn well_shaped(n: DVec3, [a, b, c]: [DVec3; 3]) -> bool {
+    let longest = a
+        .distance_squared(b)
+        .max(b.distance_squared(c))
+        .max(c.distance_squared(a));
+    let shape = n.length() / longest;
+    !shape.is_nan() && shape >= MIN_FACE_SHAPE
 }
