@@ -56,8 +56,13 @@ fn positions(sim: &Simulation) -> Vec<glam::DVec3> {
     p
 }
 
-/// Runs the scene to its end and checks the rim; returns the splits.
+/// Runs the scene to its end and checks the rim; returns the splits and
+/// the rim's vertices at the start and at the end.
 fn run_and_check_rim(text: &str, pinned: bool) -> u64 {
+    run_and_check_rim_with(text, pinned, 2.0).0
+}
+
+fn run_and_check_rim_with(text: &str, pinned: bool, min_tip: f64) -> (u64, usize, usize) {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), text);
     let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
@@ -108,7 +113,7 @@ fn run_and_check_rim(text: &str, pinned: bool) -> u64 {
         "only rim vertices are held"
     );
     let tip = after.iter().map(|p| p.z).fold(f64::MIN, f64::max);
-    assert!(tip > 2.0, "the patch was not pulled up ({tip})");
+    assert!(tip >= min_tip, "the patch was not pulled up ({tip})");
     let stats = sim.resource::<RemeshStats>();
     eprintln!(
         "splits {} merges {} rim {} -> {} tip {tip:.2}",
@@ -117,7 +122,7 @@ fn run_and_check_rim(text: &str, pinned: bool) -> u64 {
         rim.len(),
         loops[0].len()
     );
-    stats.split.success
+    (stats.split.success, rim.len(), loops[0].len())
 }
 
 #[test]
@@ -162,4 +167,21 @@ fn the_cli_runs_a_remeshed_pinned_patch() {
         .map(|l| l.split(',').nth(col).unwrap().parse::<f64>().unwrap())
         .sum();
     assert!(splits > 0.0, "no split in series.csv");
+}
+
+#[test]
+fn a_split_roller_rim_edge_gives_its_new_vertex_the_condition() {
+    // A flat disc pushed to a larger area (no pull) expands in its plane:
+    // its rim slides outward on the roller and its edges stretch past the
+    // barrier. Their new vertices are held in z = 0 like the others.
+    let text = scene(ROLLER, OVERDAMPED, 100000).replace(
+        "Tension(sigma: 0.05)",
+        "Area(k: 200.0, target: OfInitial(2.0))",
+    );
+    let (splits, before, after) = run_and_check_rim_with(&text, false, 0.0);
+    assert!(splits > 0);
+    assert!(
+        after > before,
+        "no rim edge was split ({before} -> {after})"
+    );
 }
