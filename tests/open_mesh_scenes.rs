@@ -67,15 +67,6 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
             "encloses no volume",
         ),
         (
-            DISC.replace(
-                "    dynamics:",
-                "    edge_flips: (attempts_per_edge: 0.01),\n    dynamics:",
-            ),
-            "edge_flips",
-            "edge flips",
-            "energy changes",
-        ),
-        (
             DISC.replace("    dynamics:", "    model: Fluid(),\n    dynamics:")
                 .replace("Springs()", "Springs(coupling: Gaussian(radius: 1.2))"),
             "model",
@@ -513,4 +504,45 @@ fn remeshing_is_refused_with_a_line_tension_on_several_loops() {
         "    boundary: [Free(loop: 0, line_tension: 0.1)],\n    remesh: (mode: FreeEnergy),\n    dynamics:",
     );
     build(&one).unwrap();
+}
+
+#[test]
+fn edge_flips_fluctuate_an_open_patch_and_never_touch_its_rim() {
+    let text = DISC
+        .replace(
+            "dynamics: (iterations: 20, frames: 2)",
+            "dynamics: (iterations: 400, frames: 2, temperature: 0.1)",
+        )
+        .replace(
+            "    dynamics:",
+            "    boundary: [Pinned(loop: 0)],\n    edge_flips: (attempts_per_edge: 0.05, edge_range: (0.5, 2.0)),\n    dynamics:",
+        );
+    let mut sim = build(&text).unwrap();
+    let mut before = Vec::new();
+    sim.membrane().gather_positions(&mut before);
+    let (rim, _) = rim_and_interior(&sim);
+    let rim_edges = |sim: &remembrane::engine::simulation::Simulation| {
+        let t = sim.membrane().cached_topology().clone();
+        let mut e: Vec<[u32; 2]> = (0..t.edges.len())
+            .filter(|&e| t.is_boundary_edge(e))
+            .map(|e| t.edges[e])
+            .collect();
+        e.sort();
+        e
+    };
+    let edges_before = rim_edges(&sim);
+    for _ in 0..400 {
+        sim.tick().unwrap();
+    }
+    let stats = *sim.resource::<remembrane::systems::edge_flips::FlipStats>();
+    println!("{stats:?}");
+    assert!(stats.accepted > 10, "{stats:?}");
+    let t = sim.membrane().cached_topology().clone();
+    let mut p = Vec::new();
+    sim.membrane().gather_positions(&mut p);
+    remembrane::mesh::check_mesh(&p, &t.faces, None).unwrap();
+    assert_eq!(rim_edges(&sim), edges_before, "the rim's edges changed");
+    for &v in &rim {
+        assert_eq!(p[v as usize], before[v as usize]);
+    }
 }

@@ -63,15 +63,6 @@ impl Scene {
                  `remesh: (mode: Off)`",
             ));
         }
-        if self.edge_flips.is_some() {
-            return Err(refuse(
-                "edge_flips".into(),
-                "edge flips",
-                "the mesh layer never flips a boundary edge and flips the interior edges next \
-                 to it, but the flip system's energy changes are not checked on open meshes \
-                 yet (a boundary vertex carries no bending energy)",
-            ));
-        }
         if let crate::params::MembraneModel::Fluid(_) = self.model {
             return Err(refuse(
                 "model".into(),

@@ -275,7 +275,8 @@ fn vertex_energy(p: &[DVec3], v: u32, ring: &[[u32; 3]], kappa: f64, c0: f64) ->
 
 /// The change of the cotangent bending energy when `flip` is taken at
 /// `positions`: only the vertices a, b, c and d change their rings, so it
-/// is the change of their four vertex energies. `c0` gives each vertex's
+/// is the change of their four vertex energies (a boundary vertex of an
+/// open mesh has none, and adds nothing). `c0` gives each vertex's
 /// spontaneous curvature (1/l̄; a constant for [`bending`], a field for
 /// [`bending_varying`]).
 pub fn flip_energy_change(
@@ -289,6 +290,9 @@ pub fn flip_energy_change(
     let mut energy = 0.0;
     let mut ring = Vec::with_capacity(12);
     for v in [flip.a, flip.b, flip.c, flip.d] {
+        if topology.is_boundary_vertex(v as usize) {
+            continue;
+        }
         ring.clear();
         ring.extend(
             topology

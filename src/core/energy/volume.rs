@@ -148,8 +148,11 @@ impl ForceTerm for VolumeForces {
     }
 
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
-        // The proposal's totals are the closed formula's.
-        self.closing?;
+        // The proposal's totals are the closed formula's: a closing plane's
+        // volume is priced by whole evaluations.
+        if self.closing.is_some() {
+            return None;
+        }
         let (x, dx) = (proposal.totals.volume, proposal.change.volume);
         let target = self.target;
         Some(self.k * ((x + dx - target).powi(2) - (x - target).powi(2)) / target)
