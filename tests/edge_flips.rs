@@ -52,13 +52,6 @@ fn every_terms_flip_energy_change_is_its_whole_energy_difference() {
         .collect();
     let totals = remembrane::mesh::flip::FlipTotals::of(&p, &membrane.cached_topology().faces);
     let seg = Arc::new(Segmentation::new(VinParams::default()));
-    let bending = |c0, discretisation| {
-        BendingForces::new(BendingParams {
-            kappa: 1.5,
-            c0,
-            discretisation,
-        })
-    };
     let (cot, dihedral) = (
         BendingDiscretisation::Cotangent,
         BendingDiscretisation::Dihedral,
@@ -99,6 +92,16 @@ fn every_terms_flip_energy_change_is_its_whole_energy_difference() {
         ),
     ];
     check_pricing(&terms, &mut membrane, &p, &lipid, (23, 60));
+}
+
+/// Bending with κ = 1.5 Ē, spontaneous curvature `c0` (1/l̄) and the
+/// given discretisation.
+fn bending(c0: f64, discretisation: BendingDiscretisation) -> BendingForces {
+    BendingForces::new(BendingParams {
+        kappa: 1.5,
+        c0,
+        discretisation,
+    })
 }
 
 /// A term maker, and whether the term has a local flip formula.
@@ -154,13 +157,6 @@ fn flip_pricing_holds_on_open_patches() {
         let (point, normal) = (DVec3::new(0.0, 0.0, -2.0), DVec3::Z);
         let v = remembrane::energy::penalty::volume_above_plane(&p, &mesh.faces, point, normal);
         let seg = Arc::new(Segmentation::new(VinParams::default()));
-        let bending = |c0, discretisation| {
-            BendingForces::new(BendingParams {
-                kappa: 1.5,
-                c0,
-                discretisation,
-            })
-        };
         let a0 = 0.9 * area / p.len() as f64;
         let terms: Vec<(Make<'_>, bool)> = vec![
             (

@@ -4,6 +4,8 @@
 //! file, the field, the term and the reason; a bad open mesh file exits 2
 //! with no output.
 
+mod common;
+
 use remembrane::scene::{Scene, SceneError};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -351,16 +353,7 @@ fn an_open_membrane_reports_no_enclosed_volume() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write(dir.path(), "s.ron", DISC);
     let out_dir = dir.path().join("out");
-    let out = Command::new(env!("CARGO_BIN_EXE_remembrane"))
-        .args(["run", scene.to_str().unwrap(), "--quiet", "--out"])
-        .arg(&out_dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::run_binary(&scene, &out_dir);
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
             .unwrap();

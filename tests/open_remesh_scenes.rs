@@ -5,12 +5,13 @@
 //! one loop, its original vertices keep their held coordinates bit for bit
 //! and every vertex on it, new ones included, is held.
 
+mod common;
+
 use remembrane::engine::simulation::{Simulation, StopRequest};
 use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
 use remembrane::systems::pin_forces::PinnedVertices;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const PULLED: &str = r#"Scene(
     name: "pulled_patch",
@@ -145,17 +146,7 @@ fn the_cli_runs_a_remeshed_pinned_patch() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), &scene(PINNED, OVERDAMPED, 100));
     let out_dir = dir.path().join("out");
-    let out = Command::new(env!("CARGO_BIN_EXE_remembrane"))
-        .args(["run", path.to_str().unwrap(), "--out"])
-        .arg(&out_dir)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::run_binary(&path, &out_dir);
     let series = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();
     let mut lines = series.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

@@ -130,3 +130,21 @@ pub fn total_density(m: &remembrane::mesh::membrane::Membrane) -> f64 {
     v.sort_by(f64::total_cmp);
     v.iter().sum()
 }
+
+/// Runs the `remembrane` binary's `run` on `scene` into `out`, quietly,
+/// and asserts it succeeds (its stderr is the failure message).
+#[allow(dead_code)] // each test binary uses its own subset of helpers
+pub fn run_binary(scene: &Path, out: &Path) {
+    let done = std::process::Command::new(env!("CARGO_BIN_EXE_remembrane"))
+        .arg("run")
+        .arg(scene)
+        .args(["--quiet", "--out"])
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+}
