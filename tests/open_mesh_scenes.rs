@@ -69,13 +69,6 @@ fn terms_and_options_not_correct_on_open_meshes_are_refused() {
             "encloses no volume",
         ),
         (
-            DISC.replace("    dynamics:", "    model: Fluid(),\n    dynamics:")
-                .replace("Springs()", "Springs(coupling: Gaussian(radius: 1.2))"),
-            "model",
-            "fluid model",
-            "net force and torque",
-        ),
-        (
             DISC.replace("Area(k: 8.0, target: OfInitial(1.0)),", "")
                 .replace(
                     "    dynamics:",

@@ -14,12 +14,24 @@
 use crate::mesh::topology::Topology;
 use glam::DVec3;
 
-/// Unit area-weighted normal of vertex `v`: Σ over its faces of
-/// (p1 − p0) × (p2 − p0), normalised (zero for a degenerate ring).
+/// The faces around vertex `v` (a boundary vertex's fan, without the
+/// missing face that would close it).
+#[inline]
+fn ring_faces(topology: &Topology, v: usize) -> &[u32] {
+    let faces = topology.ring_faces_of(v);
+    match faces.last() {
+        Some(&crate::mesh::topology::NO_SLOT) => &faces[..faces.len() - 1],
+        _ => faces,
+    }
+}
+
+/// Unit area-weighted normal of vertex `v`: Σ over its faces (a boundary
+/// vertex's fan) of (p1 − p0) × (p2 − p0), normalised (zero for a
+/// degenerate ring).
 #[inline]
 pub fn vertex_normal(positions: &[DVec3], topology: &Topology, v: usize) -> DVec3 {
     let mut n = DVec3::ZERO;
-    for &f in topology.ring_faces_of(v) {
+    for &f in ring_faces(topology, v) {
         let [a, b, c] = topology.faces[f as usize].map(|i| positions[i as usize]);
         n += (b - a).cross(c - a);
     }
@@ -44,7 +56,7 @@ pub fn vertex_normals_from_faces(
 ) {
     crate::util::parallel::fill_vec(out, topology.vertex_count(), |v| {
         let mut n = DVec3::ZERO;
-        for &f in topology.ring_faces_of(v) {
+        for &f in ring_faces(topology, v) {
             let c = &faces[f as usize];
             n += c.n_hat * c.twice_area;
         }
@@ -135,6 +147,47 @@ pub fn set_torque(forces: &mut [DVec3], positions: &[DVec3], target: DVec3) {
     });
 }
 
+/// The boundary vertices of an open membrane and their unit boundary
+/// tangents t_i ∝ x_next − x_prev (the loop's neighbours of i), by dense
+/// slot; empty for a closed membrane. On a boundary the motions that keep
+/// the shape are the slides along the boundary line, not the whole tangent
+/// plane: a move along the conormal (in the tangent plane, across the
+/// boundary) grows or shrinks the patch.
+pub fn boundary_tangents(positions: &[DVec3], topology: &Topology) -> Vec<(u32, DVec3)> {
+    if !topology.is_open() {
+        return Vec::new();
+    }
+    (0..topology.vertex_count())
+        .filter(|&v| topology.is_boundary_vertex(v))
+        .map(|v| (v as u32, boundary_tangent(positions, topology, v)))
+        .collect()
+}
+
+/// The unit boundary tangent of boundary vertex `v`: x_next − x_prev
+/// normalised, its loop's neighbours being the first and the last of its
+/// ring.
+#[inline]
+pub fn boundary_tangent(positions: &[DVec3], topology: &Topology, v: usize) -> DVec3 {
+    let ring = topology.neighbours(v);
+    let (next, prev) = (ring[0] as usize, ring[ring.len() - 1] as usize);
+    (positions[next] - positions[prev]).normalize_or_zero()
+}
+
+/// The shape-keeping part of a force on a boundary vertex of tangent `t`:
+/// its component along the boundary, (f·t) t.
+#[inline]
+pub fn along_boundary(f: DVec3, t: DVec3) -> DVec3 {
+    f.dot(t) * t
+}
+
+/// The shape-changing part of a force on a boundary vertex of tangent `t`:
+/// all but its component along the boundary, f − (f·t) t (the normal and
+/// the conormal parts, which bend the rim and move it across the surface).
+#[inline]
+pub fn across_boundary(f: DVec3, t: DVec3) -> DVec3 {
+    f - f.dot(t) * t
+}
+
 /// Keeps of every force only its component along the vertex normal:
 /// f ← (f·n) n.
 pub fn keep_normal(forces: &mut [DVec3], normals: &[DVec3]) {
@@ -148,7 +201,9 @@ pub fn keep_normal(forces: &mut [DVec3], normals: &[DVec3]) {
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FluidResiduals {
     /// Largest normal component of the total force, max_i |n_i·F_i|: the
-    /// residual of the discrete shape equation (0 at equilibrium).
+    /// residual of the discrete shape equation (0 at equilibrium). On a
+    /// boundary vertex, the part of the force across its boundary line
+    /// (normal and conormal).
     pub normal_residual: f64,
     /// Largest tangential force of the maintenance terms, max_i |P_T F_i|
     /// (what keeps the triangles regular; it does not act on the shape).
@@ -161,13 +216,23 @@ pub struct FluidResiduals {
 }
 
 /// Measures [`FluidResiduals`] from the total force and the (projected)
-/// maintenance forces.
-pub fn residuals(total: &[DVec3], maintenance: &[DVec3], normals: &[DVec3]) -> FluidResiduals {
-    let normal_residual = total
+/// maintenance forces; `boundary` holds an open membrane's
+/// [`boundary_tangents`].
+pub fn residuals(
+    total: &[DVec3],
+    maintenance: &[DVec3],
+    normals: &[DVec3],
+    boundary: &[(u32, DVec3)],
+) -> FluidResiduals {
+    let interior = total
         .iter()
         .zip(normals)
         .map(|(f, n)| f.dot(*n).abs())
         .fold(0.0, f64::max);
+    let normal_residual = boundary
+        .iter()
+        .map(|&(v, t)| across_boundary(total[v as usize], t).length())
+        .fold(interior, f64::max);
     let maintenance_tangential = maintenance.iter().map(|f| f.length()).fold(0.0, f64::max);
     let net_force = total.iter().copied().sum::<DVec3>().length();
     FluidResiduals {

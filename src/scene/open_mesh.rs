@@ -3,8 +3,9 @@
 //! on open meshes is refused here, at build time, naming the field, the
 //! term and the reason (issue 32). What runs: the terms whose
 //! `open_mesh_support` says so (V_in, bending in both forms, area, tension,
-//! local tension, springs, self-avoidance, walls, adhesion), the dynamics
-//! and the minimiser, lipid diffusion, penalty smoothing (an average
+//! local tension, springs, self-avoidance, walls, adhesion), both membrane
+//! models (the fluid model's projections are boundary-aware, see
+//! `systems/fluid_projection.rs`), the dynamics and the minimiser, lipid diffusion, penalty smoothing (an average
 //! over each vertex's ring, a boundary vertex's being its fan), and
 //! split/merge remeshing (which keeps the held loops' vertices, see the
 //! remesh system), except with a line tension on a membrane of several
@@ -61,15 +62,6 @@ impl Scene {
                  lowest-numbered vertex), which an edit can change when the membrane has \
                  several loops; remesh a membrane with one loop, or declare \
                  `remesh: (mode: Off)`",
-            ));
-        }
-        if let crate::params::MembraneModel::Fluid(_) = self.model {
-            return Err(refuse(
-                "model".into(),
-                "the fluid model",
-                "its vertex normals read closed fans, it removes the net force and torque \
-                 (a pinned rim balances them), and its maintenance flips and edits are not \
-                 boundary-aware yet",
             ));
         }
         if let Some((i, _)) = self

@@ -65,6 +65,10 @@ pub struct Patch {
     /// normal component, so the relaxation slides vertices within the
     /// surface instead of moving it. Empty: forces act in full.
     pub normals: Vec<DVec3>,
+    /// The moveable boundary vertices of an open membrane when the normals
+    /// are frozen (local index, unit boundary tangent): they slide along
+    /// their boundary line only (their entry in `normals` is zero).
+    pub lines: Vec<(usize, DVec3)>,
 }
 
 impl Patch {
@@ -109,6 +113,7 @@ impl Patch {
                 edges,
                 target: target_index,
                 normals: Vec::new(),
+                lines: Vec::new(),
             },
             slots,
         )
@@ -117,10 +122,22 @@ impl Patch {
     /// Freezes the area-weighted normals of the moveable vertices (slots
     /// `slots[..moveable]` of `topology` at `positions`), so that the
     /// relaxation moves them only tangentially.
+    /// A moveable boundary vertex slides along its boundary line instead
+    /// (see [`crate::fluid::boundary_tangents`]).
     pub fn freeze_normals(&mut self, topology: &Topology, positions: &[DVec3], slots: &[u32]) {
+        self.lines.clear();
         self.normals = slots[..self.moveable]
             .iter()
-            .map(|&s| crate::fluid::vertex_normal(positions, topology, s as usize))
+            .enumerate()
+            .map(|(k, &s)| {
+                let s = s as usize;
+                if !topology.is_boundary_vertex(s) {
+                    return crate::fluid::vertex_normal(positions, topology, s);
+                }
+                let t = crate::fluid::boundary_tangent(positions, topology, s);
+                self.lines.push((k, t));
+                DVec3::ZERO
+            })
             .collect();
     }
 }
@@ -326,6 +343,9 @@ impl Drive<'_> {
         }
         for (f, n) in force.iter_mut().zip(&patch.normals) {
             *f -= f.dot(*n) * *n;
+        }
+        for &(k, t) in &patch.lines {
+            force[k] = crate::fluid::along_boundary(force[k], t);
         }
     }
 

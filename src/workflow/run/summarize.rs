@@ -122,7 +122,13 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
                     }
                 }
             }
-            Some(crate::fluid::residuals(&ev.total, &maintenance, &normals.0))
+            let boundary = crate::fluid::boundary_tangents(positions, t);
+            Some(crate::fluid::residuals(
+                &ev.total,
+                &maintenance,
+                &normals.0,
+                &boundary,
+            ))
         })
         .flatten();
     let mut summary = crate::fluid::ModelSummary {
