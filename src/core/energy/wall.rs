@@ -19,8 +19,11 @@
 //!
 //! The term's recorder writes, per frame, `<name>_force` (Σ_i |F_i|, the
 //! total normal force the wall exerts, Ē/l̄), `<name>_contacts` (vertices
-//! within range), `<name>_min_distance` (min_i d_i, l̄) and the point data
-//! `<name>_distance` (d_i).
+//! within range), `<name>_min_distance` (min_i d_i, l̄), `<name>_virial`
+//! (−Σ_i F_i·(x_i − c), Ē, with c the shape's point or centre: for a
+//! cylinder or a sphere from inside, Σ_i |F_i| ρ_i with ρ_i the vertex's
+//! distance from the axis or centre; the wall's side of the virial balance
+//! in docs/open_meshes.md) and the point data `<name>_distance` (d_i).
 //!
 //! Stage: Forces. Reads: positions. Writes: force accumulator. Units: ε in
 //! Ē, r and all lengths in l̄.
@@ -105,6 +108,19 @@ impl WallShape {
                 let radial = r - r.dot(a) * a;
                 let len = radial.length();
                 (radius - len, -radial / len)
+            }
+        }
+    }
+}
+
+impl WallShape {
+    /// The shape's reference point c (the plane's point, the sphere's
+    /// centre, the cylinder's axis point), the origin of the wall's virial.
+    pub fn reference_point(&self) -> DVec3 {
+        match *self {
+            WallShape::Plane { point, .. } | WallShape::CylinderInside { point, .. } => vec3(point),
+            WallShape::SphereOutside { center, .. } | WallShape::SphereInside { center, .. } => {
+                vec3(center)
             }
         }
     }
@@ -269,16 +285,24 @@ impl Recorder for WallRecorder {
 
     fn record(&mut self, positions: Self::Data<'_>, frame: &mut FrameData) -> Result<(), SimError> {
         let p = &self.params;
-        let distances: Vec<f64> = positions.0.iter().map(|&x| p.shape.distance(x).0).collect();
-        let (mut total, mut contacts) = (0.0, 0u64);
-        for &d in distances.iter().filter(|&&d| d < p.range) {
-            total += repulsion(d, p.strength, p.range).1;
-            contacts += 1;
+        let c = p.shape.reference_point();
+        let mut distances = Vec::with_capacity(positions.0.len());
+        let (mut total, mut virial, mut contacts) = (0.0, 0.0, 0u64);
+        for &x in positions.0.iter() {
+            let (d, gradient) = p.shape.distance(x);
+            distances.push(d);
+            if d < p.range {
+                let push = repulsion(d, p.strength, p.range).1;
+                total += push;
+                virial -= push * gradient.dot(x - c);
+                contacts += 1;
+            }
         }
         let min = distances.iter().copied().fold(f64::INFINITY, f64::min);
         frame.column(format!("{}_force", p.name), total);
         frame.count(format!("{}_contacts", p.name), contacts);
         frame.column(format!("{}_min_distance", p.name), min);
+        frame.column(format!("{}_virial", p.name), virial);
         frame.scalars(format!("{}_distance", p.name), distances);
         Ok(())
     }
