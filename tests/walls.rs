@@ -210,7 +210,7 @@ fn the_walls_force_balances_the_pressure_and_tension_of_the_confined_fluid_vesic
     // axial balance on the contact cylinder of radius R gives
     // Δp = 2σ/R + κ/R³. Both residuals are the discretisation's, O(h²):
     // measured −1.39 % and +3.35 % at h = 1, −0.35 % and +0.81 % at h = 1/2
-    // (−0.72/−0.18 % and +1.70/+0.41 % at h = 1/√2 and 1/(2√2)). The
+    // (−0.71/−0.18 % and +1.70/+0.41 % at h = 1/√2 and 1/(2√2)). The
     // tolerances are c·h² with c = 2 % and 5 %.
     let (sigma, kappa) = (0.5, 1.0);
     let dir = tempfile::tempdir().unwrap();
