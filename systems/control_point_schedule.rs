@@ -6,7 +6,12 @@
 //! by declaration index). A
 //! change with `At(iteration: N)` is applied once N iterations are done,
 //! i.e. before iteration N + 1 is computed; `Every(interval: I, start: S)`
-//! applies at S, S + I, S + 2I, …
+//! applies at S, S + I, S + 2I, … (up to `until: Some(U)`, if given).
+//!
+//! The system also writes [`ScheduledChangesAhead`]: whether an
+//! iteration-based change is still to come. The minimiser reads it: at rest
+//! before a scheduled change it waits for the change instead of stopping
+//! the run, which makes `Every` with `MoveBy` a quasi-static protocol.
 
 use glam::DVec3;
 use remembrane_core::engine::resources::{Res, ResMut};
@@ -32,6 +37,9 @@ pub enum When {
         /// First application (default 0).
         #[serde(default)]
         start: u64,
+        /// No application after this many iterations (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        until: Option<u64>,
     },
     /// Repeatedly in simulated time: before the first iteration that starts
     /// at or after `start`, `start + interval`, … (one application per
@@ -51,10 +59,38 @@ impl When {
     pub fn applies(&self, iteration: u64) -> bool {
         match *self {
             When::At { iteration: n } => iteration == n,
-            When::Every { interval, start } => {
-                iteration >= start && (iteration - start).is_multiple_of(interval)
+            When::Every {
+                interval,
+                start,
+                until,
+            } => {
+                iteration >= start
+                    && until.is_none_or(|u| iteration <= u)
+                    && (iteration - start).is_multiple_of(interval)
             }
             When::EveryTime { .. } => false,
+        }
+    }
+
+    /// Whether an iteration-based change applies after some iteration
+    /// later than `iteration` (always `true` for [`When::EveryTime`], whose
+    /// applications are not counted in iterations).
+    pub fn applies_after(&self, iteration: u64) -> bool {
+        match *self {
+            When::At { iteration: n } => n > iteration,
+            When::Every {
+                interval,
+                start,
+                until,
+            } => {
+                let next = if iteration < start {
+                    start
+                } else {
+                    start + ((iteration - start) / interval + 1) * interval
+                };
+                until.is_none_or(|u| next <= u)
+            }
+            When::EveryTime { .. } => true,
         }
     }
 }
@@ -108,6 +144,12 @@ impl Change {
     }
 }
 
+/// Whether a scheduled change of the control points is still to come after
+/// the current iteration (written each tick by [`ControlPointSchedule`];
+/// absent without a schedule).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScheduledChangesAhead(pub bool);
+
 /// The control-point schedule system.
 pub struct ControlPointSchedule {
     /// The changes, applied in order when due.
@@ -131,7 +173,11 @@ impl ControlPointSchedule {
 }
 
 impl System for ControlPointSchedule {
-    type Data<'a> = (Res<'a, Clock>, ResMut<'a, Membrane>);
+    type Data<'a> = (
+        Res<'a, Clock>,
+        ResMut<'a, Membrane>,
+        ResMut<'a, ScheduledChangesAhead>,
+    );
 
     fn name(&self) -> &str {
         "control_point_schedule"
@@ -168,8 +214,9 @@ impl System for ControlPointSchedule {
         Ok(())
     }
 
-    fn run(&mut self, (clock, mut membrane): Self::Data<'_>) -> Result<(), SimError> {
+    fn run(&mut self, (clock, mut membrane, mut ahead): Self::Data<'_>) -> Result<(), SimError> {
         let (iteration, time) = (clock.iteration, clock.time);
+        ahead.0 = self.changes.iter().any(|c| c.when.applies_after(iteration));
         for (change, next) in self.changes.iter().zip(&mut self.next_time) {
             let due = match change.when {
                 When::EveryTime { interval, .. } if time >= *next => {

@@ -12,11 +12,18 @@
 //! [`MinimiserStatus`] and, once a convergence criterion holds,
 //! [`StopRequest`] (the state is then left where it is).
 //!
+//! At rest while [`ScheduledChangesAhead`] says a control-point change is
+//! still to come, it does not stop the run: it counts the iteration
+//! without moving anything and restarts from rest once the change has
+//! moved the forces (a quasi-static protocol: each change relaxed to the
+//! tolerance before the next).
+//!
 //! A step that turns a face over or the membrane inside out (a closed one:
 //! an open membrane encloses no volume) is undone: the
 //! step is halved and FIRE restarts from rest. Below a millionth of the
 //! first step the run stops with [`SimError::MinimiserStuck`].
 
+use crate::control_point_schedule::ScheduledChangesAhead;
 use crate::edge_flips::FlipStats;
 use crate::langevin_integration::check_step;
 use crate::maintenance_flips::MaintenanceFlipStats;
@@ -72,6 +79,7 @@ impl System for FireMinimiser {
         Option<Res<'a, RemeshStats>>,
         Option<Res<'a, FlipStats>>,
         Option<Res<'a, MaintenanceFlipStats>>,
+        Option<Res<'a, ScheduledChangesAhead>>,
         ResMut<'a, DensePositions>,
         ResMut<'a, Membrane>,
         ResMut<'a, Clock>,
@@ -91,6 +99,7 @@ impl System for FireMinimiser {
             remesh,
             flips,
             maintenance,
+            ahead,
             mut positions,
             mut membrane,
             mut clock,
@@ -119,6 +128,18 @@ impl System for FireMinimiser {
         };
         // Convergence of the state the forces were evaluated at.
         let reason = convergence(&mut s.energies, p, ev, &mut status);
+        if reason.is_some() && ahead.is_some_and(|a| a.0) {
+            // At rest before a scheduled change: wait for it, and start
+            // from rest once it has moved the forces.
+            s.fire = None;
+            s.energies.clear();
+            clock.iteration += 1;
+            *time_step = TimeStepChoice {
+                dt: 0.0,
+                limiter: Limiter::Cap,
+            };
+            return Ok(());
+        }
         if let Some(reason) = reason {
             status.stopped_by = Some(reason);
             stop.0 = Some(format!("minimiser converged ({})", reason.name()));

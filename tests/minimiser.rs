@@ -498,3 +498,62 @@ fn the_minimiser_with_piecewise_linear_vin_is_cautioned() {
     );
     assert!(scene_from(&text("form: Exact")).cautions().is_empty());
 }
+
+/// At rest before a scheduled control-point change, the minimiser waits for
+/// it instead of ending the run, then relaxes again: the pinned patch of
+/// `scenes/open/flat_patch.ron` (at rest in 275 iterations) is lifted in
+/// three steps of 0.5 l̄ (`Every` up to `until`), each relaxed to the force
+/// tolerance, and the run ends at rest after the last.
+#[test]
+fn a_minimiser_waits_at_rest_for_each_scheduled_change() {
+    let base = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/flat_patch.ron"),
+    )
+    .unwrap();
+    let stepped = base
+        .replace(
+            "    boundary:",
+            "    control_point_schedule: [\n        (when: Every(interval: 1000, start: 1000, \
+             until: 3000), points: [0], change: MoveBy(0.0, 0.0, 0.5)),\n    ],\n    boundary:",
+        )
+        .replace("frames: 20)", "frames: 400)");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("stepped");
+    let options = common::quiet_options(&out);
+    run_scene(
+        &scene_from(&stepped),
+        Path::new("test.ron"),
+        &options,
+        |_| Ok(()),
+    )
+    .unwrap();
+    let s = summary_of(&out);
+    assert_eq!(s["minimiser"]["stopped_by"], "force_residual", "{s}");
+    let iterations = s["iterations"].as_u64().unwrap();
+    // It went on past the last change (iteration 3000), not past the rest
+    // that followed it.
+    assert!((3001..4000).contains(&iterations), "{iterations}");
+    let it = common::series_column(&out, "iteration");
+    let force = common::series_column(&out, "force_tip");
+    let at = |i: f64| force[it.iter().position(|&x| x == i).unwrap()];
+    // Waiting moves nothing: the frames between two changes are the same
+    // rest, bit for bit; each step lifts the patch further.
+    let rests: Vec<f64> = [750.0, 1750.0, 2750.0].iter().map(|&i| at(i)).collect();
+    for (&i, &f) in [500.0, 1500.0, 2500.0].iter().zip(&rests) {
+        assert_eq!(at(i).to_bits(), f.to_bits(), "iteration {i}");
+    }
+    let last = *force.last().unwrap();
+    assert!(
+        rests[0] < rests[1] && rests[1] < rests[2] && rests[2] < last,
+        "{rests:?} {last}"
+    );
+    let bad = stepped.replace("until: 3000", "until: 500");
+    let err = Scene::from_ron_str(&bad, Path::new("test.ron"))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        err.contains("control_point_schedule[0].when") && err.contains("before start"),
+        "{err}"
+    );
+}

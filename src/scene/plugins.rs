@@ -28,7 +28,9 @@ use crate::mesh::membrane::Membrane;
 use crate::params::{DiffusionParams, DynamicsParams, RemeshParams};
 use crate::remesh::RemeshStats;
 use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
-use crate::systems::control_point_schedule::{ControlPointSchedule, ScheduledChange};
+use crate::systems::control_point_schedule::{
+    ControlPointSchedule, ScheduledChange, ScheduledChangesAhead,
+};
 use crate::systems::remesh::{Remesh, RemeshTriggered};
 use crate::timestep::TimeStepChoice;
 
@@ -188,6 +190,7 @@ pub fn control_points(points: Vec<ControlPoint>, schedule: Vec<ScheduledChange>)
             membrane.add_control_point(p);
         }
         if !schedule.is_empty() {
+            b.insert_resource(ScheduledChangesAhead(true));
             b.add_system(Stage::Prepare, ControlPointSchedule::new(schedule));
         }
         Ok(())

@@ -319,6 +319,18 @@ impl Scene {
             if let When::Every { interval: 0, .. } = c.when {
                 return Err(invalid(&field("when"), "interval must be > 0".into()));
             }
+            if let When::Every {
+                start,
+                until: Some(until),
+                ..
+            } = c.when
+                && until < start
+            {
+                return Err(invalid(
+                    &field("when"),
+                    format!("until ({until}) is before start ({start}): it would never apply"),
+                ));
+            }
             if let When::EveryTime { interval, start } = c.when
                 && !(interval.is_finite() && interval > 0.0 && start.is_finite() && start >= 0.0)
             {
