@@ -8,8 +8,8 @@
 //! `systems/fluid_projection.rs`), the dynamics and the minimiser, lipid diffusion, penalty smoothing (an average
 //! over each vertex's ring, a boundary vertex's being its fan), and
 //! split/merge remeshing (which keeps the held loops' vertices, see the
-//! remesh system), except with a line tension on a membrane of several
-//! loops.
+//! remesh system; a line tension follows its loop by the loop's vertices,
+//! see `energy/line_tension.rs`).
 
 use super::{Scene, SceneError, SystemDecl};
 use std::path::Path;
@@ -48,20 +48,6 @@ impl Scene {
                 "the area constraint",
                 "its projection moves every vertex, the boundary's included, and is not \
                  boundary-aware yet (use the Area penalty or a Tension term)",
-            ));
-        }
-        let line_tension = self.boundary.iter().any(|c| {
-            matches!(c, crate::params::BoundaryCondition::Free { line_tension, .. }
-                if *line_tension > 0.0)
-        });
-        if self.remesh.mode != crate::params::RemeshMode::Off && line_tension && loops > 1 {
-            return Err(refuse(
-                "remesh.mode".into(),
-                "split/merge remeshing",
-                "a line tension names its loop by the boundary loops' numbering (by their \
-                 lowest-numbered vertex), which an edit can change when the membrane has \
-                 several loops; remesh a membrane with one loop, or declare \
-                 `remesh: (mode: Off)`",
             ));
         }
         if let Some((i, _)) = self

@@ -48,9 +48,23 @@ pub fn line_energy(
 }
 
 /// The line-tension force term of the free loops.
+///
+/// A loop is declared by its index in the boundary loops' numbering of the
+/// initial mesh ([`Topology::boundary_loops`]: by lowest vertex slot). An
+/// edit can change that numbering on a membrane of several loops (a split
+/// or merge moves a loop's lowest slot), so the term names each loop by
+/// its vertices' entities after the first resolve: after a structure
+/// change the loop is the current loop that holds any of its last vertices
+/// (an edit changes one or two vertices of a loop, never all), and those
+/// are the loop's vertices from then on. The entities are checkpointed
+/// (a restored world keeps every entity's handle).
 pub struct LineTensionForces {
-    /// (loop index, λ in Ē/l̄) of every free loop with a line tension.
+    /// (loop index in the initial numbering, λ in Ē/l̄) of every free loop
+    /// with a line tension.
     loops: Vec<(usize, f64)>,
+    /// Each declared loop's vertex entities at the last resolve (`None`
+    /// before the first; an empty list: the loop is gone).
+    tracked: Option<Vec<Vec<hecs::Entity>>>,
     /// The loops' edges with their λ, for the topology of `edges_for`
     /// (structure epoch; vertex and edge counts).
     edges: Vec<([u32; 2], f64)>,
@@ -63,6 +77,7 @@ impl LineTensionForces {
     pub fn new(loops: Vec<(usize, f64)>) -> Self {
         Self {
             loops,
+            tracked: None,
             edges: Vec::new(),
             edges_for: None,
         }
@@ -81,11 +96,32 @@ impl LineTensionForces {
         self.edges_for = Some(key);
         self.edges.clear();
         let loops = topology.boundary_loops();
-        for &(k, lambda) in &self.loops {
-            let Some(l) = loops.get(k) else { continue };
-            for i in 0..l.len() {
-                self.edges.push(([l[i], l[(i + 1) % l.len()]], lambda));
+        let entities = |l: &[u32]| -> Vec<hecs::Entity> {
+            l.iter()
+                .map(|&v| topology.vertex_entities[v as usize])
+                .collect()
+        };
+        let tracked = self.tracked.get_or_insert_with(|| {
+            self.loops
+                .iter()
+                .map(|&(k, _)| loops.get(k).map_or_else(Vec::new, |l| entities(l)))
+                .collect()
+        });
+        let owner: std::collections::HashMap<hecs::Entity, usize> = loops
+            .iter()
+            .enumerate()
+            .flat_map(|(i, l)| entities(l).into_iter().map(move |e| (e, i)))
+            .collect();
+        for (vertices, &(_, lambda)) in tracked.iter_mut().zip(&self.loops) {
+            let Some(&i) = vertices.iter().find_map(|e| owner.get(e)) else {
+                vertices.clear();
+                continue;
+            };
+            let l = &loops[i];
+            for k in 0..l.len() {
+                self.edges.push(([l[k], l[(k + 1) % l.len()]], lambda));
             }
+            *vertices = entities(l);
         }
     }
 }
@@ -103,6 +139,41 @@ impl ForceTerm for LineTensionForces {
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         self.resolve(ctx.topology);
         line_energy(ctx.positions, &self.edges, Some(force))
+    }
+
+    fn save_state(&self) -> Option<serde_json::Value> {
+        let bits =
+            |l: &Vec<hecs::Entity>| -> Vec<u64> { l.iter().map(|e| e.to_bits().get()).collect() };
+        let tracked: Option<Vec<Vec<u64>>> =
+            self.tracked.as_ref().map(|t| t.iter().map(bits).collect());
+        Some(serde_json::json!({ "tracked": tracked }))
+    }
+
+    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+        let tracked: Option<Vec<Vec<u64>>> =
+            serde_json::from_value(state.get("tracked").cloned().ok_or("no `tracked`")?)
+                .map_err(|e| e.to_string())?;
+        self.tracked = match tracked {
+            None => None,
+            Some(t) if t.len() == self.loops.len() => Some(
+                t.iter()
+                    .map(|l| {
+                        l.iter()
+                            .map(|&b| hecs::Entity::from_bits(b).ok_or(format!("bad entity {b}")))
+                            .collect::<Result<Vec<_>, _>>()
+                    })
+                    .collect::<Result<_, _>>()?,
+            ),
+            Some(t) => {
+                return Err(format!(
+                    "{} line-tension loops saved, the scene has {}",
+                    t.len(),
+                    self.loops.len()
+                ));
+            }
+        };
+        self.edges_for = None;
+        Ok(())
     }
 }
 
@@ -140,6 +211,16 @@ mod tests {
             for (v, f) in f.iter().enumerate() {
                 assert_eq!(f.length() > 0.0, rim.contains(&(v as u32)), "vertex {v}");
             }
+            // A checkpoint keeps the loop's vertices: a restored term
+            // resolves the same edges.
+            let mut restored = LineTensionForces::new(vec![(0, 0.3)]);
+            restored.restore_state(term.save_state().unwrap()).unwrap();
+            assert_eq!(restored.tracked, term.tracked);
+            restored.resolve(&t);
+            assert_eq!(restored.edges, term.edges);
+            let wrong = LineTensionForces::new(vec![(0, 0.3), (1, 0.1)])
+                .restore_state(term.save_state().unwrap());
+            assert!(wrong.is_err());
         }
     }
 }
