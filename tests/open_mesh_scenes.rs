@@ -252,6 +252,24 @@ fn boundary_conditions_name_a_loop_that_exists() {
     }
 }
 
+/// The length of the closed loop `vertices` at `p` (l̄).
+fn loop_length(p: &[glam::DVec3], vertices: &[u32]) -> f64 {
+    (0..vertices.len())
+        .map(|i| p[vertices[i] as usize].distance(p[vertices[(i + 1) % vertices.len()] as usize]))
+        .sum()
+}
+
+/// The line-tension term's energy in the last evaluation (Ē).
+fn line_tension_energy(sim: &remembrane::engine::simulation::Simulation) -> f64 {
+    let buffers = sim.resource::<remembrane::engine::force::ForceBuffers>();
+    let k = buffers
+        .names()
+        .iter()
+        .position(|n| n == "line_tension")
+        .expect("a line_tension term");
+    buffers.evaluation.energies[k]
+}
+
 #[test]
 fn a_free_loop_with_line_tension_adds_its_energy() {
     let text = DISC.replace(
@@ -264,22 +282,13 @@ fn a_free_loop_with_line_tension_adds_its_energy() {
     let mut p = Vec::new();
     sim.membrane().gather_positions(&mut p);
     sim.tick().unwrap();
-    let length: f64 = (0..rim.len())
-        .map(|i| p[rim[i] as usize].distance(p[rim[(i + 1) % rim.len()] as usize]))
-        .sum();
-    let buffers = sim.resource::<remembrane::engine::force::ForceBuffers>();
-    let k = buffers
-        .names()
-        .iter()
-        .position(|n| n == "line_tension")
-        .expect("a line_tension term");
-    let e = buffers.evaluation.energies[k];
+    let length = loop_length(&p, &rim);
+    let e = line_tension_energy(&sim);
     assert!(
         (e - 0.2 * length).abs() < 1e-9 * e,
         "{e} vs {}",
         0.2 * length
     );
-    drop(buffers);
     // A negative line tension is a field error.
     let bad = text.replace("line_tension: 0.2", "line_tension: -1.0");
     let msg = build(&bad).err().unwrap().to_string();
@@ -488,16 +497,8 @@ fn a_line_tension_follows_its_loop_through_remeshing_on_several_loops() {
         assert_eq!(loops.len(), 2);
         let second = loops.iter().find(|l| p[l[0] as usize].x > 10.0).unwrap();
         renumbered |= p[loops[1][0] as usize].x < 10.0;
-        let length: f64 = (0..second.len())
-            .map(|i| p[second[i] as usize].distance(p[second[(i + 1) % second.len()] as usize]))
-            .sum();
-        let buffers = sim.resource::<remembrane::engine::force::ForceBuffers>();
-        let k = buffers
-            .names()
-            .iter()
-            .position(|n| n == "line_tension")
-            .unwrap();
-        let e = buffers.evaluation.energies[k];
+        let length = loop_length(&p, second);
+        let e = line_tension_energy(&sim);
         assert!(
             (e - 0.1 * length).abs() < 1e-9 * e,
             "{e} vs {}",
