@@ -270,7 +270,7 @@ fn self_intersecting_profiles_are_rejected() {
     let n = 100;
     let guess = cup_guess(n, (0.58, 0.29, 2.2));
     let v = reduced_volume_of(&evaluate(&guess).unwrap());
-    let problem = Problem { target: Some(v) };
+    let problem = Problem::closed(Some(v));
     let sol = newton(problem, guess).unwrap();
     let ev = evaluate(&sol.x).unwrap();
     let (_, z) = nodes(&sol.x, segment_length(&ev));

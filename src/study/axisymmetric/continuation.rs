@@ -63,9 +63,7 @@ impl Walker {
                 }
                 None => x.clone(),
             };
-            let problem = Problem {
-                target: Some(v_next),
-            };
+            let problem = Problem::closed(Some(v_next));
             let attempt = newton(problem, guess).and_then(|sol| {
                 // The stomatocyte branch folds back at its upper end into an
                 // unstable twin; a step must not jump onto it.
@@ -120,13 +118,7 @@ pub(super) fn continuation(target: f64, n: usize, branch: Branch) -> Result<Solu
             (reduced_volume_of(&ev), x)
         }
     };
-    let solution = newton(
-        Problem {
-            target: Some(v_start),
-        },
-        start,
-    )
-    .map_err(|e| fail(v_start, e))?;
+    let solution = newton(Problem::closed(Some(v_start)), start).map_err(|e| fail(v_start, e))?;
     let mut walker = Walker::new(v_start, solution);
     walker.advance(target, branch)?;
     Ok(walker.solution)
@@ -159,9 +151,7 @@ pub(super) fn solve_ladder_raw(
                 .into(),
         ));
     }
-    let problem = Problem {
-        target: if sphere { None } else { Some(v) },
-    };
+    let problem = Problem::closed(if sphere { None } else { Some(v) });
     let mut previous: Option<Vec<f64>> = if sphere {
         None
     } else {

@@ -155,9 +155,16 @@ pub(super) fn reduced_volume_of(ev: &Evaluation) -> f64 {
 }
 
 /// The constrained problem: closure always, reduced volume unless `None`.
+/// With `adhesion: Some(w)` the vesicle instead lies on a flat substrate
+/// with reduced adhesion `w = W R0²/κ` (see [`super::adhered`]): the profile
+/// ends on the substrate at `r_N = h C`, which closes with a flat contact
+/// disc of radius `r_N` (no bending energy, no volume), the energy gains
+/// `−W π r_N²`, the area `π r_N²`, and there is no closure constraint; the
+/// volume constraint is then always present.
 #[derive(Clone, Copy)]
 pub(super) struct Problem {
     pub(super) target: Option<f64>,
+    pub(super) adhesion: Option<f64>,
 }
 
 /// Gradient of the Lagrangian, constraint values and constraint Jacobian.
@@ -169,12 +176,60 @@ pub(super) struct Kkt {
 }
 
 impl Problem {
+    /// The free vesicle: closure, and the reduced volume unless `None`.
+    pub(super) fn closed(target: Option<f64>) -> Self {
+        Problem {
+            target,
+            adhesion: None,
+        }
+    }
+
     pub(super) fn constraint_count(&self) -> usize {
-        if self.target.is_some() { 2 } else { 1 }
+        if self.adhesion.is_some() {
+            1
+        } else if self.target.is_some() {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// `E / κ` and its gradient: the bending energy, and with adhesion `w`
+    /// the contact term `−w π r_N² = −4π w C² / (2 S1 + C²)` (at `A = 4π`,
+    /// `h² = 4 / (2 S1 + C²)`).
+    pub(super) fn energy(&self, ev: &Evaluation) -> (f64, Vec<f64>) {
+        let Some(w) = self.adhesion else {
+            return (ev.energy, ev.grad_energy.clone());
+        };
+        let c = ev.closure_sum;
+        let q = 2.0 * ev.s1 + c * c;
+        let energy = ev.energy - 4.0 * PI * w * c * c / q;
+        let grad = (0..ev.grad_energy.len())
+            .map(|i| {
+                let gc = ev.grad_closure_sum[i];
+                let gq = 2.0 * ev.grad_s1[i] + 2.0 * c * gc;
+                ev.grad_energy[i] - 4.0 * PI * w * (2.0 * c * gc / q - c * c * gq / (q * q))
+            })
+            .collect();
+        (energy, grad)
     }
 
     /// Constraint values and gradients: `r_N` (units of `R0`) and `v(ψ) − v`.
     pub(super) fn constraints(&self, ev: &Evaluation) -> (Vec<f64>, Vec<Vec<f64>>) {
+        if self.adhesion.is_some() {
+            // v = 6 S2 / q^{3/2} with q = 2 S1 + C² (A = 4π, V = π h³ S2).
+            let v0 = self.target.unwrap_or(1.0);
+            let c = ev.closure_sum;
+            let q = 2.0 * ev.s1 + c * c;
+            let a = 6.0 / q.powf(1.5);
+            let b = 9.0 * ev.s2 / q.powf(2.5);
+            let grad = (0..ev.grad_s2.len())
+                .map(|i| {
+                    a * ev.grad_s2[i] - b * (2.0 * ev.grad_s1[i] + 2.0 * c * ev.grad_closure_sum[i])
+                })
+                .collect();
+            return (vec![a * ev.s2 - v0], vec![grad]);
+        }
         let h = segment_length(ev);
         // r_N = h C with h = sqrt(2/S1): ∇r_N = h ∇C − C h/(2 S1) ∇S1.
         let closure = h * ev.closure_sum;
@@ -205,7 +260,7 @@ impl Problem {
     pub(super) fn kkt(&self, x: &[f64], lambda: &[f64]) -> Option<Kkt> {
         let ev = evaluate(x)?;
         let (constraints, jacobian) = self.constraints(&ev);
-        let mut grad = ev.grad_energy.clone();
+        let (_, mut grad) = self.energy(&ev);
         for (l, row) in lambda.iter().zip(&jacobian) {
             for (g, j) in grad.iter_mut().zip(row) {
                 *g += l * j;
@@ -230,7 +285,7 @@ impl Problem {
             for b in 0..m {
                 normal[(a, b)] = dot(&jac[a], &jac[b]);
             }
-            rhs[a] = -dot(&jac[a], &ev.grad_energy);
+            rhs[a] = -dot(&jac[a], &self.energy(&ev).1);
         }
         let sol = normal.lu().solve(&rhs)?;
         Some(sol.iter().copied().collect())

@@ -4,6 +4,11 @@
 //! shape diagram of Seifert, Berndl & Lipowsky, Phys. Rev. A 44, 1182 (1991):
 //! prolate, oblate/discocyte and stomatocyte ([`Branch`]).
 //!
+//! [`adhered`] extends it to a vesicle bound to a flat substrate (a contact
+//! segment: Seifert & Lipowsky's adhered vesicle), and [`contact_fit`]
+//! measures a simulated adhered vesicle's contact curvature against that
+//! family.
+//!
 //! This module is an *independent* reference: it uses only `std` and
 //! `nalgebra` and nothing from the triangulated-mesh engine, so it can be used
 //! to measure that engine's discretisation error.
@@ -185,8 +190,10 @@ use nalgebra::{DMatrix, DVector};
 use std::f64::consts::PI;
 use std::fmt;
 
+pub mod adhered;
 #[cfg(test)]
 mod branch_tests;
+pub mod contact_fit;
 mod continuation;
 mod discrete;
 mod geometry;
@@ -606,7 +613,7 @@ pub fn branch_curve(
         let mut stopped: Option<SolveError> = None;
         for i in walk {
             let v = reduced_volumes[i];
-            let problem = Problem { target: Some(v) };
+            let problem = Problem::closed(Some(v));
             if let Some(e) = &stopped {
                 results[i] = Err(SolveError::NotConverged(format!(
                     "v = {v} lies beyond the point where the walk along the branch stopped ({e})"

@@ -110,7 +110,7 @@ pub(super) fn analytic_gradients_match_finite_differences() {
     for (k, xi) in x.iter_mut().enumerate() {
         *xi += 0.05 * (0.7 * k as f64).sin();
     }
-    let problem = Problem { target: Some(0.7) };
+    let problem = Problem::closed(Some(0.7));
     let lambda = [0.3, -1.7];
     let k0 = problem.kkt(&x, &lambda).unwrap();
     let eps = 1e-6;
