@@ -209,6 +209,14 @@ fn bad_study_files_name_the_file_and_field() {
             "problems[0].rungs[0]",
         ),
         (
+            // Nor an adhesive plane.
+            format!(
+                r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: Adhesion, rungs: [(label: "a")])])"#,
+                scene.display()
+            ),
+            "problems[0].rungs[0]",
+        ),
+        (
             format!(
                 r#"Study(name: "s", problems: [(name: "p", scene: "{}", reference: SphereBending, rungs: [(label: "a"), (label: "a")])])"#,
                 scene.display()

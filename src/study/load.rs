@@ -237,6 +237,13 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
             );
         }
     }
+    if reference == Reference::Adhesion && super::adhesion_plane(scene).is_none() {
+        return Err(
+            "Adhesion needs exactly one `Adhesion(shape: Plane(...))` term (the continuum \
+             reference lies on a flat substrate)"
+                .into(),
+        );
+    }
     if reference == Reference::SpheroidBending {
         match scene.membrane {
             crate::scene::MembraneSource::Ellipsoid {

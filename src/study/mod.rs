@@ -182,6 +182,14 @@ pub enum Reference {
     /// force of its named control points (their mean magnitude). The cost
     /// is the case's whole wall time.
     Tether,
+    /// A vesicle adhered to the scene's plane `Adhesion` substrate, against
+    /// the continuum adhered vesicle of the same area, final reduced volume,
+    /// κ and W ([`crate::study::axisymmetric::adhered`]): the contact
+    /// curvature fitted to the final mesh near the contact line
+    /// ([`crate::study::axisymmetric::contact_fit`]) against Seifert &
+    /// Lipowsky's √(2W/κ), and the height above the bound membrane against
+    /// the continuum vesicle's. The cost is the case's whole wall time.
+    Adhesion,
 }
 
 impl Reference {
@@ -265,6 +273,21 @@ pub fn bending_kappa(scene: &Scene) -> Option<f64> {
         crate::scene::EnergyTerm::Bending(p) => Some(p.kappa),
         _ => None,
     })
+}
+
+/// The scene's one adhesive substrate, if it has exactly one and it is a
+/// plane (the [`Reference::Adhesion`] problem's condition).
+pub fn adhesion_plane(scene: &Scene) -> Option<crate::energy::adhesion::AdhesionParams> {
+    let mut terms = scene.energy.iter().filter_map(|t| match t {
+        crate::scene::EnergyTerm::Adhesion(p) => Some(p),
+        _ => None,
+    });
+    match (terms.next(), terms.next()) {
+        (Some(p), None) if matches!(p.shape, crate::energy::wall::WallShape::Plane { .. }) => {
+            Some(p.clone())
+        }
+        _ => None,
+    }
 }
 
 /// Whether the run in `dir` stopped on a numerical blow-up and wrote its

@@ -103,6 +103,7 @@ pub fn peer_spec(
         }
         Reference::FinestRung(_) => Err("a time-step problem has no peer version".into()),
         Reference::Tether => Err("the tether problem has no peer version".into()),
+        Reference::Adhesion => Err("the adhesion problem has no peer version".into()),
     }
 }
 

@@ -33,8 +33,9 @@
 //!    the contact line (the simulated vesicle is not exactly axisymmetric).
 //!    The residual sum S(f) measures how well that member of the family
 //!    fits.
-//! 4. S is scanned over f = 0.6, 0.7, …, 1.6, then sampled at five points
-//!    0.02 apart around the coarse minimum; a parabola through those gives
+//! 4. S is scanned over f = 0.6, 0.7, …, 1.6 (extended by factors of 1.15
+//!    while the best point is at an end, within 0.2-5), then sampled at
+//!    five points 2 % apart around the coarse minimum; a parabola through those gives
 //!    the best f* and its curvature a. The error bar is the one-parameter
 //!    1σ interval Δf = √(σ²/a), σ² = S(f*)/(n − p).
 //!
@@ -57,6 +58,9 @@ pub const FIT_SEGMENTS: usize = 400;
 
 /// Azimuthal modes absorbed by the fit.
 const MODES: usize = 4;
+
+/// The range of W'/W the scan may reach.
+const SCAN_LIMITS: (f64, f64) = (0.2, 5.0);
 
 /// Fewest vertices for a fit.
 const MIN_VERTICES: usize = 40;
@@ -98,29 +102,60 @@ pub struct ContactFit {
     /// Radial shift of the contact line against the continuum vesicle of
     /// W' (l̄).
     pub contact_shift: f64,
+    /// The simulated contact line's radius: the fitted vesicle's r_c plus
+    /// the shift (l̄).
+    pub contact_radius: f64,
     /// Vertices in the fit.
     pub vertices: usize,
     /// Root-mean-square residual at the best fit (l̄).
     pub rms: f64,
-    /// The continuum vesicle at the simulation's own W (lengths in R0).
-    pub reference: AdheredShape,
     /// R0 = √(A/4π) (l̄).
     pub r0: f64,
 }
 
-impl ContactFit {
-    /// The simulated vesicle's top above its bound membrane against the
-    /// continuum vesicle's height at the simulation's W: (simulated,
-    /// continuum) in l̄.
-    pub fn heights(&self, input: &ContactFitInput<'_>) -> (f64, f64) {
-        let frame = Frame::new(input);
-        let top = input
-            .positions
-            .iter()
-            .map(|x| frame.height(x))
-            .fold(f64::NEG_INFINITY, f64::max);
-        (top - self.bound_height, self.reference.height * self.r0)
+/// The simulated vesicle against the continuum vesicle at the simulation's
+/// own W, independently of the curvature fit (a mesh the family does not
+/// fit is still compared).
+#[derive(Clone, Copy, Debug)]
+pub struct ContinuumComparison {
+    /// The simulated vesicle's top above its bound membrane (l̄).
+    pub height: f64,
+    /// The continuum vesicle's height (l̄).
+    pub continuum_height: f64,
+    /// The continuum vesicle's contact area π r_c² (l̄²).
+    pub continuum_contact_area: f64,
+}
+
+/// Compares `input` with the continuum vesicle at its own W.
+pub fn compare_with_continuum(input: &ContactFitInput<'_>) -> Result<ContinuumComparison, String> {
+    let frame = Frame::new(input);
+    let heights: Vec<f64> = input.positions.iter().map(|x| frame.height(x)).collect();
+    let bound = bound_height(&heights, input.range)?;
+    let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let r0 = (input.area / (4.0 * PI)).sqrt();
+    let w = input.strength * r0 * r0 / input.kappa;
+    let continuum = solve_adhered(w, input.reduced_volume, FIT_SEGMENTS)
+        .map_err(|e| format!("continuum vesicle at W: {e}"))?;
+    Ok(ContinuumComparison {
+        height: top - bound,
+        continuum_height: continuum.height * r0,
+        continuum_contact_area: PI * (continuum.contact_radius * r0).powi(2),
+    })
+}
+
+/// The bound membrane's height: the median height of the vertices below
+/// half the range.
+fn bound_height(heights: &[f64], range: f64) -> Result<f64, String> {
+    let mut bound: Vec<f64> = heights
+        .iter()
+        .copied()
+        .filter(|&z| z < 0.5 * range)
+        .collect();
+    if bound.is_empty() {
+        return Err("no vertex lies on the substrate".into());
     }
+    bound.sort_by(f64::total_cmp);
+    Ok(bound[bound.len() / 2])
 }
 
 /// The plane's frame: heights, axis distances and azimuths of points.
@@ -298,16 +333,7 @@ pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, 
     let w = input.strength * r0 * r0 / input.kappa;
     let frame = Frame::new(input);
     let heights: Vec<f64> = input.positions.iter().map(|x| frame.height(x)).collect();
-    let mut bound: Vec<f64> = heights
-        .iter()
-        .copied()
-        .filter(|&z| z < 0.5 * input.range)
-        .collect();
-    if bound.is_empty() {
-        return Err("no vertex lies on the substrate".into());
-    }
-    bound.sort_by(f64::total_cmp);
-    let bound_height = bound[bound.len() / 2];
+    let bound_height = bound_height(&heights, input.range)?;
     let samples: Vec<Sample> = input
         .positions
         .iter()
@@ -331,32 +357,25 @@ pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, 
             )
         })
     };
-    let coarse: Vec<f64> = (0..=10).map(|k| 0.6 + 0.1 * k as f64).collect();
-    let mut scores = Vec::new();
-    for &f in &coarse {
-        scores.push(score(f)?.0);
-    }
-    let best = (0..coarse.len())
-        .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
-        .expect("eleven scores");
-    if best == 0 || best == coarse.len() - 1 {
-        return Err(format!(
-            "the best continuum vesicle lies at the edge of W'/W = 0.6-1.6 ({})",
-            coarse[best]
-        ));
-    }
-    let centre = vertex_of_parabola(&coarse[best - 1..=best + 1], &scores[best - 1..=best + 1]);
-    let fine: Vec<f64> = (-2..=2).map(|k| centre + 0.02 * k as f64).collect();
+    let centre = coarse_minimum(|f| Ok(score(f)?.0))?;
+    let fine: Vec<f64> = (-2..=2).map(|k| centre * (1.0 + 0.02 * k as f64)).collect();
     let mut fine_scores = Vec::new();
     for &f in &fine {
         fine_scores.push(score(f)?);
     }
     let (c2, c1, _) = parabola(&fine, &fine_scores.iter().map(|s| s.0).collect::<Vec<_>>());
     if c2 <= 0.0 {
-        return Err("the fit's residual has no minimum near the coarse one".into());
+        let (s_best, n, _) = fine_scores[2];
+        return Err(format!(
+            "the fit's residual has no minimum near W'/W = {centre:.2}: the free profile is \
+             {:.1e} l (rms) from the nearest continuum vesicle, too far for the fit to resolve",
+            (s_best / n as f64).sqrt()
+        ));
     }
     let f_best = -c1 / (2.0 * c2);
-    let (s_min, n, shift) = score(f_best)?;
+    let best_shape = solve(f_best)?;
+    let (s_min, n, shift) = residual(&samples, &LowerProfile::new(&best_shape, r0))
+        .ok_or("the best continuum vesicle leaves too few vertices to fit")?;
     let params = 1 + 4 * MODES;
     let sigma2 = s_min / (n - params) as f64;
     let df = (sigma2 / c2).sqrt();
@@ -368,11 +387,59 @@ pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, 
         adhesion_ratio: f_best,
         bound_height,
         contact_shift: shift,
+        contact_radius: best_shape.contact_radius * r0 + shift,
         vertices: n,
         rms: (s_min / n as f64).sqrt(),
-        reference: solve(1.0)?,
         r0,
     })
+}
+
+/// The coarse scan of the residual `score(f)` over f = 0.6-1.6 (extended
+/// by factors of 1.15 while its best point is at an end, within
+/// [`SCAN_LIMITS`]): the vertex of the parabola through the best point and
+/// its neighbours.
+fn coarse_minimum(mut score: impl FnMut(f64) -> Result<f64, String>) -> Result<f64, String> {
+    // A shell far from the fluid limit can sit well outside 0.6-1.6.
+    let mut coarse: Vec<f64> = (0..=10).map(|k| 0.6 + 0.1 * k as f64).collect();
+    let mut scores = Vec::new();
+    for &f in &coarse {
+        scores.push(score(f)?);
+    }
+    let best = loop {
+        let best = (0..coarse.len())
+            .min_by(|&a, &b| scores[a].total_cmp(&scores[b]))
+            .expect("eleven scores");
+        let next = if best == coarse.len() - 1 {
+            Some(coarse[best] * 1.15)
+        } else if best == 0 {
+            Some(coarse[0] / 1.15)
+        } else {
+            None
+        };
+        match next {
+            None => break best,
+            Some(f) if !(SCAN_LIMITS.0..=SCAN_LIMITS.1).contains(&f) => {
+                return Err(format!(
+                    "the best continuum vesicle lies beyond W'/W = {:.2} (scanned {}-{})",
+                    coarse[best], SCAN_LIMITS.0, SCAN_LIMITS.1
+                ));
+            }
+            Some(f) => {
+                let value = score(f)?;
+                if best == 0 {
+                    coarse.insert(0, f);
+                    scores.insert(0, value);
+                } else {
+                    coarse.push(f);
+                    scores.push(value);
+                }
+            }
+        }
+    };
+    Ok(vertex_of_parabola(
+        &coarse[best - 1..=best + 1],
+        &scores[best - 1..=best + 1],
+    ))
 }
 
 /// The abscissa of the vertex of the parabola through three points.
@@ -470,6 +537,8 @@ mod tests {
             );
             assert!((fit.curvature / expected - 1.0).abs() < 0.005);
             assert!((fit.contact_shift - 0.1).abs() < 0.01);
+            let contact_radius = truth.contact_radius * r0 + 0.1;
+            assert!((fit.contact_radius - contact_radius).abs() < 0.01);
             assert!((fit.bound_height + 0.03).abs() < 1e-9);
         }
     }

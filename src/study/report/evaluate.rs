@@ -187,6 +187,14 @@ fn case_measurements(
             (measurements, note) = (m, format!("{n}; {}", equilibration(&d.rows)));
         }
         Reference::Tether => (measurements, note) = tether_measurements(&case.scene, d),
+        Reference::Adhesion => {
+            (measurements, note) = adhesion_measurements(
+                &case.scene,
+                &dir.join("final.ply"),
+                d.summary.last.area,
+                d.summary.last.reduced_volume.unwrap_or(f64::NAN),
+            )?;
+        }
         Reference::FinestRung(q) => {
             if let Some((_, value)) = finest {
                 measurements.push(measure(
