@@ -28,6 +28,14 @@
 //! `from_height` = ρ (the adhesion recorder's choice) and reads the free
 //! membrane's curvature law at ψ = 0.
 //!
+//! A cheap per-frame estimate, not the number to quote: its height offset
+//! z₀ and its curvature are nearly degenerate over tilts that start above
+//! the range, and it reads high on coarse meshes (1.18 × √(2W/κ) at
+//! h = 1/2 and W R0²/κ = 5.94, where the fit to the continuum vesicle
+//! reads 1.047). The study's adhesion problems measure the contact
+//! curvature against the continuum adhered vesicle
+//! (`crate::study::axisymmetric::contact_fit`, docs/adhesion.md).
+//!
 //! Units: heights in l̄, curvature in 1/l̄, angles in radians.
 
 use crate::energy::wall::WallShape;
