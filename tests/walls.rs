@@ -134,6 +134,23 @@ fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
         .unwrap();
     let m = summary.minimiser.expect("minimised");
     assert_eq!(m.stopped_by, "force_residual", "W = {w}");
+    // summary.json compares the vesicle with the continuum adhered vesicle
+    // of its area, reduced volume, κ = 1 and W (the contact curvature
+    // itself is unit-tested in src/study/axisymmetric/contact_fit.rs).
+    let a = summary.adhesion.as_ref().expect("a plane substrate");
+    let r0_squared = summary.last.area / (4.0 * std::f64::consts::PI);
+    assert!((a.reduced_adhesion / (w * r0_squared) - 1.0).abs() < 1e-12);
+    assert!((a.contact_condition - (2.0 * w).sqrt()).abs() < 1e-12);
+    assert!(
+        (a.height / a.continuum_height - 1.0).abs() < 0.1,
+        "W = {w}: {a:?}"
+    );
+    assert!(a.continuum_contact_area > 0.0, "W = {w}: {a:?}");
+    assert_eq!(
+        a.contact_curvature.is_none(),
+        a.fit.starts_with("contact curvature not measured"),
+        "{a:?}"
+    );
     let min_distance = common::series_column(&out, "wall_min_distance");
     assert!(
         min_distance.iter().all(|&d| d > 0.0),

@@ -220,6 +220,19 @@ pub(super) fn report_run(
                         c.reactions.tension, c.reactions.pressure
                     );
                 }
+                if let Some(a) = &summary.adhesion {
+                    let curvature = match (a.contact_curvature, a.contact_curvature_error) {
+                        (Some(c), Some(e)) => format!(
+                            "{c:.4} ± {e:.1e} /l̄ ({:+.1} %)",
+                            100.0 * (c / a.contact_condition - 1.0)
+                        ),
+                        _ => "not measured".into(),
+                    };
+                    eprintln!(
+                        "adhesion (W R0²/κ = {:.2}): contact curvature {curvature} against √(2W/κ) = {:.4} /l̄; height {:.3} l̄ against the continuum's {:.3}",
+                        a.reduced_adhesion, a.contact_condition, a.height, a.continuum_height
+                    );
+                }
                 if let Some(line) = model_line(&summary.model) {
                     eprintln!("{line}");
                 }

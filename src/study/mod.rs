@@ -16,6 +16,7 @@
 //! reference, fits the observed convergence order and writes `study.csv`,
 //! `study.md`, `study.json` and the charts.
 
+pub mod adhesion;
 pub mod axisymmetric;
 mod load;
 pub mod peer;

@@ -188,12 +188,8 @@ fn case_measurements(
         }
         Reference::Tether => (measurements, note) = tether_measurements(&case.scene, d),
         Reference::Adhesion => {
-            (measurements, note) = adhesion_measurements(
-                &case.scene,
-                &dir.join("final.ply"),
-                d.summary.last.area,
-                d.summary.last.reduced_volume.unwrap_or(f64::NAN),
-            )?;
+            (measurements, note) =
+                adhesion_measurements(&case.scene, &dir.join("final.ply"), &d.summary)?;
         }
         Reference::FinestRung(q) => {
             if let Some((_, value)) = finest {

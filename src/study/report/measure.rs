@@ -266,94 +266,46 @@ pub(super) fn tether_measurements(
 }
 
 /// The adhered vesicle's contact curvature (fitted near the contact line to
-/// the continuum family, [`crate::study::axisymmetric::contact_fit`])
-/// against √(2W/κ), and its height above the bound membrane against the
-/// continuum vesicle's at the scene's W.
+/// the continuum family, [`crate::study::adhesion`]) against √(2W/κ), its
+/// height above the bound membrane and its contact area against the
+/// continuum vesicle's at the scene's W. NaN marks the contact curvature
+/// and area unmeasured when no member of the family fits (the columns stay
+/// in place). The run's own `summary.json` report is used when it has one;
+/// a run written without it is measured from its `final.ply`.
 pub(super) fn adhesion_measurements(
     scene: &crate::scene::Scene,
     mesh_path: &Path,
-    area: f64,
-    v: f64,
+    summary: &crate::workflow::run::RunSummary,
 ) -> Result<(Vec<Measurement>, String), String> {
-    use crate::study::axisymmetric::contact_fit::{
-        ContactFitInput, compare_with_continuum, fit_contact_curvature,
-    };
-    let h = match scene.resolution {
-        crate::scene::resolution::Resolution::EdgeLength(h) => h,
-        crate::scene::resolution::Resolution::FromMesh => {
-            return Err("the adhesion problem needs `resolution: EdgeLength(h)`".into());
+    let v = summary.last.reduced_volume.unwrap_or(f64::NAN);
+    let r = match &summary.adhesion {
+        Some(r) => r.clone(),
+        None => {
+            let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
+            let positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+            crate::study::adhesion::measure(scene, &positions, summary.last.area, v)?
         }
     };
-    let kappa = bending_kappa(scene).ok_or("no bending term")?;
-    let adhesion =
-        crate::study::adhesion_plane(&scene.at_resolution(h)).ok_or("no plane adhesion term")?;
-    let crate::energy::wall::WallShape::Plane { point, normal } = adhesion.shape else {
-        return Err("the substrate is not a plane".into());
-    };
-    let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
-    let positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
-    let input = ContactFitInput {
-        positions: &positions,
-        point: point.into(),
-        normal: normal.into(),
-        range: adhesion.range,
-        strength: adhesion.strength,
-        kappa,
-        area,
-        reduced_volume: v,
-    };
-    let continuum = compare_with_continuum(&input)?;
-    // NaN marks the contact curvature unmeasured when the family does not
-    // fit; the columns stay in place.
-    let theory = (2.0 * adhesion.strength / kappa).sqrt();
-    let (curvature, contact_area, note) = match fit_contact_curvature(&input) {
-        Ok(fit) => (
-            fit.curvature,
-            PI * fit.contact_radius * fit.contact_radius,
-            format!(
-                "W R0^2/kappa = {:.3}, v = {v:.4}; c_contact ± {:.1e} (fit); fitted W'/W = {:.4} \
-                 over {} vertices (rms {:.2e} l), contact line {:+.3} l from the continuum's, \
-                 bound membrane at {:+.3} l",
-                adhesion.strength * fit.r0 * fit.r0 / kappa,
-                fit.curvature_error,
-                fit.adhesion_ratio,
-                fit.vertices,
-                fit.rms,
-                fit.contact_shift,
-                fit.bound_height
-            ),
-        ),
-        Err(e) => (
-            f64::NAN,
-            f64::NAN,
-            format!("v = {v:.4}; contact curvature not measured: {e}"),
-        ),
-    };
+    let exact = |value: f64| Value { value, error: 0.0 };
     let measurements = vec![
         measure(
             "c_contact",
-            curvature,
-            Value {
-                value: theory,
-                error: 0.0,
-            },
+            r.contact_curvature.unwrap_or(f64::NAN),
+            exact(r.contact_condition),
         ),
-        measure(
-            "height",
-            continuum.height,
-            Value {
-                value: continuum.continuum_height,
-                error: 0.0,
-            },
-        ),
+        measure("height", r.height, exact(r.continuum_height)),
         measure(
             "A_contact",
-            contact_area,
-            Value {
-                value: continuum.continuum_contact_area,
-                error: 0.0,
-            },
+            r.contact_area.unwrap_or(f64::NAN),
+            exact(r.continuum_contact_area),
         ),
     ];
+    let error = r
+        .contact_curvature_error
+        .map_or(String::new(), |e| format!("c_contact ± {e:.1e} (fit); "));
+    let note = format!(
+        "W R0^2/kappa = {:.3}, v = {v:.4}; {error}{}",
+        r.reduced_adhesion, r.fit
+    );
     Ok((measurements, note))
 }

@@ -18,6 +18,12 @@ pub(super) fn summarize(
     let none = RemeshStats::default();
     let stats = stats.as_deref().unwrap_or(&none);
     let model = model_summary(sim);
+    let last = EnergyReport::new(name, sim);
+    let adhesion = if stop.is_none() {
+        adhesion_report(scene, sim, &last)
+    } else {
+        None
+    };
     RunSummary {
         scene_file: scene_path.display().to_string(),
         seed: scene.seed,
@@ -31,7 +37,7 @@ pub(super) fn summarize(
         iterations: clock.iteration,
         simulated_time: clock.time,
         wall_time_s,
-        last: EnergyReport::new(name, sim),
+        last,
         shape: crate::analysis::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
         cautions: scene.cautions(),
@@ -55,6 +61,7 @@ pub(super) fn summarize(
             event_position_spread: stats.position_spread(),
         },
         minimiser: minimiser_summary(sim),
+        adhesion,
         constraints: sim
             .resource::<crate::engine::force::ForceBuffers>()
             .evaluation
@@ -63,6 +70,28 @@ pub(super) fn summarize(
         frames: out.frames.clone(),
         timings: sim.schedule().timings(),
     }
+}
+
+/// The closed vesicle of a scene with one plane `Adhesion` substrate
+/// against the continuum adhered vesicle (at its final area and reduced
+/// volume); `None` for other scenes and open membranes, or when the
+/// continuum vesicle cannot be solved there.
+fn adhesion_report(
+    scene: &Scene,
+    sim: &Simulation,
+    last: &EnergyReport,
+) -> Option<crate::study::adhesion::AdhesionReport> {
+    if !crate::study::adhesion::has_continuum(scene) {
+        return None;
+    }
+    let v = last.reduced_volume?;
+    let positions: Vec<[f64; 3]> = sim
+        .resource::<DensePositions>()
+        .0
+        .iter()
+        .map(|p| p.to_array())
+        .collect();
+    crate::study::adhesion::measure(scene, &positions, last.area, v).ok()
 }
 
 /// The membrane model of `sim` and V_in's network moduli at its current

@@ -57,6 +57,12 @@ pub struct RunSummary {
     /// How the minimisation ended (scenes with `method: Minimise` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub minimiser: Option<MinimiserSummary>,
+    /// The adhered vesicle against the continuum adhered vesicle: contact
+    /// curvature, height and contact area (closed membranes on one plane
+    /// `Adhesion` substrate, completed runs only;
+    /// [`crate::study::adhesion`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub adhesion: Option<crate::study::adhesion::AdhesionReport>,
     /// The exact constraints at the final state: targets, area, volume and
     /// the multipliers σ (`tension`, Ē/l̄²) and Δp (`pressure`, Ē/l̄³)
     /// (scenes with `constraints` only).

@@ -1,0 +1,115 @@
+//! A scene's adhered vesicle against the continuum: the scene-aware side of
+//! [`crate::study::axisymmetric::contact_fit`], shared by the study's
+//! `Adhesion` problems and every run's `summary.json`.
+
+use crate::scene::Scene;
+use crate::study::axisymmetric::contact_fit::{
+    ContactFitInput, compare_with_continuum, fit_contact_curvature,
+};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// The adhered vesicle against the continuum adhered vesicle of the same
+/// area, reduced volume, κ and W (`summary.json` → `adhesion`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AdhesionReport {
+    /// W R0²/κ, R0 = √(A/4π).
+    pub reduced_adhesion: f64,
+    /// Seifert & Lipowsky's contact condition √(2W/κ) (1/l̄).
+    pub contact_condition: f64,
+    /// The contact curvature: √(2W′/κ) of the continuum vesicle that best
+    /// fits the free membrane near the contact line (1/l̄; `None` when no
+    /// member fits: see `fit`).
+    pub contact_curvature: Option<f64>,
+    /// Its one-sigma error from the fit (1/l̄).
+    pub contact_curvature_error: Option<f64>,
+    /// The vesicle's top above its bound membrane (l̄).
+    pub height: f64,
+    /// The continuum vesicle's height at W (l̄).
+    pub continuum_height: f64,
+    /// π r² of the fitted contact line (l̄²; `None` when no member fits).
+    pub contact_area: Option<f64>,
+    /// The continuum vesicle's contact area π r_c² at W (l̄²).
+    pub continuum_contact_area: f64,
+    /// What the fit used, or why the contact curvature was not measured.
+    pub fit: String,
+}
+
+/// Whether the scene's one adhesive substrate is a plane, and its
+/// parameters at the scene's resolution with κ; `Err` says why the scene
+/// has no continuum counterpart.
+fn substrate(scene: &Scene) -> Result<(crate::energy::adhesion::AdhesionParams, f64), String> {
+    let h = match scene.resolution {
+        crate::scene::resolution::Resolution::EdgeLength(h) => h,
+        crate::scene::resolution::Resolution::FromMesh => {
+            return Err("needs `resolution: EdgeLength(h)`".into());
+        }
+    };
+    let kappa = crate::study::bending_kappa(scene).ok_or("no bending term")?;
+    let adhesion =
+        crate::study::adhesion_plane(&scene.at_resolution(h)).ok_or("no plane adhesion term")?;
+    Ok((adhesion, kappa))
+}
+
+/// Whether `scene` has a continuum counterpart: one plane `Adhesion` term,
+/// a bending term and an explicit resolution.
+pub fn has_continuum(scene: &Scene) -> bool {
+    substrate(scene).is_ok()
+}
+
+/// Measures the closed vesicle `positions` (area `area`, reduced volume
+/// `v`) of `scene` against the continuum adhered vesicle. `Err` when the
+/// scene has no continuum counterpart or the continuum vesicle cannot be
+/// solved; a failed curvature fit is reported inside.
+pub fn measure(
+    scene: &Scene,
+    positions: &[[f64; 3]],
+    area: f64,
+    v: f64,
+) -> Result<AdhesionReport, String> {
+    let (adhesion, kappa) = substrate(scene)?;
+    let crate::energy::wall::WallShape::Plane { point, normal } = adhesion.shape else {
+        return Err("the substrate is not a plane".into());
+    };
+    let input = ContactFitInput {
+        positions,
+        point: point.into(),
+        normal: normal.into(),
+        range: adhesion.range,
+        strength: adhesion.strength,
+        kappa,
+        area,
+        reduced_volume: v,
+    };
+    let continuum = compare_with_continuum(&input)?;
+    let r0 = (area / (4.0 * PI)).sqrt();
+    let (curvature, error, contact_area, fit) = match fit_contact_curvature(&input) {
+        Ok(fit) => (
+            Some(fit.curvature),
+            Some(fit.curvature_error),
+            Some(PI * fit.contact_radius * fit.contact_radius),
+            format!(
+                "W'/W = {:.4} over {} vertices (rms {:.2e} l), contact line {:+.3} l from \
+                 the fitted continuum vesicle's, bound membrane at {:+.3} l",
+                fit.adhesion_ratio, fit.vertices, fit.rms, fit.contact_shift, fit.bound_height
+            ),
+        ),
+        Err(e) => (
+            None,
+            None,
+            None,
+            format!("contact curvature not measured: {e}"),
+        ),
+    };
+    Ok(AdhesionReport {
+        reduced_adhesion: adhesion.strength * r0 * r0 / kappa,
+        contact_condition: (2.0 * adhesion.strength / kappa).sqrt(),
+        contact_curvature: curvature,
+        contact_curvature_error: error,
+        height: continuum.height,
+        continuum_height: continuum.continuum_height,
+        contact_area,
+        continuum_contact_area: continuum.continuum_contact_area,
+        fit,
+    })
+}
