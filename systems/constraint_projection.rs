@@ -1,6 +1,8 @@
 //! Returns the positions to the exact constraints' surface after a step
-//! ([`remembrane_core::constraint::project`]): Gauss-Newton steps along ∇A and ∇V,
-//! none moving a vertex by more than `max_correction`.
+//! ([`remembrane_core::constraint::project`]): Gauss-Newton steps along ∇A and ∇V
+//! (smoothed over 1-rings), or along the directions a preconditioned
+//! minimiser publishes in [`ProjectionDirections`] (its metric's P⁻¹∇A,
+//! P⁻¹∇V), none moving a vertex by more than `max_correction`.
 //!
 //! Stage: Integrate (after the integrator). Reads: [`Constraints`], the
 //! total force in [`ForceBuffers`] (written back with the positions),
@@ -9,7 +11,9 @@
 //! [`Membrane`]). A non-finite position stops the run with a blow-up error
 //! naming the vertex.
 
-use remembrane_core::constraint::{Constraints, ProjectionScratch, project};
+use remembrane_core::constraint::{
+    Constraints, ProjectionDirections, ProjectionScratch, project, project_along,
+};
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
@@ -28,6 +32,7 @@ impl System for ConstraintProjection {
         Res<'a, ForceBuffers>,
         Res<'a, StopRequest>,
         Res<'a, Clock>,
+        Option<Res<'a, ProjectionDirections>>,
         ResMut<'a, DensePositions>,
         ResMut<'a, Membrane>,
     );
@@ -38,19 +43,34 @@ impl System for ConstraintProjection {
 
     fn run(
         &mut self,
-        (constraints, buffers, stop, clock, mut positions, mut membrane): Self::Data<'_>,
+        (constraints, buffers, stop, clock, given, mut positions, mut membrane): Self::Data<'_>,
     ) -> Result<(), SimError> {
         if stop.0.is_some() {
             return Ok(());
         }
-        let done = project(
-            &mut positions.0,
-            membrane.cached_topology(),
-            constraints.targets,
-            constraints.max_correction,
-            constraints.smoothing,
-            &mut self.scratch,
-        );
+        let topology = membrane.cached_topology();
+        let (targets, cap) = (constraints.targets, constraints.max_correction);
+        let done = match given
+            .as_deref()
+            .filter(|d| !d.0[0].is_empty() || !d.0[1].is_empty())
+        {
+            Some(ProjectionDirections([a, v])) => project_along(
+                &mut positions.0,
+                topology,
+                targets,
+                cap,
+                [a, v],
+                &mut self.scratch,
+            ),
+            None => project(
+                &mut positions.0,
+                topology,
+                targets,
+                cap,
+                constraints.smoothing,
+                &mut self.scratch,
+            ),
+        };
         if done.steps == 0 {
             return Ok(());
         }

@@ -197,7 +197,7 @@ fn response(g: [&[DVec3]; 2], d: [&[DVec3]; 2]) -> [[f64; 2]; 2] {
 
 /// Solves M c = r for the active constraints, with a relative Tikhonov
 /// term of 1e-12 against a singular pair (a sphere).
-fn solve_response(m: [[f64; 2]; 2], t: ConstraintTargets, r: [f64; 2]) -> [f64; 2] {
+pub(crate) fn solve_response(m: [[f64; 2]; 2], t: ConstraintTargets, r: [f64; 2]) -> [f64; 2] {
     match (t.area.is_some(), t.volume.is_some()) {
         (false, false) => [0.0, 0.0],
         (true, false) => [r[0] / nonzero(m[0][0]), 0.0],
@@ -237,6 +237,61 @@ pub fn project(
     smoothing: u32,
     scratch: &mut ProjectionScratch,
 ) -> Projection {
+    project_with(
+        positions,
+        topology,
+        t,
+        max_correction,
+        Directions::Smoothed(smoothing),
+        scratch,
+    )
+}
+
+/// [`project`] along given directions (a preconditioned minimiser's
+/// W = P⁻¹∇C, smooth by construction) instead of smoothed gradients. A
+/// direction of another length than `positions` falls back to the exact
+/// gradient.
+pub fn project_along(
+    positions: &mut [DVec3],
+    topology: &crate::mesh::topology::Topology,
+    t: ConstraintTargets,
+    max_correction: f64,
+    directions: [&[DVec3]; 2],
+    scratch: &mut ProjectionScratch,
+) -> Projection {
+    project_with(
+        positions,
+        topology,
+        t,
+        max_correction,
+        Directions::Given(directions),
+        scratch,
+    )
+}
+
+/// Where the projection's directions come from.
+#[derive(Clone, Copy)]
+enum Directions<'a> {
+    /// ∇A and ∇V averaged this many times over 1-rings.
+    Smoothed(u32),
+    /// Given by the caller.
+    Given([&'a [DVec3]; 2]),
+}
+
+/// Directions that a preconditioned minimiser publishes for the
+/// projection (its metric's W_A, W_V, by vertex slot); empty: the
+/// projection smooths the gradients itself. A resource.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ProjectionDirections(pub [Vec<DVec3>; 2]);
+
+fn project_with(
+    positions: &mut [DVec3],
+    topology: &crate::mesh::topology::Topology,
+    t: ConstraintTargets,
+    max_correction: f64,
+    directions: Directions<'_>,
+    scratch: &mut ProjectionScratch,
+) -> Projection {
     let faces = &topology.faces;
     let mut out = Projection::default();
     let held = |r: f64, target: Option<f64>| {
@@ -263,12 +318,23 @@ pub fn project(
     while out.steps < PROJECTION_STEPS && !(held(r[0], t.area) && held(r[1], t.volume)) {
         if out.steps == 0 || chord_steps == 2 {
             g.measure(positions, faces);
-            da.clone_from(&g.area_gradient);
-            dv.clone_from(&g.volume_gradient);
-            if smoothing > 0 {
-                use crate::energy::penalty::smooth_over_rings;
-                smooth_over_rings(da, topology, smoothing, smoothing_scratch);
-                smooth_over_rings(dv, topology, smoothing, smoothing_scratch);
+            match directions {
+                Directions::Smoothed(smoothing) => {
+                    da.clone_from(&g.area_gradient);
+                    dv.clone_from(&g.volume_gradient);
+                    if smoothing > 0 {
+                        use crate::energy::penalty::smooth_over_rings;
+                        smooth_over_rings(da, topology, smoothing, smoothing_scratch);
+                        smooth_over_rings(dv, topology, smoothing, smoothing_scratch);
+                    }
+                }
+                Directions::Given([a, v]) => {
+                    let n = positions.len();
+                    da.clear();
+                    da.extend_from_slice(if a.len() == n { a } else { &g.area_gradient });
+                    dv.clear();
+                    dv.extend_from_slice(if v.len() == n { v } else { &g.volume_gradient });
+                }
             }
             m = response([&g.area_gradient, &g.volume_gradient], [da, dv]);
             chord_steps = 0;

@@ -167,7 +167,7 @@ impl Scene {
         };
         builder
             .add_plugin(plugins::core(plugins::CoreSettings {
-                dynamics: self.dynamics,
+                dynamics: self.dynamics_resolved(),
                 seed: self.seed,
                 penalty_smoothing: self.penalty_smoothing,
                 remesh: self.remesh,
@@ -366,4 +366,28 @@ fn state_mesh(
         mesh = mesh.subdivided();
     }
     Ok((mesh, lipid))
+}
+
+impl Scene {
+    /// The dynamics with the defaults that depend on the rest of the scene
+    /// resolved: a Sobolev preconditioner's normal scale is the sum of the
+    /// bending rigidities (1 without bending).
+    fn dynamics_resolved(&self) -> crate::params::DynamicsParams {
+        let mut d = self.dynamics;
+        if let crate::params::Method::Minimise(m) = &mut d.method
+            && let crate::params::Preconditioner::Sobolev(p) = &mut m.preconditioner
+            && p.normal_scale.is_none()
+        {
+            let kappa: f64 = self
+                .energy
+                .iter()
+                .map(|t| match t {
+                    EnergyTerm::Bending(b) => b.kappa,
+                    _ => 0.0,
+                })
+                .sum();
+            p.normal_scale = Some(if kappa > 0.0 { kappa } else { 1.0 });
+        }
+        d
+    }
 }

@@ -125,6 +125,17 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
         });
         b.add_system(Stage::Forces, ConstraintReactions::default())
             .after(crate::engine::force::FORCE_TOTAL);
+        if b.resources()
+            .get::<crate::params::DynamicsParams>()
+            .is_ok_and(|d| match d.method {
+                crate::params::Method::Minimise(m) => {
+                    matches!(m.preconditioner, crate::params::Preconditioner::Sobolev(_))
+                }
+                crate::params::Method::Overdamped => false,
+            })
+        {
+            b.insert_resource(crate::constraint::ProjectionDirections::default());
+        }
         let integrator = match b.resources().contains::<crate::minimise::MinimiserStatus>() {
             true => crate::systems::fire_minimiser::FIRE_MINIMISER,
             false => "langevin_integration",

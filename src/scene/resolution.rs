@@ -89,6 +89,9 @@ impl Scene {
             m.max_step *= h;
             m.force_tolerance *= h * h;
             m.dt_start *= h;
+            if let crate::params::Preconditioner::Sobolev(p) = &mut m.preconditioner {
+                p.tangential_scale /= h * h;
+            }
         }
         if let Some(c) = &mut s.constraints {
             c.max_correction *= h;

@@ -80,6 +80,14 @@ pub enum SimError {
         /// Its vertex slots.
         vertices: [u32; 3],
     },
+    /// The minimiser's preconditioner could not be built.
+    #[error("minimiser at iteration {iteration}: {source}")]
+    Preconditioner {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// What failed.
+        source: crate::minimise::sobolev::MetricError,
+    },
     /// An output could not be written.
     #[error("{0}")]
     Output(String),

@@ -113,6 +113,11 @@ pub struct MinimiserParams {
     /// FIRE's largest step (default 0.2).
     #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_max: f64,
+    /// The metric in which FIRE steps: `None` (default: along the force
+    /// itself) or `Sobolev(...)`, along P⁻¹F with P close to the energy's
+    /// Hessian, so that the iterations hardly grow with the resolution
+    /// ([`Preconditioner`]).
+    pub preconditioner: Preconditioner,
 }
 
 impl Default for MinimiserParams {
@@ -125,6 +130,57 @@ impl Default for MinimiserParams {
             max_step: 0.02,
             dt_start: 0.02,
             dt_max: 0.2,
+            preconditioner: Preconditioner::None,
+        }
+    }
+}
+
+/// The metric of the minimiser's steps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Preconditioner {
+    /// FIRE along the force (the Euclidean metric, unit vertex masses):
+    /// iterations grow about as the number of vertices.
+    #[default]
+    None,
+    /// FIRE along P⁻¹F, with the H² (normal) and H¹ (tangential) Sobolev
+    /// metric of the cotangent Laplacian, factorised by a sparse Cholesky
+    /// ([`crate::minimise::sobolev`]); the constraints are kept in the same
+    /// metric. `dt_start` and `dt_max` of the minimiser are replaced by
+    /// this variant's (the step is then measured in the metric's units).
+    Sobolev(SobolevParams),
+}
+
+/// Settings of the Sobolev-preconditioned minimiser.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SobolevParams {
+    /// s_n, the scale of the normal (bending) block (Ē; default: the sum
+    /// of the scene's bending rigidities κ, 1 without bending).
+    #[serde(deserialize_with = "crate::util::validate::optional_positive")]
+    pub normal_scale: Option<f64>,
+    /// s_t, the scale of the tangential block (Ē/l̄², at edge length 1;
+    /// divided by h² at resolution h; default 1).
+    #[serde(deserialize_with = "crate::util::validate::positive")]
+    pub tangential_scale: f64,
+    /// The factor is rebuilt at the current positions every this many
+    /// iterations, and after every topology change (default 20).
+    pub rebuild_every: u32,
+    /// FIRE's first step in the metric (default 0.1).
+    #[serde(deserialize_with = "crate::util::validate::positive")]
+    pub dt_start: f64,
+    /// FIRE's largest step in the metric (default 1).
+    #[serde(deserialize_with = "crate::util::validate::positive")]
+    pub dt_max: f64,
+}
+
+impl Default for SobolevParams {
+    fn default() -> Self {
+        Self {
+            normal_scale: None,
+            tangential_scale: 1.0,
+            rebuild_every: 20,
+            dt_start: 0.1,
+            dt_max: 1.0,
         }
     }
 }

@@ -85,7 +85,23 @@ impl Fire {
         force: &[DVec3],
         params: &MinimiserParams,
     ) -> FireStep {
+        self.step_along(positions, force, force, params)
+    }
+
+    /// One step whose velocity is driven along `direction` (a
+    /// preconditioned force, P⁻¹F) while the power F·v that decides
+    /// downhill or uphill is measured with the `force` itself, so that
+    /// "downhill" means the energy falls whatever the metric. With
+    /// `direction` = `force` this is [`Fire::step`].
+    pub fn step_along(
+        &mut self,
+        positions: &mut [DVec3],
+        force: &[DVec3],
+        direction: &[DVec3],
+        params: &MinimiserParams,
+    ) -> FireStep {
         debug_assert_eq!(positions.len(), self.velocity.len());
+        debug_assert_eq!(force.len(), direction.len());
         let v = &mut self.velocity;
         let power: f64 = force.iter().zip(v.iter()).map(|(f, v)| f.dot(*v)).sum();
         let mut out = FireStep::default();
@@ -109,14 +125,18 @@ impl Fire {
             }
         }
         let dt = self.dt;
-        for (v, f) in v.iter_mut().zip(force) {
+        for (v, f) in v.iter_mut().zip(direction) {
             *v += dt * *f;
         }
         let v_norm = v.iter().map(|v| v.length_squared()).sum::<f64>().sqrt();
-        let f_norm = force.iter().map(|f| f.length_squared()).sum::<f64>().sqrt();
+        let f_norm = direction
+            .iter()
+            .map(|f| f.length_squared())
+            .sum::<f64>()
+            .sqrt();
         if f_norm > 0.0 {
             let (keep, toward) = (1.0 - self.alpha, self.alpha * v_norm / f_norm);
-            for (v, f) in v.iter_mut().zip(force) {
+            for (v, f) in v.iter_mut().zip(direction) {
                 *v = keep * *v + toward * *f;
             }
         }
@@ -134,50 +154,4 @@ impl Fire {
         self.steps += 1;
         out
     }
-}
-
-/// Why a minimisation ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// The largest force fell below `force_tolerance` with every
-    /// constraint held.
-    ForceResidual,
-    /// The energy changed by less than `energy_tolerance` over
-    /// `energy_window` iterations with every constraint held.
-    EnergyChange,
-}
-
-impl StopReason {
-    /// The name used in summaries and messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            StopReason::ForceResidual => "force_residual",
-            StopReason::EnergyChange => "energy_change",
-        }
-    }
-}
-
-/// The minimiser's progress, for series, summary and the CLI (a resource
-/// that the `fire_minimiser` system writes every iteration).
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct MinimiserStatus {
-    /// Why the minimisation ended; `None` while it runs, and at the end
-    /// when the iteration cap came first.
-    pub stopped_by: Option<StopReason>,
-    /// The largest force on any vertex at the last iteration, constraint
-    /// reactions removed (Ē/l̄).
-    pub force_residual: f64,
-    /// The total energy at the last iteration (Ē).
-    pub energy: f64,
-    /// |ΔE| / |E| over the last `energy_window` iterations (`None` until
-    /// the window has filled since the last restart).
-    pub energy_change: Option<f64>,
-    /// The largest relative constraint violation at the last iteration.
-    pub constraint_violation: f64,
-    /// Restarts after a topology change (remesh event or flip).
-    pub restarts: u64,
-    /// Steps undone because they turned a face over (each cut the step in
-    /// half and restarted FIRE).
-    pub folds_undone: u64,
 }

@@ -1,0 +1,310 @@
+//! The Sobolev metric that preconditions the minimiser: directions
+//! d = P⁻¹F instead of F, with P close to the energy's Hessian, so that
+//! the number of iterations hardly grows with the resolution
+//! (`../shared/reference/fast-equilibrium.md`; Schumacher 2017, Repulsive
+//! Surfaces 2021, Packwood et al. 2016).
+//!
+//! Bending is a fourth-order operator: for normal displacements u its
+//! Hessian is, to leading order, κ L M⁻¹ L, with L the cotangent Laplacian
+//! (a stiffness matrix) and M the lumped (barycentric) vertex areas. So a
+//! force is split at every vertex into its normal component f_n and its
+//! tangential part f_t, and
+//!
+//! - the normal part is preconditioned by the H² operator
+//!   P_n = s_n (L + εM) M⁻¹ (L + εM) = s_n (L M⁻¹ L + 2εL + ε²M),
+//!   applied as s_n⁻¹ A⁻¹ M A⁻¹ with A = L + εM (two solves with one
+//!   factor, as Repulsive Surfaces does);
+//! - the tangential part, which in the fluid model carries only V_in's
+//!   in-plane springs (a second-order operator), by the H¹ operator
+//!   P_t = s_t A, one solve per Cartesian component, and is then
+//!   returned to the tangent plane.
+//!
+//! ε = 4π/A (A the membrane's area: 1/R² on a sphere) makes A positive
+//! definite and sets the scale beyond which the metric is L² (a vesicle's
+//! size). Weights are |cot|/2 per face corner (capped at [`COT_CAP`]): an
+//! obtuse corner would otherwise give a negative weight, and P need not
+//! equal the Hessian, only be close to it and positive definite.
+//!
+//! A is factorised by faer's sparse Cholesky (fill-reducing ordering,
+//! sequential, so bit-reproducible); the symbolic factor is kept while the
+//! topology's epoch stays the same, the numeric one is rebuilt by the
+//! caller's schedule (a stale metric is still a valid metric).
+//!
+//! [`SobolevMetric::direction`] keeps the exact constraints in the same
+//! metric: with W = P⁻¹Jᵀ (J the rows ∇A, ∇V of the active constraints) it
+//! returns d = P⁻¹F − Wμ with μ chosen so that J d = 0. A Euclidean
+//! projection of P⁻¹F would break the constraints to first order.
+
+use crate::constraint::{ConstraintTargets, Gradients};
+use crate::mesh::topology::Topology;
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{SparseColMat, Triplet};
+use faer::{MatMut, Side};
+use glam::DVec3;
+
+/// Largest |cot| of a corner in the metric's Laplacian.
+pub const COT_CAP: f64 = 100.0;
+
+/// The two scales of the metric.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MetricScales {
+    /// s_n, the normal block's scale (Ē): the bending rigidity.
+    pub normal: f64,
+    /// s_t, the tangential block's scale (Ē/l̄²): the in-plane stiffness.
+    pub tangential: f64,
+}
+
+/// Why the metric could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum MetricError {
+    /// The sparse Cholesky factorisation failed (not positive definite, or
+    /// out of memory).
+    #[error("the Sobolev metric could not be factorised: {0}")]
+    Factor(String),
+}
+
+/// The factorised metric and its scratch buffers.
+#[derive(Default)]
+pub struct SobolevMetric {
+    /// Topology epoch and vertex count of the symbolic factor.
+    key: Option<(u64, usize)>,
+    symbolic: Option<SymbolicLlt<usize>>,
+    factor: Option<Llt<usize, f64>>,
+    /// Lumped vertex areas at the build (l̄²).
+    mass: Vec<f64>,
+    scales: Option<MetricScales>,
+    triplets: Vec<Triplet<usize, usize, f64>>,
+    rhs: Vec<f64>,
+    rhs2: Vec<f64>,
+    normals: Vec<DVec3>,
+    fields: Vec<Vec<DVec3>>,
+    /// W_A, W_V: the preconditioned constraint gradients.
+    columns: [Vec<DVec3>; 2],
+    /// Factorisations since creation (numeric).
+    pub factorisations: u64,
+    /// Symbolic analyses since creation (after each topology change).
+    pub analyses: u64,
+}
+
+impl std::fmt::Debug for SobolevMetric {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SobolevMetric")
+            .field("key", &self.key)
+            .field("scales", &self.scales)
+            .field("factorisations", &self.factorisations)
+            .finish()
+    }
+}
+
+/// The cotangent of the corner at `o` of the triangle (o, a, b).
+fn cot(o: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let (u, v) = (a - o, b - o);
+    let s = u.cross(v).length();
+    if s > 0.0 { u.dot(v) / s } else { COT_CAP }
+}
+
+impl SobolevMetric {
+    /// Whether a factor has been built.
+    pub fn is_built(&self) -> bool {
+        self.factor.is_some()
+    }
+
+    /// Assembles A = L + εM at `positions` and factorises it (the symbolic
+    /// analysis only when the topology changed since the last build).
+    pub fn build(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        scales: MetricScales,
+    ) -> Result<(), MetricError> {
+        let n = positions.len();
+        let faces = &topology.faces;
+        self.mass.clear();
+        self.mass.resize(n, 0.0);
+        self.triplets.clear();
+        let mut area = 0.0;
+        // Off-diagonal weights, one entry per face edge (summed by faer in
+        // this order), and the diagonal accumulated densely.
+        let mut diagonal = vec![0.0; n];
+        for f in faces {
+            let x = f.map(|v| positions[v as usize]);
+            let a = 0.5 * (x[1] - x[0]).cross(x[2] - x[0]).length();
+            area += a;
+            for k in 0..3 {
+                let (i, j, o) = (f[(k + 1) % 3] as usize, f[(k + 2) % 3] as usize, k);
+                let w = 0.5 * cot(x[o], x[(k + 1) % 3], x[(k + 2) % 3]).abs().min(COT_CAP);
+                let (hi, lo) = if i > j { (i, j) } else { (j, i) };
+                self.triplets.push(Triplet::new(hi, lo, -w));
+                diagonal[i] += w;
+                diagonal[j] += w;
+                self.mass[f[k] as usize] += a / 3.0;
+            }
+        }
+        let shift = if area > 0.0 {
+            4.0 * std::f64::consts::PI / area
+        } else {
+            1.0
+        };
+        for (i, d) in diagonal.iter().enumerate() {
+            self.triplets
+                .push(Triplet::new(i, i, d + shift * self.mass[i]));
+        }
+        let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &self.triplets)
+            .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
+        let key = (topology.epoch, n);
+        if self.key != Some(key) || self.symbolic.is_none() {
+            let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Lower)
+                .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
+            self.symbolic = Some(symbolic);
+            self.key = Some(key);
+            self.analyses += 1;
+        }
+        let symbolic = self.symbolic.clone().expect("analysed above");
+        let factor = Llt::try_new_with_symbolic(symbolic, matrix.as_ref(), Side::Lower)
+            .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
+        self.factor = Some(factor);
+        self.scales = Some(scales);
+        self.factorisations += 1;
+        Ok(())
+    }
+
+    /// Forgets the factor (the next use must [`build`](Self::build)).
+    pub fn clear(&mut self) {
+        self.factor = None;
+    }
+
+    /// P⁻¹ of every field in `fields` (by vertex slot), written to `out`
+    /// (resized to match), with normals measured at `positions`.
+    pub fn apply(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        fields: &[&[DVec3]],
+        out: &mut Vec<Vec<DVec3>>,
+    ) {
+        let (Some(factor), Some(scales)) = (&self.factor, self.scales) else {
+            panic!("SobolevMetric::apply before build");
+        };
+        let n = positions.len();
+        let k = fields.len();
+        crate::fluid::vertex_normals(positions, topology, &mut self.normals);
+        let normals = &self.normals;
+        self.rhs.clear();
+        self.rhs.resize(4 * k * n, 0.0);
+        for (j, field) in fields.iter().enumerate() {
+            for (i, (&f, &nrm)) in field.iter().zip(normals).enumerate() {
+                let fn_ = f.dot(nrm);
+                let ft = f - fn_ * nrm;
+                self.rhs[(4 * j) * n + i] = fn_;
+                self.rhs[(4 * j + 1) * n + i] = ft.x;
+                self.rhs[(4 * j + 2) * n + i] = ft.y;
+                self.rhs[(4 * j + 3) * n + i] = ft.z;
+            }
+        }
+        factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs, n, 4 * k));
+        self.rhs2.clear();
+        self.rhs2.resize(k * n, 0.0);
+        for j in 0..k {
+            for i in 0..n {
+                self.rhs2[j * n + i] = self.mass[i] * self.rhs[(4 * j) * n + i];
+            }
+        }
+        factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs2, n, k));
+        out.resize_with(k, Vec::new);
+        let (sn, st) = (1.0 / scales.normal, 1.0 / scales.tangential);
+        for (j, o) in out.iter_mut().enumerate() {
+            o.clear();
+            o.extend((0..n).map(|i| {
+                let nrm = normals[i];
+                let t = DVec3::new(
+                    self.rhs[(4 * j + 1) * n + i],
+                    self.rhs[(4 * j + 2) * n + i],
+                    self.rhs[(4 * j + 3) * n + i],
+                );
+                sn * self.rhs2[j * n + i] * nrm + st * (t - t.dot(nrm) * nrm)
+            }));
+        }
+    }
+
+    /// The constraint columns W_A, W_V of the last
+    /// [`direction`](Self::direction) (empty when inactive).
+    pub fn columns(&self) -> [&[DVec3]; 2] {
+        [&self.columns[0], &self.columns[1]]
+    }
+
+    /// The preconditioned direction of `force`, tangent to the active
+    /// constraints in the metric's sense: d = r(P⁻¹F) − Σ_c μ_c W_c with
+    /// W_c = r(P⁻¹∇C_c) and ∇C_c · d = 0 for every active constraint c
+    /// (∇C from `gradients`, measured at `positions`; one multi-column
+    /// solve for all), where `restrict` removes what the caller holds
+    /// (pinned vertices). The columns W are kept for
+    /// [`columns`](Self::columns).
+    pub fn direction(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        force: &[DVec3],
+        gradients: Option<(&Gradients, ConstraintTargets)>,
+        restrict: &mut dyn FnMut(&mut [DVec3]),
+        out: &mut Vec<DVec3>,
+    ) {
+        let active = gradients.map_or([false, false], |(_, t)| {
+            [t.area.is_some(), t.volume.is_some()]
+        });
+        let mut inputs: Vec<&[DVec3]> = vec![force];
+        if let Some((g, _)) = gradients {
+            for (c, rows) in [&g.area_gradient, &g.volume_gradient]
+                .into_iter()
+                .enumerate()
+            {
+                if active[c] {
+                    inputs.push(rows);
+                }
+            }
+        }
+        let mut fields = std::mem::take(&mut self.fields);
+        self.apply(positions, topology, &inputs, &mut fields);
+        for f in fields.iter_mut() {
+            restrict(f);
+        }
+        std::mem::swap(out, &mut fields[0]);
+        let mut next = 1;
+        for c in 0..2 {
+            self.columns[c].clear();
+            if active[c] {
+                std::mem::swap(&mut self.columns[c], &mut fields[next]);
+                next += 1;
+            }
+        }
+        self.fields = fields;
+        let Some((g, t)) = gradients else {
+            return;
+        };
+        let dot =
+            |a: &[DVec3], b: &[DVec3]| -> f64 { a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum() };
+        let rows = [&g.area_gradient, &g.volume_gradient];
+        let w = &self.columns;
+        let mut m = [[0.0; 2]; 2];
+        let mut r = [0.0; 2];
+        for a in 0..2 {
+            if !active[a] {
+                continue;
+            }
+            r[a] = dot(rows[a], out);
+            for b in 0..2 {
+                if active[b] {
+                    m[a][b] = dot(rows[a], &w[b]);
+                }
+            }
+        }
+        let mu = crate::constraint::solve_response(m, t, r);
+        for c in 0..2 {
+            if active[c] {
+                for (d, x) in out.iter_mut().zip(&w[c]) {
+                    *d -= mu[c] * *x;
+                }
+            }
+        }
+    }
+}
