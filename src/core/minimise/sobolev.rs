@@ -175,12 +175,15 @@ impl SobolevMetric {
     }
 
     /// P⁻¹ of every field in `fields` (by vertex slot), written to `out`
-    /// (resized to match), with normals measured at `positions`.
+    /// (resized to match), with normals measured at `positions`; a field
+    /// whose `tangential` flag is false keeps only its normal part (its
+    /// tangential components are not solved for).
     pub fn apply(
         &mut self,
         positions: &[DVec3],
         topology: &Topology,
         fields: &[&[DVec3]],
+        tangential: &[bool],
         out: &mut Vec<Vec<DVec3>>,
     ) {
         let (Some(factor), Some(scales)) = (&self.factor, self.scales) else {
@@ -190,39 +193,61 @@ impl SobolevMetric {
         let k = fields.len();
         crate::fluid::vertex_normals(positions, topology, &mut self.normals);
         let normals = &self.normals;
+        // Columns: the k normal components, then three per field with a
+        // tangential part.
+        let mut first_tangent = vec![usize::MAX; k];
+        let mut columns = k;
+        for (j, t) in first_tangent.iter_mut().enumerate() {
+            if tangential[j] {
+                *t = columns;
+                columns += 3;
+            }
+        }
         self.rhs.clear();
-        self.rhs.resize(4 * k * n, 0.0);
+        self.rhs.resize(columns * n, 0.0);
         for (j, field) in fields.iter().enumerate() {
+            let t = first_tangent[j];
             for (i, (&f, &nrm)) in field.iter().zip(normals).enumerate() {
                 let fn_ = f.dot(nrm);
-                let ft = f - fn_ * nrm;
-                self.rhs[(4 * j) * n + i] = fn_;
-                self.rhs[(4 * j + 1) * n + i] = ft.x;
-                self.rhs[(4 * j + 2) * n + i] = ft.y;
-                self.rhs[(4 * j + 3) * n + i] = ft.z;
+                self.rhs[j * n + i] = fn_;
+                if t != usize::MAX {
+                    let ft = f - fn_ * nrm;
+                    self.rhs[t * n + i] = ft.x;
+                    self.rhs[(t + 1) * n + i] = ft.y;
+                    self.rhs[(t + 2) * n + i] = ft.z;
+                }
             }
         }
-        factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs, n, 4 * k));
+        factor.solve_in_place(MatMut::from_column_major_slice_mut(
+            &mut self.rhs,
+            n,
+            columns,
+        ));
         self.rhs2.clear();
-        self.rhs2.resize(k * n, 0.0);
-        for j in 0..k {
-            for i in 0..n {
-                self.rhs2[j * n + i] = self.mass[i] * self.rhs[(4 * j) * n + i];
-            }
-        }
+        self.rhs2.extend(
+            self.rhs[..k * n]
+                .iter()
+                .enumerate()
+                .map(|(c, x)| self.mass[c % n] * x),
+        );
         factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs2, n, k));
         out.resize_with(k, Vec::new);
         let (sn, st) = (1.0 / scales.normal, 1.0 / scales.tangential);
         for (j, o) in out.iter_mut().enumerate() {
             o.clear();
+            let t = first_tangent[j];
             o.extend((0..n).map(|i| {
                 let nrm = normals[i];
-                let t = DVec3::new(
-                    self.rhs[(4 * j + 1) * n + i],
-                    self.rhs[(4 * j + 2) * n + i],
-                    self.rhs[(4 * j + 3) * n + i],
+                let normal = sn * self.rhs2[j * n + i] * nrm;
+                if t == usize::MAX {
+                    return normal;
+                }
+                let v = DVec3::new(
+                    self.rhs[t * n + i],
+                    self.rhs[(t + 1) * n + i],
+                    self.rhs[(t + 2) * n + i],
                 );
-                sn * self.rhs2[j * n + i] * nrm + st * (t - t.dot(nrm) * nrm)
+                normal + st * (v - v.dot(nrm) * nrm)
             }));
         }
     }
@@ -264,7 +289,11 @@ impl SobolevMetric {
             }
         }
         let mut fields = std::mem::take(&mut self.fields);
-        self.apply(positions, topology, &inputs, &mut fields);
+        // The constraint columns keep only their normal parts: with
+        // tangential ones the projection slid irregular vertices back and
+        // forth (a two-step cycle that held FIRE at its smallest step).
+        let tangential: Vec<bool> = (0..inputs.len()).map(|j| j == 0).collect();
+        self.apply(positions, topology, &inputs, &tangential, &mut fields);
         for f in fields.iter_mut() {
             restrict(f);
         }
