@@ -211,6 +211,9 @@ impl System for FireMinimiser {
                 s.metric_positions.clone_from(positions);
                 s.since_build = 0;
                 metric.sobolev.clear();
+                // Counted here, by the schedule: a resumed run factorises
+                // the same matrix again, which a summary must not show.
+                status.factorisations += 1;
             }
             let mut restrict = |d: &mut [DVec3]| {
                 if let Some(pin) = &pinned {
@@ -231,7 +234,6 @@ impl System for FireMinimiser {
                         iteration: clock.iteration + 1,
                         source,
                     })?;
-                status.factorisations += 1;
             }
             s.since_build += 1;
             // The constraint columns are measured at the current positions:

@@ -130,16 +130,19 @@ fn summary_of(dir: &Path) -> serde_json::Value {
 #[test]
 fn a_sphere_under_tension_with_its_volume_held_obeys_laplace() {
     let tmp = tempfile::tempdir().unwrap();
-    for sigma in [0.05, 0.4] {
+    for (sigma, metric) in [0.05, 0.4]
+        .into_iter()
+        .flat_map(|s| ["None", "Sobolev()"].map(|m| (s, m)))
+    {
         let scene = scene_from(&format!(
             "Scene(
                 membrane: Icosphere(level: 3),
                 energy: [Tension(sigma: {sigma}), Bending(kappa: 1.0)],
                 constraints: (volume: OfInitial(1.0)),
-                dynamics: (method: Minimise(), iterations: 2000, frames: 0),
+                dynamics: (method: Minimise(preconditioner: {metric}), iterations: 2000, frames: 0),
             )"
         ));
-        let out = tmp.path().join(format!("laplace_{sigma}"));
+        let out = tmp.path().join(format!("laplace_{sigma}_{}", metric.len()));
         run_scene(
             &scene,
             Path::new("laplace.ron"),
@@ -157,7 +160,7 @@ fn a_sphere_under_tension_with_its_volume_held_obeys_laplace() {
         // (0.2 % at 642 vertices); bending adds nothing on a sphere.
         assert!(
             (pressure / laplace - 1.0).abs() < 5e-3,
-            "σ = {sigma}: Δp = {pressure}, 2σ/R = {laplace}"
+            "σ = {sigma}, {metric}: Δp = {pressure}, 2σ/R = {laplace}"
         );
         assert_eq!(s["constraints"]["reactions"]["tension"], 0.0);
     }
@@ -315,7 +318,6 @@ fn a_badly_shaped_start_relaxes_without_folding() {
 /// during the approach, so the resumed run restarts FIRE after events too.
 #[test]
 fn a_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
-    use remembrane::workflow::run::{CheckpointSettings, drive_run, prepare_run, resume_run};
     let text = "Scene(
         seed: 4,
         membrane: Ellipsoid(level: 3, semi_axes: (7.38, 7.38, 5.17)),
@@ -326,6 +328,35 @@ fn a_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
         dynamics: (method: Minimise(), iterations: 400, frames: 8),
         remesh: (mode: FreeEnergy),
     )";
+    interrupted_and_resumed(text, 250, false);
+}
+
+/// The Sobolev-preconditioned minimiser rebuilds its factor at positions
+/// it checkpoints: resumed between two builds, and across remesh events
+/// (after each of which it rebuilds and restarts), it steps as the
+/// uninterrupted run. (A tangential scale of 1 lets the fluid mesh lag the
+/// deflation, so remesh events begin at iteration 188.)
+#[test]
+fn a_preconditioned_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
+    let text = "Scene(
+        seed: 1,
+        membrane: Ellipsoid(level: 3, semi_axes: (6.864, 6.864, 6.178)),
+        model: Fluid(),
+        energy: [Vin(form: Exact), Bending(kappa: 5.0)],
+        constraints: (area: Absolute(553.0), volume: Reduced(0.6), max_correction: 0.02),
+        dynamics: (
+            method: Minimise(preconditioner: Sobolev(rebuild_every: 30, tangential_scale: 1.0)),
+            iterations: 300,
+            frames: 8,
+        ),
+        remesh: (mode: FreeEnergy, shorter_than: 0.7, longer_than: 1.3, split_done: 1.8,
+                 merge_done: 0.05, normal_range: (0.8, 1.2)),
+    )";
+    interrupted_and_resumed(text, 220, true);
+}
+
+fn interrupted_and_resumed(text: &str, cut_at: u32, preconditioned: bool) {
+    use remembrane::workflow::run::{CheckpointSettings, drive_run, prepare_run, resume_run};
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("minimise.ron");
     std::fs::write(&path, text).unwrap();
@@ -343,7 +374,7 @@ fn a_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
     let ticks = std::cell::Cell::new(0);
     let interrupted = || {
         ticks.set(ticks.get() + 1);
-        ticks.get() > 250
+        ticks.get() > cut_at
     };
     let stopped = drive_run(
         &mut run,
@@ -359,7 +390,17 @@ fn a_minimisation_interrupted_and_resumed_writes_the_same_bytes() {
     for (file, bytes) in &a {
         assert!(bytes == &b[file], "{} differs", file.display());
     }
-    assert!(summary_of(&whole)["remesh"]["events"].as_u64().unwrap() > 0);
+    let summary = summary_of(&whole);
+    assert!(
+        summary["remesh"]["events"].as_u64().unwrap() > 0,
+        "{summary}"
+    );
+    if preconditioned {
+        // Every 30 iterations and after each restart.
+        let builds = summary["minimiser"]["factorisations"].as_u64().unwrap();
+        let restarts = summary["minimiser"]["restarts"].as_u64().unwrap();
+        assert!(restarts > 0 && builds > restarts, "{summary}");
+    }
 }
 
 #[test]
@@ -555,5 +596,145 @@ fn a_minimiser_waits_at_rest_for_each_scheduled_change() {
     assert!(
         err.contains("control_point_schedule[0].when") && err.contains("before start"),
         "{err}"
+    );
+}
+
+/// The Sobolev direction d = P⁻¹F − Wμ: a descent direction (F·d > 0) on
+/// a perturbed sphere with a random force, tangent to the active
+/// constraints (∇C·d = 0 to round-off, so A and V change only to second
+/// order along it), and zero at held vertices.
+#[test]
+fn the_sobolev_direction_descends_and_is_tangent_to_the_constraints() {
+    use remembrane::minimise::sobolev::{MetricScales, SobolevMetric};
+    let mesh = perturbed_sphere();
+    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let topology = membrane.topology().unwrap().clone();
+    let x = &mesh.positions;
+    let mut g = Gradients::default();
+    g.measure(x, &mesh.faces);
+    let mut state = 12345_u64;
+    let mut uniform = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut metric = SobolevMetric::default();
+    let scales = MetricScales {
+        normal: 5.0,
+        tangential: 0.2,
+    };
+    metric.build(x, &topology, scales).unwrap();
+    let dot = |a: &[DVec3], b: &[DVec3]| -> f64 { a.iter().zip(b).map(|(p, q)| p.dot(*q)).sum() };
+    let norm = |a: &[DVec3]| dot(a, a).sqrt();
+    let all = ConstraintTargets {
+        area: Some(g.area),
+        volume: Some(g.volume),
+    };
+    let area_only = ConstraintTargets {
+        area: Some(g.area),
+        volume: None,
+    };
+    for (targets, pinned) in [
+        (Some(all), false),
+        (Some(all), true),
+        (Some(area_only), false),
+        (None, false),
+    ] {
+        let mut force: Vec<DVec3> = (0..x.len())
+            .map(|_| DVec3::new(uniform(), uniform(), uniform()))
+            .collect();
+        if let Some(t) = targets {
+            remove_reactions(&g, t, &mut force);
+        }
+        let mut restrict = |d: &mut [DVec3]| {
+            if pinned {
+                d[0] = DVec3::ZERO;
+                d[1] = DVec3::ZERO;
+            }
+        };
+        if pinned {
+            force[0] = DVec3::ZERO;
+            force[1] = DVec3::ZERO;
+        }
+        let mut d = Vec::new();
+        metric.direction(
+            x,
+            &topology,
+            &force,
+            targets.map(|t| (&g, t)),
+            &mut restrict,
+            &mut d,
+        );
+        let power = dot(&force, &d);
+        assert!(power > 0.0, "F·d = {power}");
+        if pinned {
+            assert_eq!((d[0], d[1]), (DVec3::ZERO, DVec3::ZERO));
+        }
+        let Some(t) = targets else { continue };
+        let tangency = |grad: &[DVec3]| dot(grad, &d).abs() / (norm(grad) * norm(&d));
+        assert!(
+            tangency(&g.area_gradient) < 1e-10,
+            "{}",
+            tangency(&g.area_gradient)
+        );
+        if t.volume.is_some() {
+            assert!(
+                tangency(&g.volume_gradient) < 1e-10,
+                "{}",
+                tangency(&g.volume_gradient)
+            );
+        }
+        // Along d the area changes only to second order.
+        let step = 1e-3 / d.iter().map(|v| v.length()).fold(0.0, f64::max);
+        let moved: Vec<DVec3> = x.iter().zip(&d).map(|(p, v)| *p + step * *v).collect();
+        let mut at = Gradients::default();
+        at.measure(&moved, &mesh.faces);
+        let first_order = step * norm(&g.area_gradient) * norm(&d);
+        assert!(((at.area - g.area) / first_order).abs() < 1e-2);
+    }
+}
+
+/// With the Sobolev minimiser, area and volume hold to 1e-10 relative after
+/// every iteration (targets at the start's values; the fluid model with
+/// V_in and bending, every iteration a row of series.csv).
+#[test]
+fn a_preconditioned_minimisation_holds_the_constraints_after_every_iteration() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = scene_from(
+        "Scene(
+            membrane: Ellipsoid(level: 3, semi_axes: (7.38, 7.38, 5.17)),
+            model: Fluid(),
+            energy: [Vin(form: Exact), Bending(kappa: 5.0)],
+            constraints: (area: OfInitial(1.0), volume: OfInitial(1.0)),
+            dynamics: (method: Minimise(preconditioner: Sobolev()), iterations: 150, frames: 150),
+        )",
+    );
+    let out = tmp.path().join("held");
+    run_scene(
+        &scene,
+        Path::new("held.ron"),
+        &common::quiet_options(&out),
+        |_| Ok(()),
+    )
+    .unwrap();
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let mut lines = series.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = header
+        .iter()
+        .position(|c| *c == "constraint_violation")
+        .unwrap();
+    let mut rows = 0;
+    for line in lines {
+        let violation: f64 = line.split(',').nth(column).unwrap().parse().unwrap();
+        assert!(violation <= 1e-10, "{line}");
+        rows += 1;
+    }
+    assert!(rows >= 40, "{rows} rows");
+    let s = summary_of(&out);
+    assert!(
+        s["minimiser"]["factorisations"].as_u64().unwrap() >= 1,
+        "{s}"
     );
 }

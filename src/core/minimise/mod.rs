@@ -57,7 +57,9 @@ pub struct MinimiserStatus {
     /// Steps undone because they turned a face over (each cut the step in
     /// half and restarted FIRE).
     pub folds_undone: u64,
-    /// Factorisations of the preconditioner (0 without one).
+    /// Factorisations of the preconditioner by its schedule (0 without
+    /// one; a resumed run's factorisation of the checkpointed matrix is
+    /// not counted).
     #[serde(default)]
     pub factorisations: u64,
 }

@@ -192,5 +192,6 @@ pub fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
         constraint_violation: ev.constraint.map_or(0.0, |c| c.violation()),
         restarts: status.restarts,
         folds_undone: status.folds_undone,
+        factorisations: status.factorisations,
     })
 }

@@ -97,6 +97,9 @@ pub struct MinimiserSummary {
     pub restarts: u64,
     /// Steps undone because they folded a face.
     pub folds_undone: u64,
+    /// Factorisations of the preconditioner (0 without one).
+    #[serde(default)]
+    pub factorisations: u64,
 }
 
 /// Remeshing counts in `summary.json`.
