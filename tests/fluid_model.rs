@@ -417,7 +417,13 @@ fn a_fluid_red_blood_cell_forgets_its_first_triangulation() {
     // (0.066 %), centre thickness 1.758 and 1.769 (0.6 %). The paper's
     // model, an elastic shell, remembers: 241.467 and 241.209 (0.11 %),
     // centre thickness 1.521 and 1.675 (10 %).
-    let base = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
+    // Measured with FIRE, as recorded above: the bundled scene's Sobolev
+    // minimiser ends the two at centre thicknesses 1.758 and 1.800 (2.4 %,
+    // also at a force tolerance of 1e-4; E_b 241.172 and 241.217, 0.02 %),
+    // an open question of the preconditioned path (benches/RESULTS.md).
+    let base = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron")
+        .unwrap()
+        .replace("preconditioner: Sobolev(),", "");
     let bending = |tilt: f64| {
         let text = base.replace(
             "semi_axes: (6.864, 6.864, 6.178)),",
