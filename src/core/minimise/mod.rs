@@ -8,6 +8,7 @@
 //!   and twice to normal components, with the exact constraints kept in the
 //!   same metric.
 
+pub mod cholesky;
 pub mod fire;
 pub mod sobolev;
 

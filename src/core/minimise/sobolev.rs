@@ -25,22 +25,22 @@
 //! obtuse corner would otherwise give a negative weight, and P need not
 //! equal the Hessian, only be close to it and positive definite.
 //!
-//! A is factorised by faer's sparse Cholesky (fill-reducing ordering,
-//! sequential, so bit-reproducible); the symbolic factor is kept while the
-//! topology's epoch stays the same, the numeric one is rebuilt by the
-//! caller's schedule (a stale metric is still a valid metric).
+//! A is factorised by faer's sparse Cholesky (fill-reducing ordering;
+//! from [`SPLIT_FROM`](super::cholesky::SPLIT_FROM) vertices with solves
+//! split over two subtrees, [`super::cholesky`], the same bits on any
+//! thread count); the symbolic factor is kept while the topology's epoch
+//! stays the same, the numeric one is rebuilt by the caller's schedule (a
+//! stale metric is still a valid metric).
 //!
 //! [`SobolevMetric::direction`] keeps the exact constraints in the same
 //! metric: with W = P⁻¹Jᵀ (J the rows ∇A, ∇V of the active constraints) it
 //! returns d = P⁻¹F − Wμ with μ chosen so that J d = 0. A Euclidean
 //! projection of P⁻¹F would break the constraints to first order.
 
+use super::cholesky::{Factor, SymbolicFactor};
 use crate::constraint::{ConstraintTargets, Gradients};
 use crate::mesh::topology::Topology;
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, Triplet};
-use faer::{MatMut, Side};
 use glam::DVec3;
 use std::time::{Duration, Instant};
 
@@ -70,8 +70,8 @@ pub enum MetricError {
 pub struct SobolevMetric {
     /// Topology epoch and vertex count of the symbolic factor.
     key: Option<(u64, usize)>,
-    symbolic: Option<SymbolicLlt<usize>>,
-    factor: Option<Llt<usize, f64>>,
+    symbolic: Option<SymbolicFactor>,
+    factor: Option<Factor>,
     /// Lumped vertex areas at the build (l̄²).
     mass: Vec<f64>,
     scales: Option<MetricScales>,
@@ -172,15 +172,15 @@ impl SobolevMetric {
             .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
         let key = (topology.epoch, n);
         if self.key != Some(key) || self.symbolic.is_none() {
-            let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Lower)
-                .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
+            let symbolic = SymbolicFactor::new(matrix.symbolic()).map_err(MetricError::Factor)?;
             self.symbolic = Some(symbolic);
             self.key = Some(key);
             self.analyses += 1;
         }
-        let symbolic = self.symbolic.clone().expect("analysed above");
-        let factor = Llt::try_new_with_symbolic(symbolic, matrix.as_ref(), Side::Lower)
-            .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
+        let symbolic = self.symbolic.as_ref().expect("analysed above");
+        let factor = symbolic
+            .factorise(matrix.as_ref())
+            .map_err(MetricError::Factor)?;
         self.scales = Some(scales);
         self.factorisations += 1;
         self.factor = Some(factor);
@@ -261,22 +261,14 @@ impl SobolevMetric {
             }
         }
         let start = Instant::now();
-        factor.solve_in_place(MatMut::from_column_major_slice_mut(
-            &mut self.rhs,
-            n,
-            columns,
-        ));
+        factor.solve_in_place(&mut self.rhs, columns);
         let normal = &mut self.rhs[..normal_columns * n];
         for column in normal.chunks_mut(n) {
             for (x, m) in column.iter_mut().zip(&self.mass) {
                 *x *= m;
             }
         }
-        factor.solve_in_place(MatMut::from_column_major_slice_mut(
-            normal,
-            n,
-            normal_columns,
-        ));
+        factor.solve_in_place(normal, normal_columns);
         self.solve_time += start.elapsed();
         let (sn, st) = (1.0 / scales.normal, 1.0 / scales.tangential);
         let rhs = &self.rhs;
