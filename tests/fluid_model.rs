@@ -193,26 +193,69 @@ fn the_fluid_model_refuses_what_it_cannot_do_yet() {
     }
 }
 
+/// Direct edits (the fluid default) need a gap between the triggers; left
+/// out, the fluid model's triggers and relaxation cap fill it (0.6, 1.4,
+/// 300), and the paper's event keeps the paper's (0.7, 1.3, 5000).
 #[test]
-fn direct_edits_need_remeshing_and_a_gap_between_the_triggers() {
-    let scene = |remesh: &str| {
+fn direct_edits_take_the_fluid_triggers_and_need_a_gap_between_them() {
+    let scene = |model: &str, remesh: &str| {
         let text = format!(
-            "Scene(name: \"f\", membrane: Icosphere(level: 2), model: Fluid(edits: Direct), \
+            "Scene(name: \"f\", membrane: Icosphere(level: 2), model: {model}, \
              energy: [Vin(), Bending(kappa: 5.0)], remesh: {remesh})"
         );
-        Scene::from_ron_str(&text, Path::new("fluid.ron")).map(|_| ())
+        Scene::from_ron_str(&text, Path::new("fluid.ron"))
     };
-    for (remesh, field, hint) in [
-        ("(mode: Off)", "model.Fluid.edits", "remesh.mode"),
-        // The defaults 0.7 and 1.3: a split's halves (0.65) would merge.
-        ("(mode: FreeEnergy)", "remesh.longer_than", "never merged"),
-    ] {
-        let e = scene(remesh).unwrap_err().to_string();
-        assert!(e.contains("fluid.ron"), "{e}");
-        assert!(e.contains(field), "{field}: {e}");
-        assert!(e.contains(hint), "{hint}: {e}");
+    // Explicit 0.7 and 1.3: a split's halves (0.65) would merge again.
+    for model in ["Fluid()", "Fluid(edits: Direct)"] {
+        let e = scene(
+            model,
+            "(mode: FreeEnergy, shorter_than: 0.7, longer_than: 1.3)",
+        )
+        .unwrap_err()
+        .to_string();
+        for part in [
+            "fluid.ron",
+            "remesh.longer_than",
+            "never merged",
+            "Fluid(edits: Relaxed)",
+        ] {
+            assert!(e.contains(part), "{part}: {e}");
+        }
     }
-    scene("(mode: FreeEnergy, shorter_than: 0.6, longer_than: 1.4)").unwrap();
+    let fluid = scene("Fluid()", "(mode: FreeEnergy)").unwrap();
+    let r = fluid.remesh;
+    assert_eq!(
+        (r.shorter_than, r.longer_than, r.relax_iterations),
+        (0.6, 1.4, 300)
+    );
+    assert!(fluid.model.direct_edits());
+    let given = scene(
+        "Fluid()",
+        "(mode: FreeEnergy, longer_than: 1.5, relax_iterations: 80)",
+    )
+    .unwrap()
+    .remesh;
+    assert_eq!(
+        (
+            given.shorter_than,
+            given.longer_than,
+            given.relax_iterations
+        ),
+        (0.6, 1.5, 80)
+    );
+    let relaxed = scene("Fluid(edits: Relaxed, flips: None)", "(mode: FreeEnergy)")
+        .unwrap()
+        .remesh;
+    assert_eq!(
+        (
+            relaxed.shorter_than,
+            relaxed.longer_than,
+            relaxed.relax_iterations
+        ),
+        (0.7, 1.3, 5000)
+    );
+    // Without remeshing the edits are moot.
+    scene("Fluid(edits: Direct)", "(mode: Off)").unwrap();
     for (flips, field) in [
         ("(max_dihedral: 0.0)", "max_dihedral"),
         ("(max_dihedral: 120.0)", "max_dihedral"),
@@ -666,7 +709,7 @@ fn fluid_gradient_flow_never_raises_the_shape_energy_nor_pushes_the_vesicle() {
     // round-off (0.39 Ē/l̄ from the tangential projection alone).
     let text = "Scene(name: \"flow\", seed: 1, \
          membrane: Ellipsoid(level: 3, semi_axes: (7.5, 7.5, 5.0), jitter: 0.2), \
-         model: Fluid(), energy: [Vin(form: Exact), Bending(kappa: 5.0)], \
+         model: Fluid(flips: None), energy: [Vin(form: Exact), Bending(kappa: 5.0)], \
          constraints: (area: OfInitial(1.0), volume: OfInitial(1.0)), remesh: (mode: Off))";
     let path = Path::new("flow.ron");
     let mut sim = Scene::from_ron_str(text, path)

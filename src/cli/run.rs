@@ -194,6 +194,9 @@ pub(super) fn report_run(
             for caution in &summary.cautions {
                 eprintln!("warning: {}: {caution}", path.display());
             }
+            for note in &summary.time_notes {
+                eprintln!("note: {}: {note}", path.display());
+            }
             if !quiet {
                 let volume = match (summary.last.volume, summary.last.reduced_volume) {
                     (Some(v), Some(rv)) => format!(", V = {v:.3}, v = {rv:.4}"),

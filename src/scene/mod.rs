@@ -371,6 +371,30 @@ fn field_prefix(field: &Option<String>) -> String {
 
 /// RON options for scenes: `Vin(v0: 0.2)` for newtype variants and `Some`
 /// implied for optional values.
+/// The keys written in the `remesh: (...)` block of scene text that
+/// parses (empty when there is none): the fluid model's defaults fill only
+/// the others.
+fn remesh_keys_given(text: &str) -> Vec<String> {
+    let value: ron::Value = match ron_options().from_str(text) {
+        Ok(v) => v,
+        Err(_) => return Vec::new(),
+    };
+    let key = ron::Value::String("remesh".into());
+    let ron::Value::Map(fields) = value else {
+        return Vec::new();
+    };
+    match fields.get(&key) {
+        Some(ron::Value::Map(remesh)) => remesh
+            .keys()
+            .filter_map(|k| match k {
+                ron::Value::String(s) => Some(s.clone()),
+                _ => None,
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
 fn ron_options() -> ron::Options {
     use ron::extensions::Extensions;
     ron::Options::default()
@@ -419,6 +443,13 @@ impl Scene {
         };
         de.end()
             .map_err(|code| spanned(de.span_error(code), None))?;
+        let mut scene = scene;
+        if scene.model.direct_edits() {
+            let given = remesh_keys_given(text);
+            scene
+                .remesh
+                .apply_fluid_defaults(|key| given.iter().any(|g| g == key));
+        }
         scene.validate(path)?;
         Ok(scene)
     }

@@ -514,20 +514,17 @@ impl Scene {
                 ));
             }
         }
-        if self.model.direct_edits() {
+        // Direct edits (the fluid default) only matter with remeshing on.
+        if self.model.direct_edits() && self.remesh.mode != crate::params::RemeshMode::Off {
             let r = self.remesh;
-            if r.mode == crate::params::RemeshMode::Off {
-                return Err(invalid(
-                    "model.Fluid.edits",
-                    "Direct sets how remesh events edit the mesh, but remesh.mode is Off".into(),
-                ));
-            }
             if r.longer_than <= 2.0 * r.shorter_than {
                 return Err(invalid(
                     "remesh.longer_than",
                     format!(
-                        "direct edits need longer_than > 2 x shorter_than, so that the halves of a \
-                         split edge are never merged again (got {} and {}; for example 1.4 and 0.6)",
+                        "direct edits (the fluid model's default) need longer_than > 2 x \
+                         shorter_than, so that the halves of a split edge are never merged again \
+                         (got {} and {}; leave both out for the fluid defaults 0.6 and 1.4, or \
+                         declare `model: Fluid(edits: Relaxed)`)",
                         r.longer_than, r.shorter_than
                     ),
                 ));

@@ -60,7 +60,7 @@ pub fn series_column(run_dir: &Path, name: &str) -> Vec<f64> {
 }
 
 /// Every file under `dir` by relative path; `summary.json` without the
-/// fields that measure wall time.
+/// fields that measure wall time (and the notes drawn from them).
 #[allow(dead_code)]
 pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
     let mut out = std::collections::BTreeMap::new();
@@ -78,6 +78,7 @@ pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf
                 let map = v.as_object_mut().unwrap();
                 map.remove("timings");
                 map.remove("wall_time_s");
+                map.remove("time_notes");
                 bytes = serde_json::to_vec(&v).unwrap();
             }
             out.insert(path.strip_prefix(dir).unwrap().to_path_buf(), bytes);

@@ -19,6 +19,8 @@ pub(super) fn summarize(
     let stats = stats.as_deref().unwrap_or(&none);
     let model = model_summary(sim);
     let last = EnergyReport::new(name, sim);
+    let timings = sim.schedule().timings();
+    let time_notes: Vec<String> = remesh_dominance(&timings, stats).into_iter().collect();
     let adhesion = if stop.is_none() {
         adhesion_report(scene, sim, &last)
     } else {
@@ -41,6 +43,7 @@ pub(super) fn summarize(
         shape: crate::analysis::shape::shape_metrics(&sim.resource::<DensePositions>().0, &t.faces),
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
         cautions: scene.cautions(),
+        time_notes,
         edge_flips: sim
             .resources()
             .get::<crate::systems::edge_flips::FlipStats>()
@@ -68,8 +71,39 @@ pub(super) fn summarize(
             .constraint,
         model,
         frames: out.frames.clone(),
-        timings: sim.schedule().timings(),
+        timings,
     }
+}
+
+/// Share of the systems' wall time above which a run says that remeshing
+/// dominated it.
+pub const REMESH_DOMINANT_SHARE: f64 = 0.5;
+
+/// A note when the remesh system took more than
+/// [`REMESH_DOMINANT_SHARE`] of the run's time, with what it spent it on.
+fn remesh_dominance(
+    timings: &[crate::engine::schedule::SystemTiming],
+    stats: &RemeshStats,
+) -> Option<String> {
+    let share = timings
+        .iter()
+        .find(|t| t.system == "remesh" && t.part_of.is_none())?
+        .share;
+    if share <= REMESH_DOMINANT_SHARE {
+        return None;
+    }
+    let r = &stats.relax_iterations;
+    let relaxations = r.pre_success + r.pre_cancel + r.pre_failure + r.post + r.push_back;
+    let failed = stats.split.failure + stats.merge.failure;
+    Some(format!(
+        "remeshing took {:.0} % of the run's time ({} events, {} failed, {:.2e} local \
+         relaxation iterations): in the fluid model keep its remeshing defaults (direct \
+         edits and maintenance flips, docs/fluid.md); otherwise lower remesh.relax_iterations",
+        100.0 * share,
+        stats.successes(),
+        failed,
+        relaxations as f64
+    ))
 }
 
 /// The closed vesicle of a scene with one plane `Adhesion` substrate

@@ -47,6 +47,11 @@ pub struct RunSummary {
     /// when none).
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub cautions: Vec<String>,
+    /// Where the run's time went, when one system dominated it (remeshing
+    /// above half of the time); measured by the clock like `timings`, so it
+    /// may differ between equal runs. Omitted when none.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub time_notes: Vec<String>,
     /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
