@@ -12,7 +12,7 @@
 //! | remesh: kick scale D (a force, V₀/h) | ÷ h |
 //! | edge flips' edge range, self-avoidance distance, Gaussian spring patch radius | × h |
 //! | mobility per vertex (per-area mobility fixed: a vertex's area ∝ h²) | ÷ h² |
-//! | largest displacement per step, minimiser step cap, projection's largest correction | × h |
+//! | largest displacement per step, minimiser step cap, projection's largest correction | × h (the correction: not with the Sobolev metric) |
 //! | minimiser force tolerance (a vertex's force ∝ its area) | × h² |
 //! | minimiser's first time step dt_start | × h |
 //! | projection smoothing passes (its reach √passes·h must follow the shape) | ÷ h², rounded |
@@ -24,6 +24,18 @@
 //! the h = 1/2 RBC from 5309 iterations to no convergence in 20 000
 //! (benches/RESULTS.md, session 17). With h = 1 nothing changes: every existing scene builds
 //! exactly as before.
+//!
+//! With `preconditioner: Sobolev(...)` the projection's largest correction
+//! keeps its length: the projection then moves along the metric's smooth
+//! constraint directions (its normal part an H² operator), so a correction
+//! moves the shape, not single vertices, and a cap that shrinks with h
+//! makes a deflation take ∝ 1/h iterations. Measured (2026-12-06), the
+//! fluid red blood cell deflated from its spheroid directly: 475, 774, 1453
+//! iterations at 642, 2562, 10242 vertices with the cap × h; 475, 371, 450
+//! and 1411 at 40962 without, to the same E_b, and the refinement ladder's
+//! rungs unchanged. The step cap stays × h: kept at its length too, the
+//! ladder's rungs at 10242 and 40962 took 537 and 1593 iterations instead
+//! of 285 and 848.
 
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -85,6 +97,13 @@ impl Scene {
         let d = &mut s.dynamics;
         d.mobility /= h * h;
         d.max_displacement *= h;
+        let metric_directions = matches!(
+            d.method,
+            crate::params::Method::Minimise(crate::params::MinimiserParams {
+                preconditioner: crate::params::Preconditioner::Sobolev(_),
+                ..
+            })
+        );
         if let crate::params::Method::Minimise(m) = &mut d.method {
             m.max_step *= h;
             m.force_tolerance *= h * h;
@@ -94,7 +113,9 @@ impl Scene {
             }
         }
         if let Some(c) = &mut s.constraints {
-            c.max_correction *= h;
+            if !metric_directions {
+                c.max_correction *= h;
+            }
             c.smoothing = count_over_h2(c.smoothing, h);
         }
         if let Some(diffusion) = &mut s.diffusion {
@@ -131,6 +152,33 @@ mod tests {
                 (a.1 - 2.0 * b.1).abs() < 1e-9 * (1.0 + b.1.abs()),
                 "V' at {l}"
             );
+        }
+    }
+
+    /// The projection's correction cap follows h under plain FIRE and keeps
+    /// its length under the Sobolev metric; the step cap follows h in both.
+    #[test]
+    fn the_metric_keeps_the_correction_cap_and_scales_the_step_cap() {
+        for (metric, correction) in [("None", 0.01), ("Sobolev()", 0.02)] {
+            let scene = Scene::from_ron_str(
+                &format!(
+                    "Scene(membrane: Icosphere(level: 1), energy: [Bending()], \
+                     constraints: (area: OfInitial(1.0), max_correction: 0.02), \
+                     dynamics: (method: Minimise(max_step: 0.04, preconditioner: {metric})))"
+                ),
+                std::path::Path::new("s.ron"),
+            )
+            .unwrap()
+            .at_resolution(0.5);
+            assert_eq!(
+                scene.constraints.unwrap().max_correction,
+                correction,
+                "{metric}"
+            );
+            let crate::params::Method::Minimise(m) = scene.dynamics.method else {
+                panic!()
+            };
+            assert_eq!(m.max_step, 0.02, "{metric}");
         }
     }
 
