@@ -82,6 +82,25 @@ pub fn for_chunks<T: Send>(out: &mut [T], body: impl Fn(usize, &mut [T]) + Sync 
     }
 }
 
+/// [`for_chunks`] over two slices of the same length at once:
+/// `body(start, a_chunk, b_chunk)`.
+pub fn for_chunks2<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    body: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send,
+) {
+    assert_eq!(a.len(), b.len());
+    if splits(a.len()) {
+        let g = grain();
+        a.par_chunks_mut(g)
+            .zip(b.par_chunks_mut(g))
+            .enumerate()
+            .for_each(|(c, (x, y))| body(c * g, x, y));
+    } else {
+        body(0, a, b);
+    }
+}
+
 /// `map(range)` on consecutive index ranges covering `0..len`, combined in
 /// any grouping by `combine`: the result is thread-count independent when
 /// `combine` is associative and commutative on the values `map` returns.
@@ -299,6 +318,137 @@ pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     sum
 }
 
+/// Each element's incident items in ascending item order, as entries
+/// `item << 2 | corner` ([`entry`]; `corner` is the element's place in the
+/// item, < 4), in fixed-size blocks: element `v`'s entries are
+/// `entries[v·stride ..][..len[v]]`. With it a loop over items that adds
+/// each item's per-corner contributions into its elements (a scatter, one
+/// thread) becomes a gather: every element sums its own items'
+/// contributions in item order, which are the additions the scatter made
+/// into that element, in the same order, so the same bits, and the
+/// elements are independent ([`gather`]).
+#[derive(Clone, Debug, Default)]
+pub struct Incidence {
+    stride: usize,
+    len: Vec<u32>,
+    entries: Vec<u32>,
+}
+
+/// Equal when every element has the same entries (whatever the blocks'
+/// size).
+impl PartialEq for Incidence {
+    fn eq(&self, other: &Self) -> bool {
+        self.elements() == other.elements()
+            && (0..self.elements()).all(|v| self.of(v) == other.of(v))
+    }
+}
+
+impl Eq for Incidence {}
+
+/// The [`Incidence`] entry of corner `corner` of item `item`.
+#[inline(always)]
+pub fn entry(item: usize, corner: usize) -> u32 {
+    debug_assert!(corner < 4 && item < (1 << 30));
+    ((item as u32) << 2) | corner as u32
+}
+
+impl Incidence {
+    /// Builds the blocks of `elements` elements of `stride` entries, in
+    /// parallel: `fill(v, block)` writes element v's entries (in ascending
+    /// item order) into the start of `block` and returns how many.
+    pub fn build(
+        elements: usize,
+        stride: usize,
+        fill: impl Fn(usize, &mut [u32]) -> usize + Sync + Send,
+    ) -> Self {
+        let mut out = Incidence {
+            stride,
+            len: vec![0; elements],
+            entries: vec![0; elements * stride],
+        };
+        if stride == 0 {
+            return out;
+        }
+        let entries = &mut out.entries;
+        let len = &mut out.len;
+        let body = |first: usize, blocks: &mut [u32], lens: &mut [u32]| {
+            for (j, (block, l)) in blocks.chunks_mut(stride).zip(lens).enumerate() {
+                *l = fill(first + j, block) as u32;
+            }
+        };
+        if splits(elements) {
+            let g = grain();
+            entries
+                .par_chunks_mut(g * stride)
+                .zip(len.par_chunks_mut(g))
+                .enumerate()
+                .for_each(|(c, (blocks, lens))| body(c * g, blocks, lens));
+        } else {
+            body(0, entries, len);
+        }
+        out
+    }
+
+    /// The incidence of `items` (each naming K of `elements` elements),
+    /// one thread (tests, and where no topology keeps one).
+    pub fn from_items<const K: usize>(items: &[[u32; K]], elements: usize) -> Self {
+        let mut count = vec![0u32; elements];
+        for item in items {
+            for &v in item {
+                count[v as usize] += 1;
+            }
+        }
+        let stride = count.iter().copied().max().unwrap_or(0) as usize;
+        let mut out = Incidence {
+            stride,
+            len: vec![0; elements],
+            entries: vec![0; elements * stride],
+        };
+        for (i, item) in items.iter().enumerate() {
+            for (k, &v) in item.iter().enumerate() {
+                let v = v as usize;
+                out.entries[v * stride + out.len[v] as usize] = entry(i, k);
+                out.len[v] += 1;
+            }
+        }
+        out
+    }
+
+    /// Number of elements.
+    #[inline]
+    pub fn elements(&self) -> usize {
+        self.len.len()
+    }
+
+    /// Element `v`'s entries, in ascending item order.
+    #[inline(always)]
+    pub fn of(&self, v: usize) -> &[u32] {
+        let lo = v * self.stride;
+        &self.entries[lo..lo + self.len[v] as usize]
+    }
+}
+
+/// For every element `v` of `out`, in parallel: `add(&mut out[v], c)` for
+/// each of its items' contributions `c = per_item[item][corner]`, in
+/// ascending item order ([`Incidence`]): the bits of the serial loop
+/// `for item { for corner { add(&mut out[items[item][corner]], …) } }`,
+/// on any thread count.
+pub fn gather<const K: usize, T: Copy + Sync, O: Send>(
+    incidence: &Incidence,
+    per_item: &[[T; K]],
+    out: &mut [O],
+    add: impl Fn(&mut O, T) + Sync + Send,
+) {
+    debug_assert_eq!(incidence.elements(), out.len());
+    for_chunks(out, |start, chunk| {
+        for (j, o) in chunk.iter_mut().enumerate() {
+            for &e in incidence.of(start + j) {
+                add(o, per_item[(e >> 2) as usize][(e & 3) as usize]);
+            }
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -354,6 +504,58 @@ mod tests {
             *o += c
         });
         assert_eq!(empty, 0.0, "no items");
+    }
+
+    #[test]
+    fn gather_adds_in_item_order_for_any_thread_count() {
+        // Small grains, so that 3000 elements split (results do not depend
+        // on the grain: other tests may run meanwhile).
+        set_grain(64);
+        let (n, items) = (3000u32, 7001usize);
+        let faces: Vec<[u32; 3]> = (0..items as u32)
+            .map(|k| [k % n, (k * 7 + 1) % n, (k * 13 + 2) % n])
+            .collect();
+        let value = |k: usize, j: usize| ((k * 2654435761 + j * 40503) % 1000003) as f64 / 7.0;
+        let per_item: Vec<[f64; 3]> = (0..items)
+            .map(|k| [value(k, 0), 1.0 / (1.0 + value(k, 1)), -value(k, 2).sqrt()])
+            .collect();
+        let start = |v: usize| 1.0 / (1.0 + v as f64);
+        let mut serial: Vec<f64> = (0..n as usize).map(start).collect();
+        for (f, c) in faces.iter().zip(&per_item) {
+            for j in 0..3 {
+                serial[f[j] as usize] -= c[j];
+            }
+        }
+        let incidence = Incidence::from_items(&faces, n as usize);
+        for threads in [1, 2, 3] {
+            let mut out: Vec<f64> = (0..n as usize).map(start).collect();
+            pool(threads).install(|| gather(&incidence, &per_item, &mut out, |o, c| *o -= c));
+            assert!(
+                out.iter()
+                    .zip(&serial)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{threads} threads"
+            );
+            // The same blocks, built in parallel.
+            let built = pool(threads).install(|| {
+                Incidence::build(n as usize, incidence.stride, |v, block| {
+                    let of = incidence.of(v);
+                    block[..of.len()].copy_from_slice(of);
+                    of.len()
+                })
+            });
+            assert_eq!(built, incidence, "{threads} threads");
+        }
+        // Entries in item order, each naming the element's corner.
+        for v in 0..n as usize {
+            let of = incidence.of(v);
+            assert!(of.windows(2).all(|w| w[0] >> 2 < w[1] >> 2));
+            assert!(
+                of.iter()
+                    .all(|&e| faces[(e >> 2) as usize][(e & 3) as usize] == v as u32)
+            );
+        }
+        set_grain(DEFAULT_GRAIN);
     }
 
     #[test]
