@@ -241,6 +241,10 @@ impl Topology {
     /// topology ([`Topology::key`]) and kept until it changes.
     pub fn face_incidence(&self) -> Arc<Incidence> {
         self.cached(&self.incidence.faces, || {
+            if self.ring_len.len() != self.vertex_count() {
+                // No rings (a topology put together by hand).
+                return Incidence::from_items(&self.faces, self.vertex_count());
+            }
             Incidence::build(self.vertex_count(), self.ring_stride, |v, block| {
                 let mut n = 0;
                 for &f in self.ring_faces_of(v) {
@@ -266,6 +270,9 @@ impl Topology {
     /// [`Topology::face_incidence`].
     pub fn edge_incidence(&self) -> Arc<Incidence> {
         self.cached(&self.incidence.edges, || {
+            if self.ring_len.len() != self.vertex_count() {
+                return Incidence::from_items(&self.edges, self.vertex_count());
+            }
             Incidence::build(self.vertex_count(), self.ring_stride, |v, block| {
                 let ring = self.ring_edges_of(v);
                 let block = &mut block[..ring.len()];

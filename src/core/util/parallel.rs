@@ -15,16 +15,29 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Elements per rayon task by default (the grain). A loop splits only
-/// from [`SPLIT_FACTOR`] grains. Measured on the 2-core test VM: loops split
-/// from 4096 elements made a 2562-vertex run 1.5× slower on 2 threads and
-/// a 10242-vertex run no faster, while at 40962 vertices 2 threads are
-/// 1.5-2× faster with 2048-element tasks and no faster with 8192 (too few
-/// tasks to balance).
-pub const DEFAULT_GRAIN: usize = 2048;
+/// from [`SPLIT_FACTOR`] grains.
+///
+/// Measured on the 2-core test VM (2026-12-06, the 10242-vertex RBC of
+/// `scenes/fluid/red_blood_cell.ron` at h = 1/4 with plain FIRE, 100
+/// iterations, medians of 3 runs of one binary): with loops split from
+/// 4096 elements in tasks of 1024, 2 threads against 1 run the Gather and
+/// Forces stages and the constraint projection 1.72× faster (18.5 → 10.8
+/// ms a tick; the projection's 1-ring smoothing, a loop over the vertices,
+/// 1.76×; the face geometry 2.5×, the edge samples 1.9×, the terms 1.5×);
+/// split from 16384 (tasks of 2048) the vertex loops of that mesh stayed
+/// on one thread. Below 4096 elements (the 642-vertex meshes) nothing
+/// splits. Earlier (before runs went through [`on_pool`], when a loop
+/// started from outside the pool paid two thread wake-ups) loops split from
+/// 4096 made a 2562-vertex run 1.5× slower on 2 threads. The VM is shared:
+/// with another process on the second core, 2 threads are no faster than
+/// one, and measurements are only meaningful while a plain compute loop
+/// scales (≥ 1.7×).
+pub const DEFAULT_GRAIN: usize = 1024;
 
-/// A loop splits from this many grains (16384 elements by default: the
-/// faces and edges of a 10242-vertex mesh, everything of a larger one).
-pub const SPLIT_FACTOR: usize = 8;
+/// A loop splits from this many grains (4096 elements by default: the
+/// faces and edges of a 2562-vertex mesh, everything of a 10242-vertex
+/// one).
+pub const SPLIT_FACTOR: usize = 4;
 
 static GRAIN: AtomicUsize = AtomicUsize::new(DEFAULT_GRAIN);
 
@@ -255,10 +268,10 @@ pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bo
 /// the previous block's are added (and their values summed) in item order on
 /// one thread, so the additions overlap the next block's work and the result
 /// has the rounding of the serial loop it replaces. Two blocks are held at a
-/// time (2.6 MB for faces' pull-backs by default) instead of one
+/// time (0.66 MB for faces' pull-backs by default) instead of one
 /// contribution per item (6.5 MB at 81920 faces). It pays where an item's
-/// contribution costs much more than its additions (a bending pull-back;
-/// not a V_in edge, whose slope lookup costs about what its additions do).
+/// contribution costs much more than its additions (the dihedral bending;
+/// the cotangent bending and V_in add theirs by [`gather`], in parallel).
 pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     items: &[[u32; K]],
     out: &mut [O],
