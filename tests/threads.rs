@@ -3,7 +3,7 @@
 //! byte-identical run directories (all files; `summary.json` without its
 //! wall-clock timings).
 //!
-//! The grain is lowered to 128 elements per task (loops split from 512)
+//! The grain is lowered to 128 elements per task (loops split from 1024)
 //! so that every loop over
 //! the 10242 vertices, 20480 faces and 30720 edges splits: on one thread
 //! every kernel runs its serial loop, on two or three its parallel form and

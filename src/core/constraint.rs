@@ -89,15 +89,15 @@ impl Gradients {
         self.volume = six_volume / 6.0;
     }
 
-    /// [`Gradients::measure`] on `topology`'s faces; where they split, as
-    /// a gather (each face's terms in parallel, then each vertex adds its
+    /// [`Gradients::measure`] on `topology`'s faces; where the vertices
+    /// split, as a gather (each face's terms in parallel, then each vertex adds its
     /// faces' in ascending face order while A and V are summed in face
     /// order): the same bits, in parallel.
     pub fn measure_on(&mut self, positions: &[DVec3], topology: &crate::mesh::topology::Topology) {
         use crate::util::parallel::{fill_vec, for_chunks2, splits};
         let faces = &topology.faces;
         let n = positions.len();
-        if !splits(faces.len()) || topology.vertex_count() != n {
+        if !splits(n) || topology.vertex_count() != n {
             return self.measure(positions, faces);
         }
         let incidence = topology.face_incidence();

@@ -574,8 +574,11 @@ impl BendingForces {
             }
         }
         let p = &self.params;
-        // The force's face loops as gathers where the faces split.
-        let incidence = (force.is_some() && crate::util::parallel::splits(t.faces.len()))
+        // The force's face loops as gathers where the vertices split (the
+        // gathers are loops over them; on a smaller mesh whose topology
+        // changes every tick, flipped by Metropolis, rebuilding the
+        // incidence would cost more than the gathers save).
+        let incidence = (force.is_some() && crate::util::parallel::splits(t.vertex_count()))
             .then(|| t.face_incidence());
         match p.discretisation {
             BendingDiscretisation::Cotangent => bending_open_in(

@@ -525,7 +525,7 @@ impl VinForces {
 /// `sample(e)` gives edge e's vector, length and segment; `v(s, l)` its
 /// V_in value and slope.
 ///
-/// One thread; where the edges split, [`edge_gather`] gives the same bits
+/// One thread; where the vertices split, [`edge_gather`] gives the same bits
 /// in parallel.
 #[inline(always)]
 fn edge_loop(
@@ -625,8 +625,9 @@ impl VinForces {
             (s.d, s.length, s.segment as usize)
         };
         let have_samples = samples.len() == edges.len();
-        // Where the edges split, the force as a gather.
-        if crate::util::parallel::splits(edges.len())
+        // Where the vertices split, the force as a gather (see the
+        // bending's evaluation for why not from fewer).
+        if crate::util::parallel::splits(ctx.topology.vertex_count())
             && let Some(force) = force.as_deref_mut()
         {
             let incidence = ctx.topology.edge_incidence();

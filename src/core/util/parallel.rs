@@ -19,25 +19,24 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 ///
 /// Measured on the 2-core test VM (2026-12-06, the 10242-vertex RBC of
 /// `scenes/fluid/red_blood_cell.ron` at h = 1/4 with plain FIRE, 100
-/// iterations, medians of 3 runs of one binary): with loops split from
-/// 4096 elements in tasks of 1024, 2 threads against 1 run the Gather and
+/// iterations, medians of 3 runs of one binary): with every loop of that
+/// mesh split, in tasks of 1024, 2 threads against 1 run the Gather and
 /// Forces stages and the constraint projection 1.72× faster (18.5 → 10.8
 /// ms a tick; the projection's 1-ring smoothing, a loop over the vertices,
 /// 1.76×; the face geometry 2.5×, the edge samples 1.9×, the terms 1.5×);
-/// split from 16384 (tasks of 2048) the vertex loops of that mesh stayed
-/// on one thread. Below 4096 elements (the 642-vertex meshes) nothing
-/// splits. Earlier (before runs went through [`on_pool`], when a loop
-/// started from outside the pool paid two thread wake-ups) loops split from
-/// 4096 made a 2562-vertex run 1.5× slower on 2 threads. The VM is shared:
-/// with another process on the second core, 2 threads are no faster than
-/// one, and measurements are only meaningful while a plain compute loop
-/// scales (≥ 1.7×).
+/// split from 16384 (tasks of 2048) its vertex loops stayed on one thread.
+/// Loops split from 8192, so a 2562-vertex mesh (5120 faces, 7680 edges)
+/// stays on one thread as before: earlier measurements (before runs went
+/// through [`on_pool`]) had it 1.5× slower on 2 threads with loops split
+/// from 4096, and its Metropolis-flipped form rebuilds its incidence
+/// ([`Incidence`]) every tick. The VM is shared: with another process on
+/// the second core, 2 threads are no faster than one, and measurements are
+/// only meaningful while a plain compute loop scales (≥ 1.7×).
 pub const DEFAULT_GRAIN: usize = 1024;
 
-/// A loop splits from this many grains (4096 elements by default: the
-/// faces and edges of a 2562-vertex mesh, everything of a 10242-vertex
-/// one).
-pub const SPLIT_FACTOR: usize = 4;
+/// A loop splits from this many grains (8192 elements by default: every
+/// loop of a 10242-vertex mesh, none of a 2562-vertex one).
+pub const SPLIT_FACTOR: usize = 8;
 
 static GRAIN: AtomicUsize = AtomicUsize::new(DEFAULT_GRAIN);
 
@@ -268,7 +267,7 @@ pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bo
 /// the previous block's are added (and their values summed) in item order on
 /// one thread, so the additions overlap the next block's work and the result
 /// has the rounding of the serial loop it replaces. Two blocks are held at a
-/// time (0.66 MB for faces' pull-backs by default) instead of one
+/// time (1.3 MB for faces' pull-backs by default) instead of one
 /// contribution per item (6.5 MB at 81920 faces). It pays where an item's
 /// contribution costs much more than its additions (the dihedral bending;
 /// the cotangent bending and V_in add theirs by [`gather`], in parallel).
