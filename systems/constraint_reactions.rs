@@ -40,7 +40,7 @@ impl System for ConstraintReactions {
         (membrane, positions, constraints, mut buffers): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let g = &mut self.gradients;
-        g.measure(&positions.0, &membrane.cached_topology().faces);
+        g.measure_on(&positions.0, membrane.cached_topology());
         let targets = constraints.targets;
         let reactions = remove_reactions(g, targets, &mut buffers.evaluation.total);
         buffers.evaluation.constraint = Some(ConstraintState {

@@ -37,6 +37,21 @@ pub struct Gradients {
     pub area_gradient: Vec<DVec3>,
     /// ∂V/∂x_i by vertex slot (l̄²).
     pub volume_gradient: Vec<DVec3>,
+    /// Per-face terms of [`Gradients::measure_on`]'s gathered form.
+    faces: Vec<FaceTerms>,
+}
+
+/// One face's terms of A and V, and its unit normal, for the gathered
+/// [`Gradients::measure_on`] (each corner's gradients are formed where
+/// they are added, by the expressions of [`Gradients::measure`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct FaceTerms {
+    /// Twice its area.
+    double: f64,
+    /// Six times its signed tetrahedron's volume.
+    six_volume: f64,
+    /// Its unit normal (used only where `double > 0`).
+    n_hat: DVec3,
 }
 
 impl Gradients {
@@ -73,6 +88,75 @@ impl Gradients {
         self.area = 0.5 * twice_area;
         self.volume = six_volume / 6.0;
     }
+
+    /// [`Gradients::measure`] on `topology`'s faces; where the vertices
+    /// split, as a gather (each face's terms in parallel, then each vertex adds its
+    /// faces' in ascending face order while A and V are summed in face
+    /// order): the same bits, in parallel.
+    pub fn measure_on(&mut self, positions: &[DVec3], topology: &crate::mesh::topology::Topology) {
+        use crate::util::parallel::{fill_vec, for_chunks2, splits};
+        let faces = &topology.faces;
+        let n = positions.len();
+        if !splits(n) || topology.vertex_count() != n {
+            return self.measure(positions, faces);
+        }
+        let incidence = topology.face_incidence();
+        let origin = positions.first().copied().unwrap_or(DVec3::ZERO);
+        fill_vec(&mut self.faces, faces.len(), |k| {
+            let [a, b, c] = faces[k].map(|v| positions[v as usize]);
+            let normal = (b - a).cross(c - a);
+            let double = normal.length();
+            let (ra, rb, rc) = (a - origin, b - origin, c - origin);
+            FaceTerms {
+                double,
+                six_volume: ra.dot(rb.cross(rc)),
+                n_hat: normal / double,
+            }
+        });
+        for g in [&mut self.area_gradient, &mut self.volume_gradient] {
+            if g.len() != n {
+                g.clear();
+                g.resize(n, DVec3::ZERO);
+            }
+        }
+        let (terms, incidence) = (&self.faces, &*incidence);
+        // (A degenerate face's normal is NaN; it adds no area gradient.)
+        let ((twice_area, six_volume), ()) = rayon::join(
+            || {
+                let (mut twice_area, mut six_volume) = (0.0, 0.0);
+                for t in terms {
+                    twice_area += t.double;
+                    six_volume += t.six_volume;
+                }
+                (twice_area, six_volume)
+            },
+            || {
+                let (ga, gv) = (&mut self.area_gradient, &mut self.volume_gradient);
+                for_chunks2(ga, gv, |start, ga, gv| {
+                    for (j, (ga, gv)) in ga.iter_mut().zip(gv.iter_mut()).enumerate() {
+                        let (mut a, mut v) = (DVec3::ZERO, DVec3::ZERO);
+                        for &e in incidence.of(start + j) {
+                            let (f, k) = ((e >> 2) as usize, (e & 3) as usize);
+                            let t = &terms[f];
+                            // The corner's own and the next two, as in
+                            // `face_area_gradient` and `measure`'s volume.
+                            let face = faces[f];
+                            let (next, prev) = (face[(k + 1) % 3], face[(k + 2) % 3]);
+                            let (p_next, p_prev) =
+                                (positions[next as usize], positions[prev as usize]);
+                            if t.double > 0.0 {
+                                a += 0.5 * t.n_hat.cross(p_prev - p_next);
+                            }
+                            v += (p_next - origin).cross(p_prev - origin) / 6.0;
+                        }
+                        (*ga, *gv) = (a, v);
+                    }
+                });
+            },
+        );
+        self.area = 0.5 * twice_area;
+        self.volume = six_volume / 6.0;
+    }
 }
 
 /// The multipliers of one evaluation.
@@ -86,8 +170,22 @@ pub struct Reactions {
     pub pressure: f64,
 }
 
-fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+/// The dot products Σ_i x[i]·y[i] of the `pairs` (x, y) of equally long
+/// slices, in one pass: each is summed as `x.iter().zip(y).map(dot).sum()`
+/// sums it (from −0, in index order), so the same bits, but the sums'
+/// addition chains overlap (a sum's additions wait for each other, so one
+/// pass of several sums costs about what one sum does). One thread: a sum
+/// in index order is what keeps the bits for any thread count.
+fn dots<const M: usize>(pairs: [(&[DVec3], &[DVec3]); M]) -> [f64; M] {
+    let n = pairs.first().map_or(0, |(x, _)| x.len());
+    assert!(pairs.iter().all(|(x, y)| x.len() == n && y.len() == n));
+    let mut sums = [-0.0; M];
+    for i in 0..n {
+        for (s, (x, y)) in sums.iter_mut().zip(&pairs) {
+            *s += x[i].dot(y[i]);
+        }
+    }
+    sums
 }
 
 /// Solves the normal equations of the active constraints for the
@@ -95,18 +193,19 @@ fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
 /// gradients so that the 2×2 solve is well conditioned; a nearly
 /// degenerate pair (a sphere, where ∇A ∥ ∇V) is regularised (Tikhonov,
 /// 1e-12 of the diagonal), which gives the least-norm compromise.
-fn solve(g: &Gradients, t: ConstraintTargets, r: [f64; 2]) -> [f64; 2] {
-    let (ga, gv) = (&g.area_gradient, &g.volume_gradient);
+/// `gram` = [∇A·∇A, ∇V·∇V, ∇A·∇V].
+fn solve(gram: [f64; 3], t: ConstraintTargets, r: [f64; 2]) -> [f64; 2] {
+    let [aa, vv, av] = gram;
     match (t.area.is_some(), t.volume.is_some()) {
         (false, false) => [0.0, 0.0],
-        (true, false) => [r[0] / dot(ga, ga).max(f64::MIN_POSITIVE), 0.0],
-        (false, true) => [0.0, r[1] / dot(gv, gv).max(f64::MIN_POSITIVE)],
+        (true, false) => [r[0] / aa.max(f64::MIN_POSITIVE), 0.0],
+        (false, true) => [0.0, r[1] / vv.max(f64::MIN_POSITIVE)],
         (true, true) => {
-            let (na, nv) = (dot(ga, ga).sqrt(), dot(gv, gv).sqrt());
+            let (na, nv) = (aa.sqrt(), vv.sqrt());
             if na == 0.0 || nv == 0.0 {
                 return [0.0, 0.0];
             }
-            let rho = dot(ga, gv) / (na * nv);
+            let rho = av / (na * nv);
             let (d, b) = (1.0 + 1e-12, [r[0] / na, r[1] / nv]);
             let det = d * d - rho * rho;
             let y = [(d * b[0] - rho * b[1]) / det, (d * b[1] - rho * b[0]) / det];
@@ -119,11 +218,12 @@ fn solve(g: &Gradients, t: ConstraintTargets, r: [f64; 2]) -> [f64; 2] {
 /// afterwards `force` is orthogonal to ∇A and ∇V of the active targets.
 /// Returns the multipliers (see the module documentation for the signs).
 pub fn remove_reactions(g: &Gradients, t: ConstraintTargets, force: &mut [DVec3]) -> Reactions {
-    let r = [dot(&g.area_gradient, force), dot(&g.volume_gradient, force)];
-    let c = solve(g, t, r);
-    for (i, f) in force.iter_mut().enumerate() {
-        *f -= c[0] * g.area_gradient[i] + c[1] * g.volume_gradient[i];
-    }
+    let (ga, gv) = (&g.area_gradient[..], &g.volume_gradient[..]);
+    let [af, vf, aa, vv, av] = dots([(ga, force), (gv, force), (ga, ga), (gv, gv), (ga, gv)]);
+    let c = solve([aa, vv, av], t, [af, vf]);
+    crate::util::parallel::for_each_mut(force, |i, f| {
+        *f -= c[0] * ga[i] + c[1] * gv[i];
+    });
     Reactions {
         tension: c[0],
         pressure: -c[1],
@@ -168,14 +268,34 @@ const PROJECTION_TOLERANCE: f64 = 1e-12;
 const PROJECTION_STEPS: u32 = 8;
 
 /// Area and volume only (the check between Gauss-Newton steps), summed as
-/// in [`Gradients::measure`].
-fn area_and_volume(positions: &[DVec3], faces: &[[u32; 3]]) -> (f64, f64) {
+/// in [`Gradients::measure`] (where the faces split, each face's terms in
+/// parallel into `buffer`, then summed in face order: the same bits).
+fn area_and_volume(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    buffer: &mut Vec<(f64, f64)>,
+) -> (f64, f64) {
     let origin = positions.first().copied().unwrap_or(DVec3::ZERO);
-    let (mut twice_area, mut six_volume) = (0.0, 0.0);
-    for f in faces {
+    let terms = |f: &[u32; 3]| {
         let [a, b, c] = f.map(|v| positions[v as usize]);
-        twice_area += (b - a).cross(c - a).length();
-        six_volume += (a - origin).dot((b - origin).cross(c - origin));
+        (
+            (b - a).cross(c - a).length(),
+            (a - origin).dot((b - origin).cross(c - origin)),
+        )
+    };
+    let (mut twice_area, mut six_volume) = (0.0, 0.0);
+    if crate::util::parallel::splits(faces.len()) {
+        crate::util::parallel::fill_vec(buffer, faces.len(), |k| terms(&faces[k]));
+        for (double, six) in buffer.iter() {
+            twice_area += double;
+            six_volume += six;
+        }
+    } else {
+        for f in faces {
+            let (double, six) = terms(f);
+            twice_area += double;
+            six_volume += six;
+        }
     }
     (0.5 * twice_area, six_volume / 6.0)
 }
@@ -187,12 +307,14 @@ pub struct ProjectionScratch {
     /// The correction directions: ∇A and ∇V averaged over 1-rings.
     directions: [Vec<DVec3>; 2],
     smoothing: crate::energy::penalty::SmoothingScratch,
+    /// Per-face area and volume terms ([`area_and_volume`]).
+    faces: Vec<(f64, f64)>,
 }
 
 /// M_ij = g_i · d_j, the change of constraint i along direction j.
 fn response(g: [&[DVec3]; 2], d: [&[DVec3]; 2]) -> [[f64; 2]; 2] {
-    let m = |i: usize, j: usize| dot(g[i], d[j]);
-    [[m(0, 0), m(0, 1)], [m(1, 0), m(1, 1)]]
+    let [m00, m01, m10, m11] = dots([(g[0], d[0]), (g[0], d[1]), (g[1], d[0]), (g[1], d[1])]);
+    [[m00, m01], [m10, m11]]
 }
 
 /// Solves M c = r for the active constraints, with a relative Tikhonov
@@ -303,7 +425,7 @@ fn project_with(
             t.volume.map_or(0.0, |v| v - volume),
         ]
     };
-    let mut r = residual(area_and_volume(positions, faces));
+    let mut r = residual(area_and_volume(positions, faces, &mut scratch.faces));
     // The directions and their response are measured at the first step
     // and again after every two chord steps that did not reach the target
     // (the residual after a Newton step is second order, so near the
@@ -312,12 +434,13 @@ fn project_with(
         gradients: g,
         directions: [da, dv],
         smoothing: smoothing_scratch,
+        faces: face_terms,
     } = scratch;
     let mut m = [[0.0; 2]; 2];
     let mut chord_steps = 0;
     while out.steps < PROJECTION_STEPS && !(held(r[0], t.area) && held(r[1], t.volume)) {
         if out.steps == 0 || chord_steps == 2 {
-            g.measure(positions, faces);
+            g.measure_on(positions, topology);
             match directions {
                 Directions::Smoothed(smoothing) => {
                     da.clone_from(&g.area_gradient);
@@ -340,10 +463,18 @@ fn project_with(
             chord_steps = 0;
         }
         let c = solve_response(m, t, r);
+        // (A maximum of lengths, ≥ 0, NaN skipped: the same in any grouping.)
         let largest = |c: [f64; 2]| {
-            (0..positions.len())
-                .map(|i| (c[0] * da[i] + c[1] * dv[i]).length())
-                .fold(0.0, f64::max)
+            crate::util::parallel::reduce_ranges(
+                positions.len(),
+                || 0.0,
+                |range| {
+                    range
+                        .map(|i| (c[0] * da[i] + c[1] * dv[i]).length())
+                        .fold(0.0, f64::max)
+                },
+                f64::max,
+            )
         };
         let full = largest(c);
         let (c, scale) = if full <= max_correction {
@@ -370,15 +501,15 @@ fn project_with(
                 ([c_near[0] + s * c_far[0], c_near[1] + s * c_far[1]], 1.0)
             }
         };
-        for (i, p) in positions.iter_mut().enumerate() {
+        crate::util::parallel::for_each_mut(positions, |i, p| {
             *p += scale * (c[0] * da[i] + c[1] * dv[i]);
-        }
+        });
         out.steps += 1;
         chord_steps += 1;
         if out.limited {
             break;
         }
-        r = residual(area_and_volume(positions, faces));
+        r = residual(area_and_volume(positions, faces, face_terms));
     }
     out
 }

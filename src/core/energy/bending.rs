@@ -35,6 +35,7 @@ use crate::energy::bending_dihedral::{DihedralScratch, bending_dihedral};
 use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
 use crate::engine::simulation::{Plugin, SimBuilder};
 use crate::mesh::geometry::{Corners, vertex_curvature_terms};
+use crate::util::parallel::Incidence;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -48,6 +49,11 @@ pub struct BendingScratch {
     g_area: Vec<f64>,
     /// Per-face pull-backs of the parallel form.
     face_gradients: Vec<(f64, [DVec3; 3])>,
+    /// The gathered form's per-vertex energy and adjoints ∂H/∂L, ∂H/∂A
+    /// (the energy is `None` for a boundary vertex, which has none).
+    vertex_terms: Vec<(Option<f64>, DVec3, f64)>,
+    /// The gathered form's per-face pull-backs.
+    face_pull_backs: Vec<[DVec3; 3]>,
 }
 
 /// Bending energy (Ē) for bending modulus `kappa` (Ē) and spontaneous
@@ -81,6 +87,52 @@ pub fn bending_open(
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
+    bending_open_in(
+        n, faces, geometry, kappa, c0, boundary, None, scratch, force,
+    )
+}
+
+/// [`bending_open`], as a gather over the faces' `incidence` (from the
+/// topology, [`crate::mesh::topology::Topology::face_incidence`]) when
+/// one is given and the force is asked for: the same bits, every loop in
+/// parallel.
+#[allow(clippy::too_many_arguments)]
+fn bending_open_in(
+    n: usize,
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    kappa: f64,
+    c0: f64,
+    boundary: Option<&[bool]>,
+    incidence: Option<&Incidence>,
+    scratch: &mut BendingScratch,
+    mut force: Option<&mut [DVec3]>,
+) -> f64 {
+    if let Some(incidence) = incidence.filter(|i| i.elements() == n)
+        && let Some(force) = force.as_deref_mut()
+    {
+        let terms = Gathered {
+            faces,
+            geometry,
+            incidence,
+            boundary,
+        };
+        return if c0 == 0.0 {
+            terms.bending(scratch, force, false, |a, l, _| {
+                let l2 = l.length_squared();
+                let inv_a = 1.0 / a;
+                (
+                    kappa * l2 * 0.125 * inv_a,
+                    l * (0.25 * kappa * inv_a),
+                    -0.125 * kappa * l2 * inv_a * inv_a,
+                )
+            })
+        } else {
+            terms.bending(scratch, force, true, |a, l, nrm| {
+                signed_vertex_terms(kappa, c0, a, l, nrm)
+            })
+        };
+    }
     if c0 == 0.0 {
         let s = &mut *scratch;
         vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, None, n);
@@ -216,6 +268,94 @@ fn bending_with(
         pull_back(faces, geometry, s, force);
     }
     energy
+}
+
+/// A signed-curvature vertex's energy ½κA(h − c0)² and adjoints ∂H/∂L_i,
+/// ∂H/∂A_i, from its area `a`, Laplacian `l` and normal `nrm` (the
+/// expressions of [`bending_with`]'s vertex loop).
+#[inline(always)]
+fn signed_vertex_terms(kappa: f64, c0: f64, a: f64, l: DVec3, nrm: DVec3) -> (f64, DVec3, f64) {
+    let len = l.length();
+    let sign = sign(l, nrm);
+    let h = sign * len / (2.0 * a);
+    let dh = h - c0;
+    let energy = 0.5 * kappa * a * dh * dh;
+    // |L| is not differentiable at 0: use the zero subgradient there.
+    let g_lap = if len > 0.0 {
+        l * (0.5 * kappa * dh * sign / len)
+    } else {
+        DVec3::ZERO
+    };
+    (energy, g_lap, 0.5 * kappa * dh * dh - kappa * dh * h)
+}
+
+/// The bending force as gathers: each vertex sums its faces' terms in
+/// ascending face order ([`Incidence`]), which are the additions the face
+/// loops make into it, in the same order, so the same bits as
+/// [`bending_open`] and [`bending_with`]; every pass runs in parallel and
+/// only the energy is summed on one thread, in vertex order.
+struct Gathered<'a> {
+    faces: &'a [[u32; 3]],
+    geometry: &'a [Corners],
+    incidence: &'a Incidence,
+    boundary: Option<&'a [bool]>,
+}
+
+impl Gathered<'_> {
+    /// Σ over vertices of `vertex(A_i, L_i, N_i) = (energy, ∂H/∂L_i,
+    /// ∂H/∂A_i)` (N_i is zero unless `normals`), adding −∇H to `force`.
+    fn bending(
+        &self,
+        s: &mut BendingScratch,
+        force: &mut [DVec3],
+        normals: bool,
+        vertex: impl Fn(f64, DVec3, DVec3) -> (f64, DVec3, f64) + Sync + Send,
+    ) -> f64 {
+        use crate::util::parallel::{fill_vec, gather};
+        let (faces, geometry, incidence) = (self.faces, self.geometry, self.incidence);
+        let boundary = self.boundary;
+        // Each vertex's A_i, L_i (and N_i) from its faces' corners, formed
+        // here rather than stored per face: the face loop's sums, from
+        // zero, in face order.
+        fill_vec(&mut s.vertex_terms, force.len(), |i| {
+            if boundary.is_some_and(|b| b[i]) {
+                return (None, DVec3::ZERO, 0.0);
+            }
+            let (mut a, mut l, mut nrm) = (0.0, DVec3::ZERO, DVec3::ZERO);
+            for &e in incidence.of(i) {
+                let (f, k) = ((e >> 2) as usize, (e & 3) as usize);
+                let c = &geometry[f];
+                a += c.mixed_area(k);
+                l += c.laplacian_at(k);
+                if normals {
+                    nrm += c.n_hat * c.twice_area;
+                }
+            }
+            let (energy, g_lap, g_area) = vertex(a, l, nrm);
+            (Some(energy), g_lap, g_area)
+        });
+        let vertex_terms = &s.vertex_terms;
+        let (energy, ()) = rayon::join(
+            || {
+                let mut energy = 0.0;
+                for (e, _, _) in vertex_terms {
+                    if let Some(e) = e {
+                        energy += e;
+                    }
+                }
+                energy
+            },
+            || {
+                fill_vec(&mut s.face_pull_backs, faces.len(), |k| {
+                    let [i0, i1, i2] = faces[k].map(|v| v as usize);
+                    let [t0, t1, t2] = [vertex_terms[i0], vertex_terms[i1], vertex_terms[i2]];
+                    geometry[k].backward([t0.1, t1.1, t2.1], [t0.2, t1.2, t2.2])
+                })
+            },
+        );
+        gather(incidence, &s.face_pull_backs, force, |f, g| *f -= g);
+        energy
+    }
 }
 
 /// Adds −(∂H/∂L · ∂L/∂r + ∂H/∂A · ∂A/∂r) to `force`, face by face (on a
@@ -434,14 +574,21 @@ impl BendingForces {
             }
         }
         let p = &self.params;
+        // The force's face loops as gathers where the vertices split (the
+        // gathers are loops over them; on a smaller mesh whose topology
+        // changes every tick, flipped by Metropolis, rebuilding the
+        // incidence would cost more than the gathers save).
+        let incidence = (force.is_some() && crate::util::parallel::splits(t.vertex_count()))
+            .then(|| t.face_incidence());
         match p.discretisation {
-            BendingDiscretisation::Cotangent => bending_open(
+            BendingDiscretisation::Cotangent => bending_open_in(
                 ctx.positions.len(),
                 &ctx.topology.faces,
                 ctx.face_geometry,
                 p.kappa,
                 p.c0,
                 (!self.boundary.is_empty()).then_some(&self.boundary[..]),
+                incidence.as_deref(),
                 &mut self.scratch,
                 force,
             ),

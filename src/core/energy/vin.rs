@@ -502,12 +502,17 @@ pub struct VinSegmentation(pub Arc<Segmentation>);
 pub struct VinForces {
     segmentation: Arc<Segmentation>,
     form: VinForm,
+    scratch: EdgeScratch,
 }
 
 impl VinForces {
     /// A V_in system evaluating `form` on a shared segmentation.
     pub fn new(segmentation: Arc<Segmentation>, form: VinForm) -> Self {
-        Self { segmentation, form }
+        Self {
+            segmentation,
+            form,
+            scratch: EdgeScratch::default(),
+        }
     }
 
     /// The segmentation this system uses.
@@ -520,13 +525,8 @@ impl VinForces {
 /// `sample(e)` gives edge e's vector, length and segment; `v(s, l)` its
 /// V_in value and slope.
 ///
-/// One thread, also on a large mesh: an edge's work (a slope lookup on the
-/// tick's samples) costs about what its two additions cost, so the form
-/// that computes edges in parallel and adds them in order (as the bending
-/// pull-back does) gained nothing. On the 40962-vertex RBC with 2 threads,
-/// where this term runs beside the others, per-tick times of the two forms
-/// were within the VM's run-to-run noise, and this one holds no per-edge
-/// buffers (1.8 MB).
+/// One thread; where the vertices split, [`edge_gather`] gives the same bits
+/// in parallel.
 #[inline(always)]
 fn edge_loop(
     edges: &[[u32; 2]],
@@ -549,33 +549,101 @@ fn edge_loop(
     energy
 }
 
+/// [`edge_loop`] with the force, as a gather: every edge's value and force
+/// on its first end in parallel (one buffer, 32 bytes an edge), then each
+/// vertex adds its edges' forces in ascending edge order
+/// ([`crate::util::parallel::Incidence`]; `+=` at end a, `-=` at end b:
+/// the additions the loop makes into it, in its order) while the values
+/// are summed in edge order on another thread. The same bits as
+/// [`edge_loop`] on any thread count.
+#[inline(always)]
+fn edge_gather(
+    incidence: &crate::util::parallel::Incidence,
+    edges: usize,
+    scratch: &mut EdgeScratch,
+    sample: impl Fn(usize) -> (DVec3, f64, usize) + Sync + Send,
+    force: &mut [DVec3],
+    v: impl Fn(usize, f64) -> (f64, f64) + Sync + Send,
+) -> f64 {
+    use crate::util::parallel::{fill_vec, for_chunks};
+    fill_vec(&mut scratch.edges, edges, |e| {
+        let (d, l, s) = sample(e);
+        let (value, slope) = v(s, l);
+        (value, d * (slope / l))
+    });
+    let per_edge = &scratch.edges;
+    let (energy, ()) = rayon::join(
+        || {
+            let mut energy = 0.0;
+            for (value, _) in per_edge {
+                energy += value;
+            }
+            energy
+        },
+        || {
+            for_chunks(force, |start, chunk| {
+                for (j, o) in chunk.iter_mut().enumerate() {
+                    for &e in incidence.of(start + j) {
+                        let f = per_edge[(e >> 2) as usize].1;
+                        // End a adds f, end b subtracts it.
+                        if e & 3 == 0 {
+                            *o += f;
+                        } else {
+                            *o -= f;
+                        }
+                    }
+                }
+            })
+        },
+    );
+    energy
+}
+
+/// Per-edge buffers of [`edge_gather`].
+#[derive(Default)]
+struct EdgeScratch {
+    /// Each edge's V_in value and force on its first end.
+    edges: Vec<(f64, DVec3)>,
+}
+
 impl VinForces {
-    fn run(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+    fn run(&mut self, ctx: &ForceContext<'_>, mut force: Option<&mut [DVec3]>) -> f64 {
         let (edges, p, seg) = (&ctx.topology.edges, ctx.positions, &*self.segmentation);
         let linear = |s: usize, l: f64| seg.linear_in(s, l);
         let exact = |_: usize, l: f64| seg.exact_and_slope(l);
         // The tick's edge samples when the Gather stage measured them (the
         // same vectors, lengths and segments this would compute).
         let samples = ctx.inputs.get::<VinEdgeSamples>().map_or(&[][..], |s| &s.0);
-        if samples.len() == edges.len() {
-            let sample = |e: usize| {
-                let s = samples[e];
-                (s.d, s.length, s.segment as usize)
-            };
-            return match self.form {
-                VinForm::PiecewiseLinear => edge_loop(edges, sample, force, linear),
-                VinForm::Exact => edge_loop(edges, sample, force, exact),
-            };
-        }
-        let sample = |e: usize| {
+        let measured = |e: usize| {
             let [a, b] = edges[e].map(|i| i as usize);
             let d = p[b] - p[a];
             let l = d.length();
             (d, l, seg.segment_of(l))
         };
-        match self.form {
-            VinForm::PiecewiseLinear => edge_loop(edges, sample, force, linear),
-            VinForm::Exact => edge_loop(edges, sample, force, exact),
+        let sampled = |e: usize| {
+            let s = samples[e];
+            (s.d, s.length, s.segment as usize)
+        };
+        let have_samples = samples.len() == edges.len();
+        // Where the vertices split, the force as a gather (see the
+        // bending's evaluation for why not from fewer).
+        if crate::util::parallel::splits(ctx.topology.vertex_count())
+            && let Some(force) = force.as_deref_mut()
+        {
+            let incidence = ctx.topology.edge_incidence();
+            let (i, n, s) = (&*incidence, edges.len(), &mut self.scratch);
+            return match (self.form, have_samples) {
+                (VinForm::PiecewiseLinear, true) => edge_gather(i, n, s, sampled, force, linear),
+                (VinForm::Exact, true) => edge_gather(i, n, s, sampled, force, exact),
+                (VinForm::PiecewiseLinear, false) => edge_gather(i, n, s, measured, force, linear),
+                (VinForm::Exact, false) => edge_gather(i, n, s, measured, force, exact),
+            };
+        }
+        match (self.form, have_samples) {
+            (VinForm::PiecewiseLinear, true) => edge_loop(edges, sampled, force, linear),
+            (VinForm::Exact, true) => edge_loop(edges, sampled, force, exact),
+            (VinForm::PiecewiseLinear, false) => edge_loop(edges, measured, force, linear),
+            (VinForm::Exact, false) => edge_loop(edges, measured, force, exact),
         }
     }
 }

@@ -352,6 +352,13 @@ mod tests {
                     assert!(ends.contains(&face[k]) && ends.contains(&face[(k + 1) % 3]));
                 }
             }
+            // The incidence of the flipped view is rebuilt for it.
+            if flipped % 16 == 1 {
+                use crate::util::parallel::Incidence;
+                let n = t.vertex_count();
+                assert_eq!(*t.face_incidence(), Incidence::from_items(&t.faces, n));
+                assert_eq!(*t.edge_incidence(), Incidence::from_items(&t.edges, n));
+            }
             t.undo_flip(undo);
             assert!(t.same_as(&original), "undo of edge {edge}");
         }

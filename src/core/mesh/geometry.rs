@@ -103,6 +103,33 @@ impl Corners {
         [w1 - w2, w2 - w0, w0 - w1]
     }
 
+    /// Corner `k`'s entry of [`Corners::mixed_areas`], by the same
+    /// expressions (the same bits) without the other two.
+    #[inline(always)]
+    pub fn mixed_area(&self, k: usize) -> f64 {
+        match self.obtuse_corner() {
+            None => {
+                let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+                let sa = self.cot[a] * self.e[a].length_squared();
+                let sb = self.cot[b] * self.e[b].length_squared();
+                // (Addition commutes exactly: s2 + s0 is s0 + s2.)
+                0.125 * (sa + sb)
+            }
+            Some(o) => {
+                let quarter = 0.125 * self.twice_area;
+                if o == k { 2.0 * quarter } else { quarter }
+            }
+        }
+    }
+
+    /// Corner `k`'s entry of [`Corners::laplacian`], by the same
+    /// expressions: w_{k+1} − w_{k+2}.
+    #[inline(always)]
+    pub fn laplacian_at(&self, k: usize) -> DVec3 {
+        let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+        self.cot[a] * self.e[a] - self.cot[b] * self.e[b]
+    }
+
     /// Reverse-mode derivative: given adjoints `g_lap[k]` of the corner
     /// Laplacian contributions and `g_area[k]` of the corner mixed areas,
     /// returns ∂/∂p_k of Φ = Σ_k (`g_lap[k]`·L_k + `g_area[k]`·A_k).

@@ -21,7 +21,9 @@
 //! closed mesh nothing here differs from before: every face slot is real.
 
 use crate::mesh::components::{Edge, Face, Position};
+use crate::util::parallel::{Incidence, entry};
 use hecs::{Entity, World};
+use std::sync::Arc;
 
 /// Sentinel for "no slot".
 pub const NO_SLOT: u32 = u32::MAX;
@@ -60,6 +62,39 @@ pub struct Topology {
     /// Entry `k` of a block: the face (v, `ring[k]`, `ring[k+1]`); the last
     /// entry of a boundary vertex's block is [`NO_SLOT`].
     pub(crate) ring_faces: Vec<u32>,
+    /// Each vertex's faces and edges in ascending slot order, built when
+    /// first asked for ([`Topology::face_incidence`]).
+    incidence: IncidenceCache,
+}
+
+/// The [`Topology::face_incidence`] and [`Topology::edge_incidence`] last
+/// built, each with the topology it was built for ([`Topology::key`]).
+#[derive(Default)]
+struct IncidenceCache {
+    faces: std::sync::Mutex<Option<(TopologyKey, Arc<Incidence>)>>,
+    edges: std::sync::Mutex<Option<(TopologyKey, Arc<Incidence>)>>,
+}
+
+/// Identifies a state of one topology cache: its structure epoch (every
+/// edit, full build or flip view sets a new one) and its counts.
+pub type TopologyKey = (u64, usize, usize, usize);
+
+impl Clone for IncidenceCache {
+    fn clone(&self) -> Self {
+        let copy = |m: &std::sync::Mutex<Option<(TopologyKey, Arc<Incidence>)>>| {
+            std::sync::Mutex::new(m.lock().unwrap_or_else(|e| e.into_inner()).clone())
+        };
+        IncidenceCache {
+            faces: copy(&self.faces),
+            edges: copy(&self.edges),
+        }
+    }
+}
+
+impl std::fmt::Debug for IncidenceCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("IncidenceCache")
+    }
 }
 
 /// Ring block size for a largest valence `max_valence`: room for four
@@ -186,6 +221,90 @@ impl Topology {
             loops.push(l);
         }
         loops
+    }
+
+    /// The structure epoch and the vertex, edge and face counts: what a
+    /// cache derived from this topology is valid for.
+    pub fn key(&self) -> TopologyKey {
+        (
+            self.epoch,
+            self.vertex_count(),
+            self.edges.len(),
+            self.faces.len(),
+        )
+    }
+
+    /// Each vertex's faces in ascending slot order, with the vertex's
+    /// corner in each ([`Incidence`]): the order in which a loop over the
+    /// faces reaches the vertex, so a gather over it has that loop's bits.
+    /// Built in parallel from the rings when first asked for at this
+    /// topology ([`Topology::key`]) and kept until it changes.
+    pub fn face_incidence(&self) -> Arc<Incidence> {
+        self.cached(&self.incidence.faces, || {
+            if self.ring_len.len() != self.vertex_count() {
+                // No rings (a topology put together by hand).
+                return Incidence::from_items(&self.faces, self.vertex_count());
+            }
+            Incidence::build(self.vertex_count(), self.ring_stride, |v, block| {
+                let mut n = 0;
+                for &f in self.ring_faces_of(v) {
+                    if f != NO_SLOT {
+                        block[n] = f;
+                        n += 1;
+                    }
+                }
+                let block = &mut block[..n];
+                block.sort_unstable();
+                for x in block.iter_mut() {
+                    let f = *x as usize;
+                    let k = self.faces[f].iter().position(|&c| c as usize == v);
+                    *x = entry(f, k.expect("a ring face holds its vertex"));
+                }
+                n
+            })
+        })
+    }
+
+    /// Each vertex's edges in ascending slot order, with the vertex's end
+    /// in each (0: `edges[e][0]`, 1: `edges[e][1]`); see
+    /// [`Topology::face_incidence`].
+    pub fn edge_incidence(&self) -> Arc<Incidence> {
+        self.cached(&self.incidence.edges, || {
+            if self.ring_len.len() != self.vertex_count() {
+                return Incidence::from_items(&self.edges, self.vertex_count());
+            }
+            Incidence::build(self.vertex_count(), self.ring_stride, |v, block| {
+                let ring = self.ring_edges_of(v);
+                let block = &mut block[..ring.len()];
+                block.copy_from_slice(ring);
+                block.sort_unstable();
+                for x in block.iter_mut() {
+                    let e = *x as usize;
+                    *x = entry(e, usize::from(self.edges[e][0] as usize != v));
+                }
+                ring.len()
+            })
+        })
+    }
+
+    /// The incidence in `slot` if it was built for this topology, else
+    /// `build()` stored there. The lock is not held while building: a
+    /// parallel build may run other tasks on this thread, which may ask.
+    fn cached(
+        &self,
+        slot: &std::sync::Mutex<Option<(TopologyKey, Arc<Incidence>)>>,
+        build: impl FnOnce() -> Incidence,
+    ) -> Arc<Incidence> {
+        let key = self.key();
+        let lock = || slot.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((k, i)) = lock().as_ref()
+            && *k == key
+        {
+            return i.clone();
+        }
+        let built = Arc::new(build());
+        *lock() = Some((key, built.clone()));
+        built
     }
 
     /// Dense slot of a mesh entity, if it is a live vertex, edge or face.

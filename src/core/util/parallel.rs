@@ -15,15 +15,27 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Elements per rayon task by default (the grain). A loop splits only
-/// from [`SPLIT_FACTOR`] grains. Measured on the 2-core test VM: loops split
-/// from 4096 elements made a 2562-vertex run 1.5× slower on 2 threads and
-/// a 10242-vertex run no faster, while at 40962 vertices 2 threads are
-/// 1.5-2× faster with 2048-element tasks and no faster with 8192 (too few
-/// tasks to balance).
-pub const DEFAULT_GRAIN: usize = 2048;
+/// from [`SPLIT_FACTOR`] grains.
+///
+/// Measured on the 2-core test VM (2026-12-06, the 10242-vertex RBC of
+/// `scenes/fluid/red_blood_cell.ron` at h = 1/4 with plain FIRE, 100
+/// iterations, medians of 3 runs of one binary): with every loop of that
+/// mesh split, in tasks of 1024, 2 threads against 1 run the Gather and
+/// Forces stages and the constraint projection 1.72× faster (18.5 → 10.8
+/// ms a tick; the projection's 1-ring smoothing, a loop over the vertices,
+/// 1.76×; the face geometry 2.5×, the edge samples 1.9×, the terms 1.5×);
+/// split from 16384 (tasks of 2048) its vertex loops stayed on one thread.
+/// Loops split from 8192, so a 2562-vertex mesh (5120 faces, 7680 edges)
+/// stays on one thread as before: earlier measurements (before runs went
+/// through [`on_pool`]) had it 1.5× slower on 2 threads with loops split
+/// from 4096, and its Metropolis-flipped form rebuilds its incidence
+/// ([`Incidence`]) every tick. The VM is shared: with another process on
+/// the second core, 2 threads are no faster than one, and measurements are
+/// only meaningful while a plain compute loop scales (≥ 1.7×).
+pub const DEFAULT_GRAIN: usize = 1024;
 
-/// A loop splits from this many grains (16384 elements by default: the
-/// faces and edges of a 10242-vertex mesh, everything of a larger one).
+/// A loop splits from this many grains (8192 elements by default: every
+/// loop of a 10242-vertex mesh, none of a 2562-vertex one).
 pub const SPLIT_FACTOR: usize = 8;
 
 static GRAIN: AtomicUsize = AtomicUsize::new(DEFAULT_GRAIN);
@@ -79,6 +91,25 @@ pub fn for_chunks<T: Send>(out: &mut [T], body: impl Fn(usize, &mut [T]) + Sync 
             .for_each(|(c, chunk)| body(c * g, chunk));
     } else {
         body(0, out);
+    }
+}
+
+/// [`for_chunks`] over two slices of the same length at once:
+/// `body(start, a_chunk, b_chunk)`.
+pub fn for_chunks2<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    body: impl Fn(usize, &mut [A], &mut [B]) + Sync + Send,
+) {
+    assert_eq!(a.len(), b.len());
+    if splits(a.len()) {
+        let g = grain();
+        a.par_chunks_mut(g)
+            .zip(b.par_chunks_mut(g))
+            .enumerate()
+            .for_each(|(c, (x, y))| body(c * g, x, y));
+    } else {
+        body(0, a, b);
     }
 }
 
@@ -236,10 +267,10 @@ pub fn filter_indices(len: usize, out: &mut Vec<u32>, pred: impl Fn(usize) -> bo
 /// the previous block's are added (and their values summed) in item order on
 /// one thread, so the additions overlap the next block's work and the result
 /// has the rounding of the serial loop it replaces. Two blocks are held at a
-/// time (2.6 MB for faces' pull-backs by default) instead of one
+/// time (1.3 MB for faces' pull-backs by default) instead of one
 /// contribution per item (6.5 MB at 81920 faces). It pays where an item's
-/// contribution costs much more than its additions (a bending pull-back;
-/// not a V_in edge, whose slope lookup costs about what its additions do).
+/// contribution costs much more than its additions (the dihedral bending;
+/// the cotangent bending and V_in add theirs by [`gather`], in parallel).
 pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     items: &[[u32; K]],
     out: &mut [O],
@@ -299,6 +330,137 @@ pub fn accumulate<const K: usize, T: Copy + Send + Sync + Default, O: Send>(
     sum
 }
 
+/// Each element's incident items in ascending item order, as entries
+/// `item << 2 | corner` ([`entry`]; `corner` is the element's place in the
+/// item, < 4), in fixed-size blocks: element `v`'s entries are
+/// `entries[v·stride ..][..len[v]]`. With it a loop over items that adds
+/// each item's per-corner contributions into its elements (a scatter, one
+/// thread) becomes a gather: every element sums its own items'
+/// contributions in item order, which are the additions the scatter made
+/// into that element, in the same order, so the same bits, and the
+/// elements are independent ([`gather`]).
+#[derive(Clone, Debug, Default)]
+pub struct Incidence {
+    stride: usize,
+    len: Vec<u32>,
+    entries: Vec<u32>,
+}
+
+/// Equal when every element has the same entries (whatever the blocks'
+/// size).
+impl PartialEq for Incidence {
+    fn eq(&self, other: &Self) -> bool {
+        self.elements() == other.elements()
+            && (0..self.elements()).all(|v| self.of(v) == other.of(v))
+    }
+}
+
+impl Eq for Incidence {}
+
+/// The [`Incidence`] entry of corner `corner` of item `item`.
+#[inline(always)]
+pub fn entry(item: usize, corner: usize) -> u32 {
+    debug_assert!(corner < 4 && item < (1 << 30));
+    ((item as u32) << 2) | corner as u32
+}
+
+impl Incidence {
+    /// Builds the blocks of `elements` elements of `stride` entries, in
+    /// parallel: `fill(v, block)` writes element v's entries (in ascending
+    /// item order) into the start of `block` and returns how many.
+    pub fn build(
+        elements: usize,
+        stride: usize,
+        fill: impl Fn(usize, &mut [u32]) -> usize + Sync + Send,
+    ) -> Self {
+        let mut out = Incidence {
+            stride,
+            len: vec![0; elements],
+            entries: vec![0; elements * stride],
+        };
+        if stride == 0 {
+            return out;
+        }
+        let entries = &mut out.entries;
+        let len = &mut out.len;
+        let body = |first: usize, blocks: &mut [u32], lens: &mut [u32]| {
+            for (j, (block, l)) in blocks.chunks_mut(stride).zip(lens).enumerate() {
+                *l = fill(first + j, block) as u32;
+            }
+        };
+        if splits(elements) {
+            let g = grain();
+            entries
+                .par_chunks_mut(g * stride)
+                .zip(len.par_chunks_mut(g))
+                .enumerate()
+                .for_each(|(c, (blocks, lens))| body(c * g, blocks, lens));
+        } else {
+            body(0, entries, len);
+        }
+        out
+    }
+
+    /// The incidence of `items` (each naming K of `elements` elements),
+    /// one thread (tests, and where no topology keeps one).
+    pub fn from_items<const K: usize>(items: &[[u32; K]], elements: usize) -> Self {
+        let mut count = vec![0u32; elements];
+        for item in items {
+            for &v in item {
+                count[v as usize] += 1;
+            }
+        }
+        let stride = count.iter().copied().max().unwrap_or(0) as usize;
+        let mut out = Incidence {
+            stride,
+            len: vec![0; elements],
+            entries: vec![0; elements * stride],
+        };
+        for (i, item) in items.iter().enumerate() {
+            for (k, &v) in item.iter().enumerate() {
+                let v = v as usize;
+                out.entries[v * stride + out.len[v] as usize] = entry(i, k);
+                out.len[v] += 1;
+            }
+        }
+        out
+    }
+
+    /// Number of elements.
+    #[inline]
+    pub fn elements(&self) -> usize {
+        self.len.len()
+    }
+
+    /// Element `v`'s entries, in ascending item order.
+    #[inline(always)]
+    pub fn of(&self, v: usize) -> &[u32] {
+        let lo = v * self.stride;
+        &self.entries[lo..lo + self.len[v] as usize]
+    }
+}
+
+/// For every element `v` of `out`, in parallel: `add(&mut out[v], c)` for
+/// each of its items' contributions `c = per_item[item][corner]`, in
+/// ascending item order ([`Incidence`]): the bits of the serial loop
+/// `for item { for corner { add(&mut out[items[item][corner]], …) } }`,
+/// on any thread count.
+pub fn gather<const K: usize, T: Copy + Sync, O: Send>(
+    incidence: &Incidence,
+    per_item: &[[T; K]],
+    out: &mut [O],
+    add: impl Fn(&mut O, T) + Sync + Send,
+) {
+    debug_assert_eq!(incidence.elements(), out.len());
+    for_chunks(out, |start, chunk| {
+        for (j, o) in chunk.iter_mut().enumerate() {
+            for &e in incidence.of(start + j) {
+                add(o, per_item[(e >> 2) as usize][(e & 3) as usize]);
+            }
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -354,6 +516,58 @@ mod tests {
             *o += c
         });
         assert_eq!(empty, 0.0, "no items");
+    }
+
+    #[test]
+    fn gather_adds_in_item_order_for_any_thread_count() {
+        // Small grains, so that 3000 elements split (results do not depend
+        // on the grain: other tests may run meanwhile).
+        set_grain(64);
+        let (n, items) = (3000u32, 7001usize);
+        let faces: Vec<[u32; 3]> = (0..items as u32)
+            .map(|k| [k % n, (k * 7 + 1) % n, (k * 13 + 2) % n])
+            .collect();
+        let value = |k: usize, j: usize| ((k * 2654435761 + j * 40503) % 1000003) as f64 / 7.0;
+        let per_item: Vec<[f64; 3]> = (0..items)
+            .map(|k| [value(k, 0), 1.0 / (1.0 + value(k, 1)), -value(k, 2).sqrt()])
+            .collect();
+        let start = |v: usize| 1.0 / (1.0 + v as f64);
+        let mut serial: Vec<f64> = (0..n as usize).map(start).collect();
+        for (f, c) in faces.iter().zip(&per_item) {
+            for j in 0..3 {
+                serial[f[j] as usize] -= c[j];
+            }
+        }
+        let incidence = Incidence::from_items(&faces, n as usize);
+        for threads in [1, 2, 3] {
+            let mut out: Vec<f64> = (0..n as usize).map(start).collect();
+            pool(threads).install(|| gather(&incidence, &per_item, &mut out, |o, c| *o -= c));
+            assert!(
+                out.iter()
+                    .zip(&serial)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{threads} threads"
+            );
+            // The same blocks, built in parallel.
+            let built = pool(threads).install(|| {
+                Incidence::build(n as usize, incidence.stride, |v, block| {
+                    let of = incidence.of(v);
+                    block[..of.len()].copy_from_slice(of);
+                    of.len()
+                })
+            });
+            assert_eq!(built, incidence, "{threads} threads");
+        }
+        // Entries in item order, each naming the element's corner.
+        for v in 0..n as usize {
+            let of = incidence.of(v);
+            assert!(of.windows(2).all(|w| w[0] >> 2 < w[1] >> 2));
+            assert!(
+                of.iter()
+                    .all(|&e| faces[(e >> 2) as usize][(e & 3) as usize] == v as u32)
+            );
+        }
+        set_grain(DEFAULT_GRAIN);
     }
 
     #[test]
