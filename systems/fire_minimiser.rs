@@ -242,7 +242,7 @@ impl System for FireMinimiser {
             s.since_build += 1;
             let start = Instant::now();
             let held = constraints.as_ref().map(|c| {
-                metric.gradients.measure(positions, &topology.faces);
+                metric.gradients.measure_on(positions, topology);
                 (&metric.gradients, c.targets)
             });
             metric.gradient_time += start.elapsed();

@@ -241,22 +241,25 @@ impl SobolevMetric {
         let columns = normal_columns + 3;
         self.rhs.clear();
         self.rhs.resize(columns * n, 0.0);
+        // Each column filled by vertex (in parallel on a large mesh: a
+        // map, so the same bits on any thread count).
         {
+            use crate::util::parallel::fill;
             let (normal, tangent) = self.rhs.split_at_mut(normal_columns * n);
-            for (i, (&f, &nrm)) in force.iter().zip(normals).enumerate() {
-                let fn_ = f.dot(nrm);
-                normal[i] = fn_;
-                let ft = f - fn_ * nrm;
-                (tangent[i], tangent[n + i], tangent[2 * n + i]) = (ft.x, ft.y, ft.z);
+            let (first, constraints) = normal.split_at_mut(n);
+            fill(first, |i| force[i].dot(normals[i]));
+            for (axis, column) in tangent.chunks_mut(n).enumerate() {
+                fill(column, |i| {
+                    let (f, nrm) = (force[i], normals[i]);
+                    (f - f.dot(nrm) * nrm)[axis]
+                });
             }
-            let mut next = 1;
+            let mut columns = constraints.chunks_mut(n);
             for c in 0..2 {
                 if active[c] {
-                    let column = &mut normal[next * n..(next + 1) * n];
-                    for ((x, r), nrm) in column.iter_mut().zip(rows[c]).zip(normals) {
-                        *x = r.dot(*nrm);
-                    }
-                    next += 1;
+                    let column = columns.next().expect("one column per active constraint");
+                    let row = rows[c];
+                    fill(column, |i| row[i].dot(normals[i]));
                 }
             }
         }
@@ -273,12 +276,11 @@ impl SobolevMetric {
         let (sn, st) = (1.0 / scales.normal, 1.0 / scales.tangential);
         let rhs = &self.rhs;
         let tangent = &rhs[normal_columns * n..];
-        out.clear();
-        out.extend((0..n).map(|i| {
+        crate::util::parallel::fill_vec(out, n, |i| {
             let nrm = normals[i];
             let t = DVec3::new(tangent[i], tangent[n + i], tangent[2 * n + i]);
             sn * rhs[i] * nrm + st * (t - t.dot(nrm) * nrm)
-        }));
+        });
         restrict(out);
         let mut next = 1;
         for c in 0..2 {
