@@ -70,7 +70,18 @@ pub enum Factor {
         plan: std::sync::Arc<SplitPlan>,
         /// The supernodes' values, as faer lays them out.
         values: Vec<f64>,
+        /// The solves' buffers, kept from one solve to the next.
+        scratch: Scratch,
     },
+}
+
+/// The buffers of a split solve: one [`Part`] per group, the top's, and
+/// the update buffer of the top's second half of columns.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    parts: Vec<Part>,
+    top: Part,
+    right_update: Vec<f64>,
 }
 
 /// The groups of a split factor.
@@ -333,6 +344,7 @@ impl SymbolicFactor {
                 Ok(Factor::Split {
                     plan: plan.clone(),
                     values,
+                    scratch: Scratch::default(),
                 })
             }
         }
@@ -341,6 +353,7 @@ impl SymbolicFactor {
 
 /// One group's (or the top's) rows of the right-hand sides, and its
 /// buffers.
+#[derive(Debug, Default)]
 struct Part {
     /// Its rows, column-major (rows × k).
     x: Vec<f64>,
@@ -353,49 +366,54 @@ struct Part {
 impl Factor {
     /// Solves A x = b in place for the `k` columns of `rhs` (column-major,
     /// n × k).
-    pub fn solve_in_place(&self, rhs: &mut [f64], k: usize) {
+    pub fn solve_in_place(&mut self, rhs: &mut [f64], k: usize) {
         match self {
             Self::Plain(llt) => {
                 let n = rhs.len() / k.max(1);
                 llt.solve_in_place(MatMut::from_column_major_slice_mut(rhs, n, k));
             }
-            Self::Split { plan, values } => split_solve(plan, values, rhs, k),
+            Self::Split {
+                plan,
+                values,
+                scratch,
+            } => split_solve(plan, values, scratch, rhs, k),
         }
     }
 }
 
-fn split_solve(plan: &SplitPlan, values: &[f64], rhs: &mut [f64], k: usize) {
+fn split_solve(plan: &SplitPlan, values: &[f64], scratch: &mut Scratch, rhs: &mut [f64], k: usize) {
     let sn = plan.supernodal();
     let llt = SupernodalLltRef::<usize, f64>::new(sn, values);
     let n = sn.nrows();
     let t = plan.top_rows.len();
     let fwd = plan.symbolic.perm().map(|p| p.arrays().0);
     let source = |r: usize| fwd.map_or(r, |f| f[r]);
-    // Gather each part's rows of the permuted right-hand sides.
-    let gather = |rows: &[usize], with_top: bool| {
+    // Gather each part's rows of the permuted right-hand sides (every
+    // entry of `x` is written, `to_top` starts at zero).
+    let gather = |part: &mut Part, rows: &[usize], with_top: bool| {
         let m = rows.len();
-        let mut x = vec![0.0; m * k];
+        part.x.resize(m * k, 0.0);
         for j in 0..k {
             for (i, &r) in rows.iter().enumerate() {
-                x[j * m + i] = rhs[j * n + source(r)];
+                part.x[j * m + i] = rhs[j * n + source(r)];
             }
         }
-        Part {
-            x,
-            to_top: if with_top {
-                vec![0.0; t * k]
-            } else {
-                Vec::new()
-            },
-            update: vec![0.0; plan.largest_pattern * k],
+        part.to_top.clear();
+        if with_top {
+            part.to_top.resize(t * k, 0.0);
         }
+        part.update.resize(plan.largest_pattern * k, 0.0);
     };
-    let mut parts: Vec<Part> = plan
-        .group_rows
-        .iter()
-        .map(|rows| gather(rows, true))
-        .collect();
-    let mut top = gather(&plan.top_rows, false);
+    let Scratch {
+        parts,
+        top,
+        right_update,
+    } = scratch;
+    parts.resize_with(GROUPS, Part::default);
+    for (part, rows) in parts.iter_mut().zip(&plan.group_rows) {
+        gather(part, rows, true);
+    }
+    gather(top, &plan.top_rows, false);
     let forward = |g: usize, part: &mut Part| {
         let m = plan.group_rows[g].len();
         for &s in &plan.groups[g] {
@@ -433,8 +451,8 @@ fn split_solve(plan: &SplitPlan, values: &[f64], rhs: &mut [f64], k: usize) {
             }
         }
     };
-    run_groups(&mut parts, &forward);
-    for part in &parts {
+    run_groups(parts, &forward);
+    for part in parts.iter() {
         for (x, u) in top.x.iter_mut().zip(&part.to_top) {
             *x -= u;
         }
@@ -443,7 +461,7 @@ fn split_solve(plan: &SplitPlan, values: &[f64], rhs: &mut [f64], k: usize) {
     // fixed halves (each on its own thread when the pool has two).
     let first_half = k.div_ceil(2);
     let (left, right) = top.x.split_at_mut(first_half * t);
-    let mut right_update = vec![0.0; plan.largest_pattern * (k - first_half)];
+    right_update.resize(plan.largest_pattern * (k - first_half), 0.0);
     let mut halves = [
         (left, &mut top.update[..], first_half),
         (right, &mut right_update[..], k - first_half),
@@ -482,7 +500,7 @@ fn split_solve(plan: &SplitPlan, values: &[f64], rhs: &mut [f64], k: usize) {
             );
         }
     };
-    run_groups(&mut parts, &backward);
+    run_groups(parts, &backward);
     // Scatter back, undoing the permutation.
     let mut scatter = |rows: &[usize], x: &[f64]| {
         let m = rows.len();
@@ -492,7 +510,7 @@ fn split_solve(plan: &SplitPlan, values: &[f64], rhs: &mut [f64], k: usize) {
             }
         }
     };
-    for (rows, part) in plan.group_rows.iter().zip(&parts) {
+    for (rows, part) in plan.group_rows.iter().zip(parts.iter()) {
         scatter(rows, &part.x);
     }
     scatter(&plan.top_rows, &top.x);
@@ -637,7 +655,7 @@ mod tests {
         let share = plan.top_share();
         assert!(share < 0.5, "top share {share}");
         assert!(plan.groups.iter().all(|g| !g.is_empty()));
-        let factor = split.factorise(a.as_ref()).unwrap();
+        let mut factor = split.factorise(a.as_ref()).unwrap();
         let plain = Llt::try_new_with_symbolic(
             SymbolicLlt::try_new(a.symbolic(), Side::Lower).unwrap(),
             a.as_ref(),

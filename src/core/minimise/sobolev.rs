@@ -225,7 +225,7 @@ impl SobolevMetric {
         restrict: &mut dyn FnMut(&mut [DVec3]),
         out: &mut Vec<DVec3>,
     ) {
-        let (Some(factor), Some(scales)) = (&self.factor, self.scales) else {
+        let (Some(factor), Some(scales)) = (&mut self.factor, self.scales) else {
             panic!("SobolevMetric::direction before build");
         };
         let n = positions.len();
