@@ -75,7 +75,7 @@ pub enum Factor {
     },
 }
 
-/// The buffers of a split solve: one [`Part`] per group, the top's, and
+/// The buffers of a split solve: one part per group, the top's, and
 /// the update buffer of the top's second half of columns.
 #[derive(Debug, Default)]
 pub struct Scratch {
