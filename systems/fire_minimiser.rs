@@ -44,6 +44,7 @@ use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
 use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::minimise::axial;
 use remembrane_core::minimise::sobolev::{MetricScales, SobolevMetric};
 use remembrane_core::minimise::{Fire, MinimiserStatus, StopReason};
 use remembrane_core::params::{MinimiserParams, Preconditioner, SobolevParams};
@@ -61,6 +62,138 @@ pub struct FireMinimiser {
     state: SavedFire,
     previous: Vec<DVec3>,
     metric: Option<Metric>,
+    /// With `axisymmetric`: the modes and the direction without them.
+    axial: Option<Axial>,
+}
+
+/// The working buffers of `axisymmetric` (nothing carries over).
+#[derive(Default)]
+struct Axial {
+    modes: [Vec<DVec3>; 2],
+    direction: Vec<DVec3>,
+    /// The constraint gradients at the evaluated state.
+    gradients: Gradients,
+    /// Which constraints are held (area, volume).
+    active: [bool; 2],
+    /// The modes' reactions in the metric (P g; the modes without one).
+    reactions: [Vec<DVec3>; 2],
+}
+
+impl Axial {
+    /// Measures the modes about `axis` at `positions` (with the held
+    /// vertices' held directions removed), the constraint gradients, and,
+    /// with a metric built for this topology, the modes' reactions in it
+    /// (P g: what a force along the modes' directions looks like); returns
+    /// the largest force left when the least-squares combination of the
+    /// reactions and the constraint gradients is removed from `force`, and
+    /// the largest force removed along the modes.
+    fn measure(
+        &mut self,
+        positions: &[DVec3],
+        topology: &remembrane_core::mesh::topology::Topology,
+        axis: DVec3,
+        (constraints, pinned): (Option<&Constraints>, Option<&PinnedVertices>),
+        metric: Option<&mut Metric>,
+        force: &[DVec3],
+    ) -> (f64, f64) {
+        axial::quadrupole_modes(positions, axis, &mut self.modes);
+        for g in &mut self.modes {
+            release_held(pinned, g);
+        }
+        self.active = [false, false];
+        if let Some(c) = constraints {
+            self.active = [c.targets.area.is_some(), c.targets.volume.is_some()];
+            self.gradients.measure_on(positions, topology);
+        }
+        self.reactions(positions, topology, metric);
+        self.direction.clear();
+        self.direction.extend_from_slice(force);
+        let g = &self.gradients;
+        let mut pairs: Vec<(&[DVec3], &[DVec3])> = Vec::with_capacity(4);
+        for (row, on) in [&g.area_gradient, &g.volume_gradient]
+            .into_iter()
+            .zip(self.active)
+        {
+            if on {
+                pairs.push((row, row));
+            }
+        }
+        for r in &self.reactions {
+            pairs.push((r, r));
+        }
+        axial::remove_along(&mut self.direction, &pairs);
+        let largest = |d: &mut dyn Iterator<Item = f64>| d.fold(0.0, f64::max);
+        let left = largest(&mut self.direction.iter().map(|f| f.length()));
+        let removed = largest(
+            &mut self
+                .direction
+                .iter()
+                .zip(force)
+                .map(|(d, f)| (*f - *d).length()),
+        );
+        (left, removed)
+    }
+
+    /// The modes' reactions: P g with a metric built for `topology`, the
+    /// modes themselves without one (the Euclidean metric).
+    fn reactions(
+        &mut self,
+        positions: &[DVec3],
+        topology: &remembrane_core::mesh::topology::Topology,
+        metric: Option<&mut Metric>,
+    ) {
+        match metric {
+            Some(m) if m.sobolev.is_built_for(topology, positions.len()) => {
+                for (g, r) in self.modes.iter().zip(&mut self.reactions) {
+                    m.sobolev.apply(positions, topology, g, r);
+                }
+            }
+            _ => self.reactions.clone_from(&self.modes),
+        }
+    }
+
+    /// The direction in its buffer without the modes, kept tangent to the active
+    /// constraints: d ← d − U ν with the rows R·d = 0, where the
+    /// constraints pair their gradients with the columns the direction
+    /// keeps them along (the metric's W, or the gradients themselves
+    /// without a metric) and the modes pair their reactions with
+    /// themselves (a projection orthogonal in the metric).
+    fn remove_modes(
+        &mut self,
+        positions: &[DVec3],
+        topology: &remembrane_core::mesh::topology::Topology,
+        mut metric: Option<&mut Metric>,
+        constraints: Option<&Constraints>,
+    ) {
+        self.reactions(positions, topology, metric.as_deref_mut());
+        let mut pairs: Vec<(&[DVec3], &[DVec3])> = Vec::with_capacity(4);
+        if constraints.is_some() {
+            let g = &self.gradients;
+            let rows = [&g.area_gradient, &g.volume_gradient];
+            let columns: [&[DVec3]; 2] = match &metric {
+                Some(m) => m.sobolev.columns(),
+                None => [&g.area_gradient, &g.volume_gradient],
+            };
+            for ((row, column), on) in rows.into_iter().zip(columns).zip(self.active) {
+                if on {
+                    pairs.push((row, column));
+                }
+            }
+        }
+        for (r, g) in self.reactions.iter().zip(&self.modes) {
+            pairs.push((r, g));
+        }
+        axial::remove_along(&mut self.direction, &pairs);
+    }
+}
+
+/// `d` with the held vertices' held directions removed.
+fn release_held(pinned: Option<&PinnedVertices>, d: &mut [DVec3]) {
+    if let Some(pin) = pinned {
+        for (&v, &h) in pin.vertices.iter().zip(&pin.held) {
+            d[v as usize] = h.release(d[v as usize]);
+        }
+    }
 }
 
 /// The preconditioner's working state (rebuilt from [`SavedFire`] after a
@@ -119,6 +252,7 @@ impl FireMinimiser {
             state: SavedFire::default(),
             previous: Vec::new(),
             metric,
+            axial: None,
         }
     }
 }
@@ -187,8 +321,26 @@ impl System for FireMinimiser {
                 fire.insert(Fire::new(n, p))
             }
         };
+        // With held modes: the modes at the evaluated state, and the
+        // force without their reactions (for the criterion).
+        let axial_residual = match p.axisymmetric {
+            Some(axis) => {
+                let axial = self.axial.get_or_insert_with(Default::default);
+                let residual = axial.measure(
+                    positions.0.as_slice(),
+                    membrane.cached_topology(),
+                    DVec3::new(axis.0, axis.1, axis.2),
+                    (constraints.as_deref(), pinned.as_deref()),
+                    self.metric.as_mut(),
+                    &ev.total,
+                );
+                status.axial_reaction = Some(residual.1);
+                Some(residual.0)
+            }
+            None => None,
+        };
         // Convergence of the state the forces were evaluated at.
-        let reason = convergence(&mut s.energies, p, ev, &mut status);
+        let reason = convergence(&mut s.energies, p, ev, axial_residual, &mut status);
         if reason.is_some() && ahead.is_some_and(|a| a.0) {
             // At rest before a scheduled change: wait for it, and start
             // from rest once it has moved the forces.
@@ -219,13 +371,7 @@ impl System for FireMinimiser {
                 // the same matrix again, which a summary must not show.
                 status.factorisations += 1;
             }
-            let mut restrict = |d: &mut [DVec3]| {
-                if let Some(pin) = &pinned {
-                    for (&v, &h) in pin.vertices.iter().zip(&pin.held) {
-                        d[v as usize] = h.release(d[v as usize]);
-                    }
-                }
-            };
+            let mut restrict = |d: &mut [DVec3]| release_held(pinned.as_deref(), d);
             if !metric.sobolev.is_built() {
                 let scales = MetricScales {
                     normal: metric.settings.normal_scale.unwrap_or(1.0),
@@ -261,7 +407,17 @@ impl System for FireMinimiser {
                 }
             }
         }
-        let direction = self.metric.as_ref().map_or(&ev.total, |m| &m.direction);
+        let mut direction = self.metric.as_ref().map_or(&ev.total, |m| &m.direction);
+        if let Some(axial) = &mut self.axial {
+            axial.direction.clone_from(direction);
+            axial.remove_modes(
+                positions,
+                membrane.cached_topology(),
+                self.metric.as_mut(),
+                constraints.as_deref(),
+            );
+            direction = &axial.direction;
+        }
         self.previous.clone_from(positions);
         loop {
             fire.step_along(positions, &ev.total, direction, p);
@@ -338,9 +494,10 @@ fn convergence(
     energies: &mut std::collections::VecDeque<f64>,
     p: &remembrane_core::params::MinimiserParams,
     ev: &remembrane_core::engine::force::ForceEvaluation,
+    axial_residual: Option<f64>,
     status: &mut MinimiserStatus,
 ) -> Option<StopReason> {
-    let residual = ev.largest_force();
+    let residual = axial_residual.unwrap_or_else(|| ev.largest_force());
     let energy = ev.total_energy();
     energies.push_back(energy);
     while energies.len() > p.energy_window as usize + 1 {

@@ -431,6 +431,10 @@ fn impossible_minimiser_and_constraint_settings_are_refused() {
             "dynamics: (method: Minimise(energy_window: 0))",
             "energy_window",
         ),
+        (
+            "dynamics: (method: Minimise(axisymmetric: (0.0, 0.0, 0.0)))",
+            "axisymmetric",
+        ),
         ("constraints: (volume: Reduced(0.6))", "constraints.volume"),
         ("constraints: ()", "constraints"),
         (

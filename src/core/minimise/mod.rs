@@ -3,11 +3,14 @@
 //!
 //! - [`fire`]: FIRE, inertial steps along the force (or along a
 //!   preconditioned direction);
+//! - [`axial`]: steps kept orthogonal to the deformations that break an
+//!   axial symmetry;
 //! - [`sobolev`]: the Sobolev metric that preconditions it, a sparse
 //!   Cholesky factor of the cotangent Laplacian applied once to tangential
 //!   and twice to normal components, with the exact constraints kept in the
 //!   same metric.
 
+pub mod axial;
 pub mod cholesky;
 pub mod fire;
 pub mod sobolev;
@@ -63,4 +66,11 @@ pub struct MinimiserStatus {
     /// not counted).
     #[serde(default)]
     pub factorisations: u64,
+    /// With `axisymmetric`: the largest force on a vertex along the two
+    /// held quadrupolar modes at the last iteration (Ē/l̄), which
+    /// `force_residual` leaves out as it leaves out the constraints'
+    /// reactions. Near zero at an axisymmetric equilibrium of the
+    /// unconstrained problem; what it holds is the mesh's own asymmetry.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axial_reaction: Option<f64>,
 }

@@ -188,6 +188,66 @@ impl SobolevMetric {
         Ok(())
     }
 
+    /// Whether the last build was for `topology` as it is now (the same
+    /// epoch and vertex count).
+    pub fn is_built_for(&self, topology: &Topology, n: usize) -> bool {
+        self.factor.is_some() && self.key == Some((topology.epoch, n))
+    }
+
+    /// P v, the metric applied to `v` (by vertex slot) at the last build:
+    /// s_n A M⁻¹ A (v·n) n + s_t (A v_t)_t with the normals at
+    /// `positions`, written into `out`: the force whose preconditioned
+    /// direction is `v` (sparse products, no solve). Only meaningful when
+    /// [`is_built_for`](Self::is_built_for) the current topology.
+    pub fn apply(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        v: &[DVec3],
+        out: &mut Vec<DVec3>,
+    ) {
+        let Some(scales) = self.scales else {
+            panic!("SobolevMetric::apply before build");
+        };
+        let n = positions.len();
+        crate::fluid::vertex_normals(positions, topology, &mut self.normals);
+        let normals = &self.normals;
+        // A as its lower triangle's triplets (duplicates summed by the
+        // product as by the factorisation).
+        let product = |x: &dyn Fn(usize) -> f64, y: &mut [f64]| {
+            y.fill(0.0);
+            for t in &self.triplets {
+                let (i, j, w) = (t.row, t.col, t.val);
+                if i == j {
+                    y[i] += w * x(i);
+                } else {
+                    y[i] += w * x(j);
+                    y[j] += w * x(i);
+                }
+            }
+        };
+        let mut a = vec![0.0; n];
+        let mut b = vec![0.0; n];
+        product(&|i| v[i].dot(normals[i]), &mut a);
+        for (x, m) in a.iter_mut().zip(&self.mass) {
+            *x /= m.max(f64::MIN_POSITIVE);
+        }
+        product(&|i| a[i], &mut b);
+        let mut tangent = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for (axis, column) in tangent.iter_mut().enumerate() {
+            product(
+                &|i| (v[i] - v[i].dot(normals[i]) * normals[i])[axis],
+                column,
+            );
+        }
+        out.clear();
+        out.extend((0..n).map(|i| {
+            let nrm = normals[i];
+            let t = DVec3::new(tangent[0][i], tangent[1][i], tangent[2][i]);
+            scales.normal * b[i] * nrm + scales.tangential * (t - t.dot(nrm) * nrm)
+        }));
+    }
+
     /// Forgets the factor (the next use must [`build`](Self::build)).
     pub fn clear(&mut self) {
         self.factor = None;

@@ -118,6 +118,16 @@ pub struct MinimiserParams {
     /// Hessian, so that the iterations hardly grow with the resolution
     /// ([`Preconditioner`]).
     pub preconditioner: Preconditioner,
+    /// An axis (a direction, e.g. `axisymmetric: (0.0, 0.0, 1.0)`) about which an
+    /// axisymmetric shape stays axisymmetric: every step is made orthogonal
+    /// to the two quadrupolar deformations that break the symmetry
+    /// ([`crate::minimise::axial`]), jointly with the constraints. For
+    /// branches of axisymmetric equilibria that are saddles among all
+    /// shapes (the shape diagram's oblate branch, which the Sobolev
+    /// minimiser otherwise leaves for the prolate). The forces and the
+    /// convergence criteria are unchanged. Default `None`.
+    #[serde(deserialize_with = "crate::util::validate::optional_direction")]
+    pub axisymmetric: Option<(f64, f64, f64)>,
 }
 
 impl Default for MinimiserParams {
@@ -131,6 +141,7 @@ impl Default for MinimiserParams {
             dt_start: 0.02,
             dt_max: 0.2,
             preconditioner: Preconditioner::None,
+            axisymmetric: None,
         }
     }
 }

@@ -58,6 +58,25 @@ pub fn finite_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<(f64, f64, f64), D
     }
 }
 
+/// An optional direction: a 3-vector of finite numbers, not zero.
+pub fn optional_direction<'de, D: Deserializer<'de>>(
+    d: D,
+) -> Result<Option<(f64, f64, f64)>, D::Error> {
+    let v = Option::<(f64, f64, f64)>::deserialize(d)?;
+    match v {
+        Some((x, y, z))
+            if !(x.is_finite() && y.is_finite() && z.is_finite())
+                || x * x + y * y + z * z == 0.0 =>
+        {
+            Err(D::Error::custom(format!(
+                "must be a direction: finite coordinates, not all zero (got {:?})",
+                (x, y, z)
+            )))
+        }
+        _ => Ok(v),
+    }
+}
+
 /// An optional finite number > 0.
 pub fn optional_positive<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
     let v = Option::<f64>::deserialize(d)?;

@@ -221,11 +221,17 @@ pub fn minimiser_summary(sim: &Simulation) -> Option<MinimiserSummary> {
             .map_or("iteration_cap", |r| r.name())
             .to_string(),
         converged: status.stopped_by.is_some(),
-        force_residual: ev.largest_force(),
+        // With held modes the residual leaves their reactions out, as
+        // the minimiser's criterion does (the same evaluation).
+        force_residual: match status.axial_reaction {
+            Some(_) => status.force_residual,
+            None => ev.largest_force(),
+        },
         energy_change: status.energy_change,
         constraint_violation: ev.constraint.map_or(0.0, |c| c.violation()),
         restarts: status.restarts,
         folds_undone: status.folds_undone,
         factorisations: status.factorisations,
+        axial_reaction: status.axial_reaction,
     })
 }

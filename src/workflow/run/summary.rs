@@ -105,6 +105,10 @@ pub struct MinimiserSummary {
     /// Factorisations of the preconditioner (0 without one).
     #[serde(default)]
     pub factorisations: u64,
+    /// With `axisymmetric`: the largest force along the held quadrupolar
+    /// modes, left out of `force_residual` (Ē/l̄).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axial_reaction: Option<f64>,
 }
 
 /// Remeshing counts in `summary.json`.
