@@ -386,15 +386,19 @@ impl PySimulation {
     ///
     /// Keyword settings (`force_tolerance=`, `energy_tolerance=`,
     /// `energy_window=`, `constraint_tolerance=`, `max_step=`, `dt_start=`,
-    /// `dt_max=`) override the scene's minimiser settings. A scene whose
-    /// method is `Overdamped` is switched to the minimiser; both need a
-    /// simulation that has not stepped yet.
+    /// `dt_max=`, `preconditioner=` (`"None"` or `{"Sobolev": {...}}`, the
+    /// metric whose iterations hardly grow with the mesh), `axisymmetric=`
+    /// (an axis `[x, y, z]`)) override the scene's minimiser settings. A
+    /// scene whose method is `Overdamped` is switched to the minimiser;
+    /// both need a simulation that has not stepped yet.
     ///
     /// Returns a dict: `stopped_by` (`force_residual`, `energy_change` or
     /// `iteration_cap`), `converged`, `iterations` (in all),
     /// `force_residual` (Ē/l̄), `energy_change`, `constraint_violation`,
-    /// `restarts`, `folds_undone`, `energy` (Ē) and, with constraints,
-    /// `tension` σ (Ē/l̄²) and `pressure` Δp (Ē/l̄³).
+    /// `restarts`, `folds_undone`, `factorisations` (of the
+    /// preconditioner), `energy` (Ē), with constraints `tension` σ (Ē/l̄²)
+    /// and `pressure` Δp (Ē/l̄³), and with `axisymmetric` the
+    /// `axial_reaction` (Ē/l̄).
     #[pyo3(signature = (max_iterations=None, **settings))]
     fn minimise<'py>(
         &self,

@@ -34,6 +34,27 @@ def test_minimise_reaches_the_constraints_and_reports_the_multipliers():
     assert (forces**2).sum(axis=1).max() ** 0.5 == pytest.approx(result["force_residual"])
 
 
+def test_minimise_in_the_sobolev_metric_holds_the_constraints_in_fewer_iterations():
+    fire = rm.Simulation(rm.Scene.from_str(SPHEROID)).minimise(force_tolerance=1e-3)
+    sim = rm.Simulation(rm.Scene.from_str(SPHEROID))
+    result = sim.minimise(force_tolerance=1e-3, preconditioner={"Sobolev": {}})
+    assert result["converged"] and result["stopped_by"] == "force_residual", result
+    assert result["factorisations"] > 0 and fire["factorisations"] == 0
+    assert result["iterations"] < fire["iterations"], (result, fire)
+    assert abs(sim.report()["reduced_volume"] - 0.95) < 1e-6
+    # Both reach the same equilibrium.
+    assert result["energy"] == pytest.approx(fire["energy"], rel=2e-3)
+    with pytest.raises(rm.SceneError, match="preconditioner"):
+        rm.Simulation(rm.Scene.from_str(SPHEROID)).minimise(preconditioner={"Newton": {}})
+
+
+def test_an_axisymmetric_minimisation_reports_the_held_modes():
+    sim = rm.Simulation(rm.Scene.from_str(SPHEROID))
+    result = sim.minimise(force_tolerance=1e-3, preconditioner={"Sobolev": {}}, axisymmetric=[0, 0, 1])
+    assert result["converged"], result
+    assert 0 <= result["axial_reaction"] < 1e-2, result
+
+
 def test_minimise_refuses_to_switch_method_after_stepping():
     sim = rm.Simulation(rm.Scene.from_str(SPHEROID))
     sim.step(2)
