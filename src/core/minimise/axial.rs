@@ -85,13 +85,9 @@ mod tests {
     /// a constraint row held along its own column.
     #[test]
     fn the_direction_ends_orthogonal_to_every_row() {
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(7);
+        let mut next = || rng.random::<f64>() - 0.5;
         let mut random = |k: usize| -> Vec<DVec3> {
             (0..k).map(|_| DVec3::new(next(), next(), next())).collect()
         };
