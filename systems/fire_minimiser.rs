@@ -77,6 +77,10 @@ struct Axial {
     active: [bool; 2],
     /// The modes' reactions in the metric (P g; the modes without one).
     reactions: [Vec<DVec3>; 2],
+    /// The factorisation count of the metric the reactions were applied
+    /// with since the modes were last measured (`None`: not yet, or the
+    /// Euclidean fallback).
+    reactions_from: Option<u64>,
 }
 
 impl Axial {
@@ -100,6 +104,7 @@ impl Axial {
         for g in &mut self.modes {
             release_held(pinned, g);
         }
+        self.reactions_from = None;
         self.active = [false, false];
         if let Some(c) = constraints {
             self.active = [c.targets.area.is_some(), c.targets.volume.is_some()];
@@ -144,11 +149,21 @@ impl Axial {
     ) {
         match metric {
             Some(m) if m.sobolev.is_built_for(topology, positions.len()) => {
+                // The same factor and modes as when last applied: the
+                // same reactions.
+                let build = Some(m.sobolev.factorisations);
+                if self.reactions_from == build {
+                    return;
+                }
                 for (g, r) in self.modes.iter().zip(&mut self.reactions) {
                     m.sobolev.apply(positions, topology, g, r);
                 }
+                self.reactions_from = build;
             }
-            _ => self.reactions.clone_from(&self.modes),
+            _ => {
+                self.reactions.clone_from(&self.modes);
+                self.reactions_from = None;
+            }
         }
     }
 

@@ -84,6 +84,9 @@ pub struct SobolevMetric {
     normals: Vec<DVec3>,
     /// W_A, W_V: the preconditioned constraint gradients (normal parts).
     columns: [Vec<DVec3>; 2],
+    /// [`apply`](Self::apply)'s products: A u, A M⁻¹ A u, and A of the
+    /// tangential x, y, z components.
+    products: [Vec<f64>; 5],
     /// Factorisations since creation (numeric).
     pub factorisations: u64,
     /// Symbolic analyses since creation (after each topology change).
@@ -226,15 +229,16 @@ impl SobolevMetric {
                 }
             }
         };
-        let mut a = vec![0.0; n];
-        let mut b = vec![0.0; n];
-        product(&|i| v[i].dot(normals[i]), &mut a);
+        let [a, b, tx, ty, tz] = &mut self.products;
+        for buffer in [&mut *a, &mut *b, &mut *tx, &mut *ty, &mut *tz] {
+            buffer.resize(n, 0.0);
+        }
+        product(&|i| v[i].dot(normals[i]), a);
         for (x, m) in a.iter_mut().zip(&self.mass) {
             *x /= m.max(f64::MIN_POSITIVE);
         }
-        product(&|i| a[i], &mut b);
-        let mut tangent = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        for (axis, column) in tangent.iter_mut().enumerate() {
+        product(&|i| a[i], b);
+        for (axis, column) in [&mut *tx, &mut *ty, &mut *tz].into_iter().enumerate() {
             product(
                 &|i| (v[i] - v[i].dot(normals[i]) * normals[i])[axis],
                 column,
@@ -243,7 +247,7 @@ impl SobolevMetric {
         out.clear();
         out.extend((0..n).map(|i| {
             let nrm = normals[i];
-            let t = DVec3::new(tangent[0][i], tangent[1][i], tangent[2][i]);
+            let t = DVec3::new(tx[i], ty[i], tz[i]);
             scales.normal * b[i] * nrm + scales.tangential * (t - t.dot(nrm) * nrm)
         }));
     }
