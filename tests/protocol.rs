@@ -304,3 +304,101 @@ fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
     assert_eq!(moved["status"], "completed");
     assert_eq!(moved["iterations"], 300);
 }
+
+#[test]
+fn a_resolution_ladder_is_the_protocol_of_its_rungs_byte_for_byte() {
+    // `resolution: Ladder(refinements: 2)` on a scene against the protocol a
+    // user would write for it: the same rungs, the same final meshes.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ladder = SCENE
+        .replace("level: 2", "level: 1")
+        .replace("iterations: 1000", "iterations: 30")
+        .replace("),\n)", "),\n    resolution: Ladder(refinements: 2),\n)");
+    let ladder = write(d, "ladder.ron", &ladder);
+    write(
+        d,
+        "plain.ron",
+        &SCENE
+            .replace("level: 2", "level: 1")
+            .replace("iterations: 1000", "iterations: 30"),
+    );
+    let protocol = write(
+        d,
+        "by_hand.ron",
+        r#"Protocol(
+    name: "by_hand",
+    phases: [
+        (name: "h1", scene: "plain.ron"),
+        (name: "h1_2", scene: "plain.ron", start: Previous, refine: 1, set: [EdgeLength(0.5)]),
+        (name: "h1_4", scene: "plain.ron", start: Previous, refine: 1, set: [EdgeLength(0.25)]),
+    ],
+)"#,
+    );
+    let (a, b) = (d.join("ladder_out"), d.join("by_hand_out"));
+    for (file, out) in [(&ladder, &a), (&protocol, &b)] {
+        let out = out.display().to_string();
+        assert_eq!(
+            cli(&[&"run", file, &"--out", &out, &"--quiet"]),
+            ExitCode::SUCCESS,
+            "{file}"
+        );
+    }
+    let index: serde_json::Value =
+        serde_json::from_str(&String::from_utf8(bytes(a.join("protocol.json"))).unwrap()).unwrap();
+    assert_eq!(index["status"], "completed");
+    let vertices = [42, 162, 642];
+    for (i, rung) in ["h1", "h1_2", "h1_4"].into_iter().enumerate() {
+        assert_eq!(index["phases"][i]["name"], rung);
+        assert_eq!(index["phases"][i]["iterations"], 30);
+        assert_eq!(
+            bytes(a.join(rung).join("final.ply")),
+            bytes(b.join(rung).join("final.ply")),
+            "{rung}"
+        );
+        let summary: serde_json::Value = serde_json::from_str(
+            &String::from_utf8(bytes(a.join(rung).join("summary.json"))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(summary["vertices"], vertices[i], "{rung}");
+    }
+}
+
+#[test]
+fn a_resolution_ladder_is_checked_and_built_only_rung_by_rung() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (refinements, reason) in [(0, "must be 1 to 4"), (5, "must be 1 to 4")] {
+        let text = SCENE.replace(
+            "),\n)",
+            &format!("),\n    resolution: Ladder(refinements: {refinements}),\n)"),
+        );
+        let e = remembrane::scene::Scene::from_ron_str(&text, Path::new("ladder.ron"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("ladder.ron") && e.contains("resolution.refinements") && e.contains(reason),
+            "{e}"
+        );
+    }
+    // A single build (Python, a sweep's job) is refused with the reason.
+    let text = SCENE.replace("),\n)", "),\n    resolution: Ladder(refinements: 1),\n)");
+    let scene = remembrane::scene::Scene::from_ron_str(&text, Path::new("ladder.ron")).unwrap();
+    let e = scene
+        .build(Path::new("ladder.ron"))
+        .err()
+        .expect("a ladder is not one simulation")
+        .to_string();
+    assert!(
+        e.contains("resolution") && e.contains("remembrane run") && e.contains("EdgeLength"),
+        "{e}"
+    );
+    // `--seed` and `--from` do not apply to the rungs.
+    let path = write(d, "ladder.ron", &text);
+    let out = d.join("out").display().to_string();
+    assert_eq!(
+        cli(&[&"run", &path, &"--out", &out, &"--seed", &"3", &"--quiet"]),
+        ExitCode::from(2)
+    );
+    assert!(!d.join("out").exists() && !d.join("out.incomplete").exists());
+}

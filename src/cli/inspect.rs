@@ -92,7 +92,15 @@ pub(super) fn spectrum_command(
 }
 
 pub(super) fn check(path: &Path) -> Result<(), String> {
-    if std::fs::read_to_string(path).is_ok_and(|t| crate::workflow::protocol::is_protocol(&t)) {
+    if std::fs::read_to_string(path).is_ok_and(|t| crate::workflow::protocol::is_protocol(&t))
+        || crate::scene::Scene::load(path).is_ok_and(|s| {
+            matches!(
+                s.resolution,
+                crate::scene::resolution::Resolution::Ladder { .. }
+            )
+        })
+    {
+        // A refinement ladder is checked as the protocol of its rungs.
         return check_protocol(path);
     }
     let (scene, mut sim) = load(path)?;

@@ -101,6 +101,12 @@ pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode 
         }
     };
     let (scene, text) = scene;
+    if let (Some(p), crate::scene::resolution::Resolution::Ladder { .. }) =
+        (scene_path, scene.resolution)
+    {
+        // The refinement ladder runs as the protocol of its rungs.
+        return protocol_command(p, args);
+    }
     if let Err(code) = set_threads(args.threads) {
         return code;
     }
@@ -295,7 +301,8 @@ pub(super) fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
         if given {
             return fail(
                 format!(
-                    "{}: {flag} does not apply to a protocol (set `seed` or `start` per phase)",
+                    "{}: {flag} does not apply to a protocol or a resolution ladder (set \
+                     `seed` or `start` in the scenes)",
                     path.display()
                 ),
                 2,

@@ -118,6 +118,17 @@ impl Scene {
     /// declares (and frame output), for a caller that adds its own
     /// plugins or force terms before [`SimBuilder::build`].
     pub fn builder(&self, scene_path: &Path) -> Result<SimBuilder, SceneError> {
+        if let crate::scene::resolution::Resolution::Ladder { refinements } = self.resolution {
+            return Err(SceneError::Invalid {
+                path: scene_path.to_owned(),
+                field: "resolution".into(),
+                reason: format!(
+                    "Ladder(refinements: {refinements}) is a sequence of runs, one per rung: \
+                     `remembrane run` runs it as a protocol; to build a single rung, give \
+                     EdgeLength(h)"
+                ),
+            });
+        }
         let (mesh, saved_lipid) = self.initial_state(scene_path)?;
         let h = self.resolution.edge_length(mesh.mean_edge_length());
         if h != 1.0 {

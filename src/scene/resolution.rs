@@ -49,7 +49,21 @@ pub enum Resolution {
     /// h is the initial mesh's mean edge length (a generator's size and
     /// level, or an imported mesh, set it).
     FromMesh,
+    /// h = 1/2^refinements, reached from coarse to fine (as in the Surface
+    /// Evolver): the scene runs at h = 1 on its own mesh, then every
+    /// triangle of that run's final state is split into four at its edges'
+    /// midpoints and the scene runs again at h = 1/2 from there, and so on.
+    /// `remembrane run` runs the rungs as a protocol
+    /// ([`crate::workflow::protocol::Protocol::ladder`]): `DIR/h1/`,
+    /// `DIR/h1_2/`, ... and `DIR/protocol.json`.
+    Ladder {
+        /// Rungs after the first (1 to 4; 4 is 256 times the faces).
+        refinements: u32,
+    },
 }
+
+/// The most rungs a ladder may add (each quadruples the faces).
+pub const MAX_LADDER_REFINEMENTS: u32 = 4;
 
 impl Default for Resolution {
     fn default() -> Self {
@@ -59,13 +73,19 @@ impl Default for Resolution {
 
 impl Resolution {
     /// h (l̄) for an initial mesh whose mean edge length is
-    /// `mean_edge_length`.
+    /// `mean_edge_length`; for a ladder, its finest rung's.
     pub fn edge_length(&self, mean_edge_length: f64) -> f64 {
         match *self {
             Resolution::EdgeLength(h) => h,
             Resolution::FromMesh => mean_edge_length,
+            Resolution::Ladder { refinements } => ladder_edge_length(refinements),
         }
     }
+}
+
+/// h = 1/2^rung of a ladder's rung (rung 0 is the scene's own mesh).
+pub fn ladder_edge_length(rung: u32) -> f64 {
+    0.5f64.powi(rung as i32)
 }
 
 /// `n` divided by h², rounded, at least 1 (for counts that scale so).

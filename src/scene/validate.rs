@@ -46,6 +46,18 @@ impl Scene {
             c.held()
                 .map_err(|reason| invalid(&format!("boundary[{i}].direction"), reason))?;
         }
+        if let crate::scene::resolution::Resolution::Ladder { refinements } = self.resolution {
+            let most = crate::scene::resolution::MAX_LADDER_REFINEMENTS;
+            if !(1..=most).contains(&refinements) {
+                return Err(invalid(
+                    "resolution.refinements",
+                    format!(
+                        "must be 1 to {most} (each rung splits every triangle into four; \
+                         got {refinements})"
+                    ),
+                ));
+            }
+        }
         if self.penalty_smoothing > 64 {
             return Err(invalid(
                 "penalty_smoothing",

@@ -41,8 +41,9 @@ pub struct AdhesionReport {
 fn substrate(scene: &Scene) -> Result<(crate::energy::adhesion::AdhesionParams, f64), String> {
     let h = match scene.resolution {
         crate::scene::resolution::Resolution::EdgeLength(h) => h,
-        crate::scene::resolution::Resolution::FromMesh => {
-            return Err("needs `resolution: EdgeLength(h)`".into());
+        crate::scene::resolution::Resolution::FromMesh
+        | crate::scene::resolution::Resolution::Ladder { .. } => {
+            return Err("needs `resolution: EdgeLength(h)` (a ladder's rungs have one)".into());
         }
     };
     let kappa = crate::study::bending_kappa(scene).ok_or("no bending term")?;

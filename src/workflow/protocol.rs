@@ -24,8 +24,10 @@ use crate::workflow::run::RunError;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+mod ladder;
 mod run;
 
+pub use ladder::*;
 pub use run::*;
 
 /// A protocol file.
@@ -142,6 +144,11 @@ pub fn is_protocol(text: &str) -> bool {
     top_level_name(text) == Some("Protocol")
 }
 
+/// Whether RON text declares a scene (its top-level value is named `Scene`).
+pub fn is_scene(text: &str) -> bool {
+    top_level_name(text) == Some("Scene")
+}
+
 /// The name before the first `(` of RON text, comments skipped.
 pub(crate) fn top_level_name(text: &str) -> Option<&str> {
     let mut rest = text;
@@ -184,6 +191,14 @@ impl Protocol {
         };
         let text =
             std::fs::read_to_string(path).map_err(|e| file_err(format!("cannot read: {e}")))?;
+        if !is_protocol(&text) && is_scene(&text) {
+            let scene = Scene::from_ron_str(&text, path)?;
+            return load_ladder(&scene, path).unwrap_or_else(|| {
+                Err(file_err(
+                    "a scene without `resolution: Ladder(...)`, not a protocol".into(),
+                ))
+            });
+        }
         let protocol: Protocol = crate::scene::setting::ron_options()
             .from_str(&text)
             .map_err(|e| {
