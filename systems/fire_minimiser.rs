@@ -75,6 +75,8 @@ struct Axial {
     gradients: Gradients,
     /// Which constraints are held (area, volume).
     active: [bool; 2],
+    /// The vertex normals at the evaluated state.
+    normals: Vec<DVec3>,
     /// The modes' reactions in the metric (P g; the modes without one).
     reactions: [Vec<DVec3>; 2],
     /// The factorisation count of the metric the reactions were applied
@@ -101,7 +103,13 @@ impl Axial {
         force: &[DVec3],
     ) -> (f64, f64) {
         axial::quadrupole_modes(positions, axis, &mut self.modes);
+        // Their normal parts: what changes the shape. Their reactions are
+        // then exactly what the metric's normal block inverts.
+        remembrane_core::fluid::vertex_normals(positions, topology, &mut self.normals);
         for g in &mut self.modes {
+            for (x, n) in g.iter_mut().zip(&self.normals) {
+                *x = x.dot(*n) * *n;
+            }
             release_held(pinned, g);
         }
         self.reactions_from = None;
