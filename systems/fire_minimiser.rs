@@ -86,8 +86,8 @@ struct Axial {
 }
 
 impl Axial {
-    /// Measures the modes about `axis` at `positions` (with the held
-    /// vertices' held directions removed), the constraint gradients, and,
+    /// Measures the modes about `axis` at `positions` (their normal parts,
+    /// with the held vertices' held directions removed), the constraint gradients, and,
     /// with a metric built for this topology, the modes' reactions in it
     /// (P g: what a force along the modes' directions looks like); returns
     /// the largest force left when the least-squares combination of the

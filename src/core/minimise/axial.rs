@@ -16,9 +16,11 @@
 //! q₁ = Σ_i u_i² − w_i², q₂ = Σ_i 2 u_i w_i,
 //!
 //! ∇_i q₁ = 2(u_i e₁ − w_i e₂) and ∇_i q₂ = 2(w_i e₁ + u_i e₂): a stretch
-//! along e₁ and a squeeze along e₂, and the same turned by 45°. Removing
-//! them from every step (jointly with the constraints' tangency, so that
-//! ∇A·d = ∇V·d = 0 still hold) holds q₁ and q₂ to first order. The force
+//! along e₁ and a squeeze along e₂, and the same turned by 45°. The
+//! minimiser removes their normal parts (what changes the shape) from
+//! every step, jointly with the constraints' tangency, so that
+//! ∇A·d = ∇V·d = 0 still hold: the shape's quadrupole is held to first
+//! order, the vertices may still slide tangentially. The force
 //! itself is left alone: convergence by the force tolerance still means a
 //! stationary point of the unconstrained problem, so an axisymmetric
 //! saddle is reported as one only when its force along these modes
