@@ -1,5 +1,6 @@
-//! remembrane: closed triangulated membranes moved by overdamped Langevin
-//! dynamics under their free energy, with free-energy-controlled remeshing.
+//! remembrane: triangulated membranes, closed or open, moved by overdamped
+//! Langevin dynamics or brought to equilibrium by a minimiser under their
+//! free energy, with free-energy-controlled remeshing.
 //!
 //! This is the engine's architecture. How to run it, the scene files and the guides (protocols,
 //! checkpoints, the minimiser, the fluid model, thermal runs, the study, plugins) are in the

@@ -1,5 +1,6 @@
-//! `remembrane compare`: the same scene run by remembrane and by Mem3DG
-//! side by side.
+//! `remembrane compare`: two scenes run one after the other, with a table,
+//! a CSV and a chart of their energies, remeshing and wall times side by
+//! side (the comparison with Mem3DG is the study's, `src/study/peer.rs`).
 
 use super::*;
 
