@@ -17,7 +17,7 @@
 //! squares fit whose weights and error bars come from block averages over
 //! the (correlated) frames. Sample frames by time (`dynamics.frame_time`):
 //! the step varies with the state, and per-iteration frames over-weight
-//! short steps (tests/thermal.rs).
+//! short steps (tests/integration/thermal.rs).
 
 use glam::DVec3;
 use std::f64::consts::PI;

@@ -22,7 +22,7 @@
 //! Random draws need no saved position: every stream is seeded by (seed,
 //! stream, iteration) (`crate::util::rng`). A resumed run therefore writes the
 //! same bytes as an uninterrupted one, whatever the thread counts of its
-//! segments; `tests/checkpoint.rs` kills real runs with SIGKILL to check it.
+//! segments; `tests/integration/checkpoint.rs` kills real runs with SIGKILL to check it.
 //! Only the per-system timings in `summary.json` cover the last segment
 //! alone (its wall time is the sum of all segments).
 

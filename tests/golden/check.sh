@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The golden check: runs every standalone bundled scene (a `Scene(...)` file
-# under scenes/, except scenes/hard/, whose stability cases tests/hard_cases.rs
+# under scenes/, except scenes/hard/, whose stability cases tests/integration/hard_cases.rs
 # covers, and the refinement ladders, `resolution: Ladder(...)`, which run
 # as protocols of their rungs) for 2000 iterations with the scene's seed,
 # and compares the sha256 of each final.ply with tests/golden/hashes.txt, on every thread count asked.

@@ -17,7 +17,7 @@
 //! interior neighbours' L_j and A_j, so it feels their bending forces. This
 //! is the interior discretisation unchanged: a flat patch has zero energy
 //! and force, and a cap cut from a sphere has the sphere's forces at every
-//! vertex two rings or more from its rim (`tests/open_bending.rs`; the
+//! vertex two rings or more from its rim (`tests/integration/open_bending.rs`; the
 //! dihedral form does the same, [`crate::energy::bending_dihedral`]). It
 //! suits pinned boundaries, whose vertices do not move; a free boundary's
 //! own bending (a geodesic-curvature or clamped term) is not modelled.

@@ -11,7 +11,7 @@
 //! 1/4) through `remembrane study`, which measures the contact curvature by
 //! fitting the continuum adhered vesicle near the contact line
 //! (src/study/axisymmetric/contact_fit.rs), and checks the 5 % tolerance at
-//! h = 1/4: `cargo test --release --test adhesion -- --ignored`. In CI: the
+//! h = 1/4: `cargo test --release --test integration adhesion:: -- --ignored`. In CI: the
 //! continuum solver's and the fit's unit tests (the contact condition as
 //! the solver's natural boundary condition, the fit recovering a known
 //! adhesion).
@@ -19,7 +19,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-mod common;
+use crate::common;
 
 fn scene(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -43,7 +43,7 @@ fn run(path: &Path, out: &Path, extra: &[&str]) -> ExitCode {
 }
 
 #[test]
-#[ignore = "slow: did not finish its first of two runs in 9 minutes of the test profile on the shared 2-core VM (release: about 20-40 s a run); cargo test --release --test adhesion -- --ignored"]
+#[ignore = "slow: did not finish its first of two runs in 9 minutes of the test profile on the shared 2-core VM (release: about 20-40 s a run); cargo test --release --test integration adhesion:: -- --ignored"]
 fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
     let dir = tempfile::tempdir().unwrap();
     // κ = 2 (W R²/κ = 8) through a copy of the scene.
@@ -104,7 +104,7 @@ fn study_of(dir: &Path, names: &[&str]) -> PathBuf {
 }
 
 #[test]
-#[ignore = "about 30 minutes in release (two ladders to 10 242 vertices): cargo test --release --test adhesion -- --ignored"]
+#[ignore = "about 30 minutes in release (two ladders to 10 242 vertices): cargo test --release --test integration adhesion:: -- --ignored"]
 fn the_contact_curvature_is_within_5_percent_of_the_contact_condition() {
     let dir = tempfile::tempdir().unwrap();
     let study = study_of(dir.path(), &["adhesion_w6", "adhesion_w10"]);

@@ -1,7 +1,7 @@
 //! Split and merge through the mesh-edit layer: hand-worked option sets,
 //! and thousands of random edits that keep every invariant and Σρ.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};

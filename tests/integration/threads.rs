@@ -10,7 +10,7 @@
 //! the force terms run concurrently, so this compares the two forms bit for
 //! bit.
 
-mod common;
+use crate::common;
 
 use remembrane::scene::Scene;
 use std::path::{Path, PathBuf};

@@ -5,7 +5,7 @@
 //! has the radius r0 = √(κ/2σ). The fluid model, mean edge 1 l̄ (919
 //! vertices at the start, 1443 at the end).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

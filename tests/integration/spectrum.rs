@@ -2,7 +2,7 @@
 //! harmonics gives them back, and the Helfrich fit recovers κ and σ from a
 //! spectrum generated with them.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use remembrane::analysis::spectrum::{
@@ -253,7 +253,7 @@ fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
 /// The bundled fluid vesicle with Metropolis edge flips
 /// (`scenes/fluctuating/flips.ron`, 642 vertices at 300 K), sampled in
 /// memory every 2 ms after 0.05 s (the invariant check after each flip is
-/// off here: `tests/edge_flips.rs` runs it): its fitted κ is the input κ
+/// off here: `tests/integration/edge_flips.rs` runs it): its fitted κ is the input κ
 /// within the discretization's measured 10-15 % (1.28 ± 0.09 Ē for 1.5 Ē;
 /// 1.37 ± 0.03 Ē at 2562 vertices). Split/merge remeshing in its place gives
 /// 1.02 ± 0.03 Ē (`scenes/fluctuating/fluid.ron`), below this test's bound:

@@ -1,11 +1,12 @@
 //! Helpers shared by the integration tests.
 
+use glam::DVec3;
+use remembrane::mesh::SurfaceMesh;
 use remembrane::workflow::run::{Progress, RunOptions};
 use std::path::Path;
 
 /// Run options writing into `out`: the scene's iterations and frames, no
 /// progress output, no extra invariant checks.
-#[allow(dead_code)] // each test binary uses its own subset of helpers
 pub fn quiet_options(out: &Path) -> RunOptions {
     RunOptions {
         out: out.to_path_buf(),
@@ -23,7 +24,6 @@ pub fn quiet_options(out: &Path) -> RunOptions {
 /// Runs the CLI in process, as `remembrane ARGS…` would from a shell,
 /// with the built-in plug-ins only; returns its exit code.
 /// Arguments may mix strings and paths: `cli(&[&"run", &scene, &"--quiet"])`.
-#[allow(dead_code)]
 pub fn cli(args: &[&dyn AsRef<std::ffi::OsStr>]) -> std::process::ExitCode {
     let argv = std::iter::once(std::ffi::OsStr::new("remembrane"))
         .chain(args.iter().map(|a| a.as_ref()))
@@ -33,7 +33,6 @@ pub fn cli(args: &[&dyn AsRef<std::ffi::OsStr>]) -> std::process::ExitCode {
 
 /// Whether every point and every point-data value of a frame is finite
 /// (the arrays are base64 binary: read them, do not grep them).
-#[allow(dead_code)]
 pub fn frame_is_finite(path: &Path) -> bool {
     use vtkio::model::{Attribute, DataSet};
     let vtk = vtkio::Vtk::import(path).unwrap();
@@ -53,7 +52,6 @@ pub fn frame_is_finite(path: &Path) -> bool {
 }
 
 /// One column of a run's `series.csv`, a value per frame.
-#[allow(dead_code)]
 pub fn series_column(run_dir: &Path, name: &str) -> Vec<f64> {
     let series = remembrane::io::run_dir::Series::read(run_dir).unwrap_or_else(|e| panic!("{e}"));
     series.column(name).unwrap_or_else(|e| panic!("{e}"))
@@ -61,7 +59,6 @@ pub fn series_column(run_dir: &Path, name: &str) -> Vec<f64> {
 
 /// Every file under `dir` by relative path; `summary.json` without the
 /// fields that measure wall time (and the notes drawn from them).
-#[allow(dead_code)]
 pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
     let mut out = std::collections::BTreeMap::new();
     let mut stack = vec![dir.to_path_buf()];
@@ -89,7 +86,6 @@ pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf
 
 /// The closest distance between two vertices that are not 1-ring
 /// neighbours in a run's final mesh (l̄).
-#[allow(dead_code)]
 pub fn closest_non_neighbours(out: &Path) -> f64 {
     let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
     let mut m = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
@@ -106,7 +102,6 @@ pub fn closest_non_neighbours(out: &Path) -> f64 {
 }
 
 /// The energy of term `term` in a run's `summary.json` (Ē).
-#[allow(dead_code)]
 pub fn term_energy(summary: &serde_json::Value, term: &str) -> f64 {
     summary["energies"]
         .as_array()
@@ -120,7 +115,6 @@ pub fn term_energy(summary: &serde_json::Value, term: &str) -> f64 {
 
 /// The total lipid density Σρ of a membrane, summed in sorted order (the
 /// same bits whatever order the world lists its vertices in).
-#[allow(dead_code)] // each test binary uses its own subset of helpers
 pub fn total_density(m: &remembrane::mesh::membrane::Membrane) -> f64 {
     let mut v: Vec<f64> = m
         .world
@@ -134,7 +128,6 @@ pub fn total_density(m: &remembrane::mesh::membrane::Membrane) -> f64 {
 
 /// Runs the `remembrane` binary's `run` on `scene` into `out`, quietly,
 /// and asserts it succeeds (its stderr is the failure message).
-#[allow(dead_code)] // each test binary uses its own subset of helpers
 pub fn run_binary(scene: &Path, out: &Path) {
     let done = std::process::Command::new(env!("CARGO_BIN_EXE_remembrane"))
         .arg("run")
@@ -148,4 +141,32 @@ pub fn run_binary(scene: &Path, out: &Path) {
         "{}",
         String::from_utf8_lossy(&done.stderr)
     );
+}
+
+/// A closed torus (χ = 0): `n` × `m` grid of quads, two triangles each.
+pub fn torus(n: u32, m: u32) -> SurfaceMesh {
+    let (big, small) = (3.0, 1.0);
+    let mut positions = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (u, v) = (
+                i as f64 / n as f64 * std::f64::consts::TAU,
+                j as f64 / m as f64 * std::f64::consts::TAU,
+            );
+            positions.push(DVec3::new(
+                (big + small * v.cos()) * u.cos(),
+                (big + small * v.cos()) * u.sin(),
+                small * v.sin(),
+            ));
+        }
+    }
+    let id = |i: u32, j: u32| (i % n) * m + (j % m);
+    let mut faces = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    SurfaceMesh { positions, faces }
 }

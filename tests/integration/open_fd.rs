@@ -3,7 +3,7 @@
 //! open patches (a spherical cap and a flat disc, `fd::perturbed_patches`),
 //! boundary vertices included: relative error ≤ 1e-6 per vertex force
 //! vector above the absolute floor stated per term (the round-off level of
-//! the difference quotient), as in `tests/force_fd.rs`.
+//! the difference quotient), as in `tests/integration/force_fd.rs`.
 
 use glam::DVec3;
 use remembrane::energy::adhesion::{AdhesionForces, AdhesionParams};

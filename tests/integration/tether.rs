@@ -7,7 +7,7 @@ use remembrane::scene::Scene;
 use remembrane::workflow::run::{Progress, RunOptions, run_scene};
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 use common::series_column;
 
 fn scene_path(name: &str) -> PathBuf {

@@ -5,7 +5,7 @@
 //! one loop, its original vertices keep their held coordinates bit for bit
 //! and every vertex on it, new ones included, is held.
 
-mod common;
+use crate::common;
 
 use remembrane::engine::simulation::{Simulation, StopRequest};
 use remembrane::remesh::RemeshStats;

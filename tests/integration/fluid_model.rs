@@ -3,7 +3,7 @@
 //! modulus of the energy that moves the shape in both models; the fluid
 //! model's forces, residuals and refusals are checked on real scenes.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinParams};

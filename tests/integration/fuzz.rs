@@ -11,13 +11,13 @@
 //! [`HANG`]. CI runs a reduced count; the long mode is
 //!
 //! ```sh
-//! cargo test --release --test fuzz -- --ignored --nocapture
+//! cargo test --release --test integration fuzz:: -- --ignored --nocapture
 //! ```
 //!
 //! which runs 10^6 inputs and 10^5 remesh operations and prints the counts
 //! and times. `REMEMBRANE_FUZZ_SEED` changes the seed.
 
-mod common;
+use crate::common;
 
 use rand::{RngExt, SeedableRng};
 use remembrane::mesh::io::{VertexScalar, read_mesh, write_obj_to, write_ply_to};
@@ -503,7 +503,7 @@ fn random_remesh_operations_keep_every_invariant() {
 
 /// The long mode: 10^6 inputs and 10^5 remesh operations.
 #[test]
-#[ignore = "long fuzzing run: cargo test --release --test fuzz -- --ignored --nocapture"]
+#[ignore = "long fuzzing run: cargo test --release --test integration fuzz:: -- --ignored --nocapture"]
 fn long_fuzzing_run() {
     let report = fuzz_readers(1_000_000, seed());
     println!(

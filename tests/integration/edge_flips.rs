@@ -2,7 +2,7 @@
 //! few faces equals the difference of the whole energy, and flipping keeps
 //! every mesh invariant.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinForm, VinParams};

@@ -7,7 +7,7 @@ use remembrane::scene::Scene;
 use remembrane::workflow::run::{RunError, RunSummary, run_scene};
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 use common::{frame_is_finite, quiet_options, series_column};
 
 /// Runs `scenes/hard/NAME.ron` (for `iterations` if given, 3 frames then)

@@ -9,7 +9,7 @@ use remembrane::mesh::membrane::Membrane;
 use remembrane::scene::Scene;
 use std::path::Path;
 
-mod common;
+use crate::common;
 
 #[test]
 fn the_cell_list_sums_the_same_pairs_as_a_brute_force_search() {

@@ -17,7 +17,7 @@ use remembrane::timestep::{Limiter, choose_time_step, edge_time_step};
 use remembrane::workflow::run::{RunOptions, run_scene};
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -516,7 +516,7 @@ fn frames_are_read_back_by_a_vtk_xml_parser() {
 #[ignore = "needs Python's vtk package (.ci/run installs it and runs it)"]
 fn frames_are_read_back_by_vtk() {
     let (_dir, out, frame) = rbc_frame();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/support/read_vtp.py");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/integration/common/read_vtp.py");
     let result = std::process::Command::new("python3")
         .arg(&script)
         .arg(&frame)

@@ -2,11 +2,11 @@
 //! tick all edges are within the triggers (or an overflow was counted),
 //! valences stay in range and Σρ is conserved.
 
+use crate::common;
 use rand::SeedableRng;
 use remembrane::energy::vin::VinSegmentation;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::engine::force::ForceBuffers;
-mod common;
 use remembrane::remesh::RemeshStats;
 use remembrane::remesh::relax::{
     Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, Relaxed, relax, rings, stable_alpha1_beta1,

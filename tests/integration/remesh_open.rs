@@ -5,9 +5,9 @@
 //!
 //! A non-manifold boundary in a mesh file (two loops at one vertex, an
 //! edge in three faces) is refused with `FILE: field: reason` and exit
-//! code 2 in `tests/open_mesh_scenes.rs` and `tests/scene_errors.rs`.
+//! code 2 in `tests/integration/open_mesh_scenes.rs` and `tests/integration/scene_errors.rs`.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
@@ -236,7 +236,7 @@ fn random_split_merge_on_open_meshes_keeps_every_invariant_and_every_loop() {
 
 /// The long mode: 10^5 operations.
 #[test]
-#[ignore = "long run: cargo test --release --test remesh_open -- --ignored --nocapture"]
+#[ignore = "long run: cargo test --release --test integration remesh_open:: -- --ignored --nocapture"]
 fn long_random_split_merge_on_open_meshes() {
     let started = std::time::Instant::now();
     let c = random_open_operations(100_000, 2026);

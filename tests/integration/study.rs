@@ -85,7 +85,7 @@ fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
     assert!((sphere[1].1 - 4.74e-3).abs() < 1e-5, "{sphere:?}");
 
     // The fluid red blood cell at h = 1 (642 vertices, v = 0.6 exactly):
-    // E_b/8πκ 1.87 % below the continuum (tests/fluid_model.rs, docs/fluid.md).
+    // E_b/8πκ 1.87 % below the continuum (tests/integration/fluid_model.rs, docs/fluid.md).
     let fluid = errors(problem(&report, "rbc_fluid"));
     assert!(
         fluid.len() == 1 && (fluid[0].1 - 1.871e-2).abs() < 1e-3,

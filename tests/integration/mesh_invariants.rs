@@ -7,8 +7,7 @@ use remembrane::mesh::io::{MeshIoError, read_mesh, write_mesh};
 use remembrane::mesh::membrane::Membrane;
 use remembrane::mesh::{MeshError, SurfaceMesh, ValenceRange, check_mesh, docked_pair, icosphere};
 
-mod support;
-use support::torus;
+use crate::common::torus;
 
 fn sphere() -> SurfaceMesh {
     icosphere(1, 1.0)
@@ -39,7 +38,7 @@ fn valid_meshes_pass() {
 
 #[test]
 fn accepts_open_mesh_with_its_loop() {
-    // Open meshes are valid (tests/open_mesh.rs has their broken kinds).
+    // Open meshes are valid (tests/integration/open_mesh.rs has their broken kinds).
     let mut m = sphere();
     m.faces.remove(7);
     assert_eq!(check(&m).unwrap().boundary_loops, 1);

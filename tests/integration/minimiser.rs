@@ -4,7 +4,7 @@
 //! bundled red blood cell at v = 0.6 exactly, a badly shaped start, a
 //! minimisation checkpointed and resumed, and the scene checks.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use remembrane::constraint::{

@@ -8,7 +8,7 @@
 //! a named control point's force and a tube radius normalised by its first
 //! frame, frames by simulated time.
 
-mod common;
+use crate::common;
 
 use rand::{RngExt, SeedableRng};
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 //! file, the field, the term and the reason; a bad open mesh file exits 2
 //! with no output.
 
-mod common;
+use crate::common;
 
 use remembrane::scene::{Scene, SceneError};
 use std::path::{Path, PathBuf};

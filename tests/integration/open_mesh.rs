@@ -12,8 +12,7 @@ use remembrane::mesh::{
     MeshError, SurfaceMesh, ValenceRange, check_mesh, disc, icosphere, spherical_cap,
 };
 
-mod support;
-use support::torus;
+use crate::common::torus;
 
 fn check(m: &SurfaceMesh) -> Result<remembrane::mesh::MeshReport, MeshError> {
     check_mesh(&m.positions, &m.faces, None)

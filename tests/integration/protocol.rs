@@ -3,7 +3,7 @@
 //! anything runs; a failed phase leaves no directory that looks like a
 //! result.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::ExitCode;
