@@ -21,12 +21,6 @@ use std::process::ExitCode;
 
 use crate::common;
 
-fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
-
 /// The last value of `column` in `dir`'s series.csv.
 fn last(dir: &Path, column: &str) -> f64 {
     *common::series_column(dir, column).last().unwrap()
@@ -47,7 +41,7 @@ fn run(path: &Path, out: &Path, extra: &[&str]) -> ExitCode {
 fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
     let dir = tempfile::tempdir().unwrap();
     // κ = 2 (W R²/κ = 8) through a copy of the scene.
-    let text = std::fs::read_to_string(scene("open/adhesion_fluid.ron")).unwrap();
+    let text = std::fs::read_to_string(crate::common::scene("open/adhesion_fluid.ron")).unwrap();
     let weak = dir.path().join("weak.ron");
     std::fs::write(
         &weak,
@@ -55,7 +49,10 @@ fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
     )
     .unwrap();
     let mut areas = Vec::new();
-    for (name, path) in [("weak", weak), ("strong", scene("open/adhesion_fluid.ron"))] {
+    for (name, path) in [
+        ("weak", weak),
+        ("strong", crate::common::scene("open/adhesion_fluid.ron")),
+    ] {
         let out = dir.path().join(name);
         assert_eq!(run(&path, &out, &[]), ExitCode::SUCCESS);
         let summary: serde_json::Value =
@@ -84,7 +81,7 @@ fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
 /// their own in `dir` (scene paths made absolute), so the test runs exactly
 /// what the bundled study declares.
 fn study_of(dir: &Path, names: &[&str]) -> PathBuf {
-    let text = std::fs::read_to_string(scene("studies/accuracy.ron")).unwrap();
+    let text = std::fs::read_to_string(crate::common::scene("studies/accuracy.ron")).unwrap();
     let mut problems = String::new();
     for name in names {
         let start = text
@@ -93,7 +90,7 @@ fn study_of(dir: &Path, names: &[&str]) -> PathBuf {
         let end = start + text[start..].find("\n        ),\n").unwrap() + "\n        ),\n".len();
         problems.push_str(&text[start..end]);
     }
-    let absolute = scene("open/adhesion_fluid.ron");
+    let absolute = crate::common::scene("open/adhesion_fluid.ron");
     let study = format!(
         "Study(\n    name: \"adhesion\",\n    problems: [\n{}    ],\n)\n",
         problems.replace("../open/adhesion_fluid.ron", absolute.to_str().unwrap())

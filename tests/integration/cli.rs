@@ -11,16 +11,12 @@ fn remembrane(args: &[&str]) -> Output {
 }
 
 fn scene(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-        .to_string_lossy()
-        .into_owned()
+    crate::common::scene(name).to_string_lossy().into_owned()
 }
 
 #[test]
 fn bundled_scenes_check_and_evaluate() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let dir = crate::common::repo("scenes");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

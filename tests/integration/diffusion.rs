@@ -133,7 +133,7 @@ fn a_barrier_passes_density_only_through_permitted_edges() {
 
 #[test]
 fn instant_diffusion_and_remeshing_conserve_density() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell_stiff.ron");
+    let path = crate::common::repo("scenes/red_blood_cell_stiff.ron");
     for rate in ["Instant", "Finite(0.1)"] {
         let text = std::fs::read_to_string(&path).unwrap().replace(
             "    penalty_smoothing: 4,",

@@ -19,14 +19,8 @@ use std::path::{Path, PathBuf};
 
 use crate::common;
 
-fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
-
 fn rbc() -> Simulation {
-    let path = scene_path("red_blood_cell.ron");
+    let path = crate::common::scene("red_blood_cell.ron");
     Scene::load(&path).unwrap().build(&path).unwrap()
 }
 
@@ -176,7 +170,7 @@ fn schedule_orders_within_stages_and_keeps_registration_order() {
 
 #[test]
 fn invalid_user_schedule_is_refused_by_build() {
-    let path = scene_path("red_blood_cell.ron");
+    let path = crate::common::scene("red_blood_cell.ron");
     let mut builder = Scene::load(&path).unwrap().builder(&path).unwrap();
     builder.add_system(Stage::Forces, ClockWriter);
     assert!(matches!(
@@ -422,7 +416,7 @@ fn a_blow_up_is_reported_and_the_last_good_frame_kept() {
 fn outputs_are_complete_and_existing_directories_are_not_mixed() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rbc");
-    let path = scene_path("red_blood_cell.ron");
+    let path = crate::common::scene("red_blood_cell.ron");
     let scene = Scene::load(&path).unwrap();
     let opts = RunOptions {
         iterations: Some(200),
@@ -455,7 +449,7 @@ fn outputs_are_complete_and_existing_directories_are_not_mixed() {
 fn rbc_frame() -> (tempfile::TempDir, PathBuf, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rbc");
-    let path = scene_path("red_blood_cell.ron");
+    let path = crate::common::scene("red_blood_cell.ron");
     let scene = Scene::load(&path).unwrap();
     let opts = RunOptions {
         iterations: Some(50),
@@ -516,7 +510,7 @@ fn frames_are_read_back_by_a_vtk_xml_parser() {
 #[ignore = "needs Python's vtk package (.ci/run installs it and runs it)"]
 fn frames_are_read_back_by_vtk() {
     let (_dir, out, frame) = rbc_frame();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/integration/common/read_vtp.py");
+    let script = crate::common::repo("tests/integration/common/read_vtp.py");
     let result = std::process::Command::new("python3")
         .arg(&script)
         .arg(&frame)

@@ -199,8 +199,7 @@ fn flip_pricing_holds_on_open_patches() {
 /// the triangulation stays a valid closed mesh.
 #[test]
 fn flipping_keeps_every_invariant_and_counts_every_proposal() {
-    let scene =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/flips.ron");
+    let scene = crate::common::repo("scenes/fluctuating/flips.ron");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     assert_eq!(
@@ -255,7 +254,7 @@ fn flips_with_an_empty_edge_range_are_refused() {
 /// vesicle fluid by flips is not.
 #[test]
 fn noise_with_split_merge_remeshing_carries_a_caution_and_flips_do_not() {
-    let scenes = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating");
+    let scenes = crate::common::repo("scenes/fluctuating");
     let load = |name: &str| remembrane::scene::Scene::load(&scenes.join(name)).unwrap();
     let cautions = load("fluid.ron").cautions();
     assert_eq!(cautions.len(), 1, "{cautions:?}");
@@ -286,10 +285,8 @@ fn flips_leave_the_rings_under_control_points_alone() {
         .iter()
         .map(|p| format!("(position: ({}, {}, {}))", p.x, p.y, p.z))
         .collect();
-    let flips = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/flips.ron"),
-    )
-    .unwrap();
+    let flips =
+        std::fs::read_to_string(crate::common::repo("scenes/fluctuating/flips.ron")).unwrap();
     let text = flips
         .replace(
             "        Area(k: 20.0, target: OfInitial(1.0)),",

@@ -126,7 +126,7 @@ fn checkpoint_corpus(root: &Path) -> Vec<u8> {
 /// disc and a cap: no state). The scenes are copied into `root/scenes` so
 /// that mutated files can sit beside them.
 fn corpus(root: &Path) -> Vec<(Kind, Vec<u8>)> {
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scenes = crate::common::repo("scenes");
     let mut out = Vec::new();
     for sub in [
         "",

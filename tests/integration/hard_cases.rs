@@ -22,9 +22,7 @@ fn run_hard(
     tempfile::TempDir,
     PathBuf,
 ) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes/hard")
-        .join(format!("{name}.ron"));
+    let path = crate::common::repo("scenes/hard").join(format!("{name}.ron"));
     let scene = Scene::load(&path).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
@@ -249,7 +247,7 @@ fn thermal_noise_ten_times_300_k_with_remeshing_keeps_a_valid_mesh() {
 /// scene now uses the centroid coupling; the whole run leaves none.
 #[test]
 fn the_lamellipodium_rim_leaves_no_edge_unresolved() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/lamellipodium.ron");
+    let path = crate::common::repo("scenes/lamellipodium.ron");
     let scene = Scene::load(&path).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
@@ -281,7 +279,7 @@ fn walls_pressed_together_stay_apart_with_a_healthy_mesh() {
     checked_summary(&out);
     let with = common::closest_non_neighbours(&out);
 
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard/self_contact.ron");
+    let path = crate::common::repo("scenes/hard/self_contact.ron");
     let text = std::fs::read_to_string(&path).unwrap();
     let term = "        SelfAvoidance(k: 500.0, distance: 0.6),\n";
     assert!(text.contains(term));

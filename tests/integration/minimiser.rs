@@ -253,7 +253,7 @@ fn fire_relaxes_force_fields_that_are_no_gradient() {
 /// bending energy is within 2 % of the continuum's 1.95568 · 8πκ.
 #[test]
 fn the_bundled_red_blood_cell_minimises_to_a_discocyte_at_v_0_6() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/minimise/red_blood_cell.ron");
+    let path = crate::common::repo("scenes/minimise/red_blood_cell.ron");
     let scene = Scene::load(&path).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("rbc");
@@ -563,10 +563,7 @@ fn the_minimiser_with_piecewise_linear_vin_is_cautioned() {
 /// tolerance, and the run ends at rest after the last.
 #[test]
 fn a_minimiser_waits_at_rest_for_each_scheduled_change() {
-    let base = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/flat_patch.ron"),
-    )
-    .unwrap();
+    let base = std::fs::read_to_string(crate::common::repo("scenes/open/flat_patch.ron")).unwrap();
     let stepped = base
         .replace(
             "    boundary:",
@@ -767,10 +764,8 @@ fn a_preconditioned_minimisation_holds_the_constraints_after_every_iteration() {
 #[test]
 fn a_prolate_flow_converges_with_the_fluid_remeshing_defaults() {
     let tmp = tempfile::tempdir().unwrap();
-    let bundled = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluid/red_blood_cell.ron"),
-    )
-    .unwrap();
+    let bundled =
+        std::fs::read_to_string(crate::common::repo("scenes/fluid/red_blood_cell.ron")).unwrap();
     let text = bundled
         .replace(
             "semi_axes: (6.864, 6.864, 6.178)",

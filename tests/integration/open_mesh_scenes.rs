@@ -186,7 +186,7 @@ fn a_pinned_rim_stays_put_under_noise_and_the_minimiser() {
             "    dynamics:",
             "    boundary: [Pinned(loop: 0)],\n    dynamics:",
         );
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/flat_patch.ron");
+    let path = crate::common::repo("scenes/open/flat_patch.ron");
     let bundled = std::fs::read_to_string(&path).unwrap();
     for (text, ticks) in [(noisy, 200), (bundled, 20000)] {
         let mut sim = build(&text).unwrap();
@@ -375,7 +375,7 @@ fn an_open_membrane_reports_no_enclosed_volume() {
 #[test]
 fn an_inflated_patch_closed_by_its_base_plane_obeys_laplace() {
     use remembrane::energy::penalty::volume_above_plane;
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/inflated_patch.ron");
+    let path = crate::common::repo("scenes/open/inflated_patch.ron");
     let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
     for _ in 0..20000 {
         if sim

@@ -7,8 +7,6 @@
 
 use crate::common;
 
-use std::path::Path;
-
 const SIGMA: f64 = 0.114544;
 const KAPPA: f64 = 1.0;
 /// The point's height per frame: 0.1 l̄ per 200 iterations.
@@ -16,7 +14,7 @@ const HEIGHT_PER_ITERATION: f64 = 0.1 / 200.0;
 
 #[test]
 fn a_tether_pulled_from_a_patch_overshoots_then_settles_on_the_djp_plateau() {
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/open/tether_from_patch.ron");
+    let scene = crate::common::repo("scenes/open/tether_from_patch.ron");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("tether");
     common::run_binary(&scene, &out);

@@ -205,7 +205,7 @@ fn a_failed_phase_stops_the_protocol_and_stays_incomplete() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     write(d, "small.ron", SCENE);
-    let no_cap = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard/bending_no_cap.ron");
+    let no_cap = crate::common::repo("scenes/hard/bending_no_cap.ron");
     let protocol = write(
         d,
         "fails.ron",
@@ -245,7 +245,7 @@ fn a_failed_phase_stops_the_protocol_and_stays_incomplete() {
 
 #[test]
 fn the_bundled_rbc_protocol_checks() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/protocols/red_blood_cell.ron");
+    let path = crate::common::repo("scenes/protocols/red_blood_cell.ron");
     let loaded = remembrane::workflow::protocol::Protocol::load(&path).unwrap();
     assert_eq!(loaded.protocol.phases.len(), 2);
     assert_eq!(loaded.scenes[1].0.name, "red_blood_cell_stiff");
@@ -261,7 +261,7 @@ fn the_bundled_rbc_protocol_checks() {
 /// about 1 % above the discocyte, SPEC §6.)
 #[test]
 fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let scenes = crate::common::repo("scenes");
     let bundled = scenes.join("protocols/minimise_then_dynamics.ron");
     let loaded = remembrane::workflow::protocol::Protocol::load(&bundled).unwrap();
     assert!(matches!(

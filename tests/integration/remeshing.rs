@@ -14,7 +14,6 @@ use remembrane::remesh::relax::{
 use remembrane::scene::Scene;
 use remembrane::systems::barrier_check::AbnormalEdges;
 use std::f64::consts::PI;
-use std::path::Path;
 
 #[test]
 fn levy_sampler_matches_the_stable_characteristic_function() {
@@ -122,7 +121,7 @@ fn relaxation_extends_compresses_and_keeps_the_boundary_fixed() {
 
 #[test]
 fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell_stiff.ron");
+    let path = crate::common::repo("scenes/red_blood_cell_stiff.ron");
     let mut scene = Scene::load(&path).unwrap();
     scene.lipid_density = true;
     let mut sim = scene.build(&path).unwrap();
@@ -182,7 +181,7 @@ fn remeshing_keeps_edges_in_range_valences_bounded_and_density_conserved() {
 
 #[test]
 fn geometric_mode_removes_the_global_vin_force_only() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell.ron");
+    let path = crate::common::repo("scenes/red_blood_cell.ron");
     let mut scene = Scene::load(&path).unwrap();
     scene.remesh.mode = remembrane::params::RemeshMode::Geometric;
     let sim = scene.build(&path).unwrap();
@@ -204,9 +203,7 @@ fn geometric_mode_removes_the_global_vin_force_only() {
 #[test]
 fn centroid_coupling_removes_the_merge_churn_around_holders() {
     let merges = |name: &str| {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(name);
+        let path = crate::common::repo("scenes").join(name);
         let mut scene = Scene::load(&path).unwrap();
         scene.dynamics.iterations = 2000;
         let mut sim = scene.build(&path).unwrap();

@@ -3,7 +3,7 @@
 //! axisymmetric solver's curves, its tables and chart, and its clean
 //! refusals.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn remembrane(args: &[&str]) -> Output {
@@ -14,9 +14,7 @@ fn remembrane(args: &[&str]) -> Output {
 }
 
 fn branch_scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes/minimise/shape_diagram")
-        .join(name)
+    crate::common::repo("scenes/minimise/shape_diagram").join(name)
 }
 
 /// A diagram of the bundled branch scenes at 642 vertices.
@@ -133,7 +131,7 @@ fn bad_diagrams_are_refused_naming_the_field() {
     }
     // A branch scene that runs dynamics is refused: a diagram holds
     // equilibrium shapes.
-    let dynamics = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/red_blood_cell.ron");
+    let dynamics = crate::common::repo("scenes/red_blood_cell.ron");
     let text = format!(
         "ShapeDiagram(name: \"d\", reduced_volumes: [0.9], branches: [(name: \"b\", scene: \"{}\", reference: Oblate)])",
         dynamics.display()

@@ -207,8 +207,7 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
 #[test]
 fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
     use remembrane::analysis::spectrum::{SpectrumOptions, analyse_run};
-    let scene =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/tethered.ron");
+    let scene = crate::common::repo("scenes/fluctuating/tethered.ron");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let run = [
@@ -261,8 +260,7 @@ fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
 #[test]
 fn a_vesicle_fluid_by_metropolis_flips_fluctuates_with_the_input_kappa() {
     use remembrane::engine::simulation::{CheckInvariants, Clock, DensePositions};
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating/flips.ron");
+    let path = crate::common::repo("scenes/fluctuating/flips.ron");
     let scene = remembrane::scene::Scene::load(&path).unwrap();
     let mut sim = scene.build(&path).unwrap();
     sim.resource_mut::<CheckInvariants>().0 = false;

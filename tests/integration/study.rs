@@ -4,7 +4,7 @@
 //! time-step errors), resumption, and errors in
 //! study files.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
 fn binary() -> &'static str {
@@ -12,7 +12,7 @@ fn binary() -> &'static str {
 }
 
 fn repo(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    crate::common::repo(path)
 }
 
 /// The problem `name` of a study.json.

@@ -9,7 +9,7 @@ use std::path::Path;
 /// A small sweep over the bundled sphere scene: 2 conditions × κ ∈ {1, 2}
 /// × 2 repeats, 40 iterations and 20 frames each.
 fn write_sweep(dir: &Path) -> std::path::PathBuf {
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere.ron");
+    let scene = crate::common::repo("scenes/sphere.ron");
     let text = format!(
         r#"Sweep(
     name: "mini",
@@ -177,7 +177,7 @@ fn polynomial_fit_recovers_a_quartic() {
 
 #[test]
 fn the_bundled_tether_sweep_expands_to_the_papers_scan() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/tether_sweep.ron");
+    let path = crate::common::repo("scenes/tether_sweep.ron");
     let (sweep, _) = Sweep::parse(&path).unwrap();
     let runs = sweep.expand();
     // 3 conditions × 6 k_d × 8 repeats.
@@ -199,7 +199,7 @@ fn the_bundled_tether_sweep_expands_to_the_papers_scan() {
 /// A sweep with one shared phase (40 iterations of the bundled sphere with
 /// κ = 3) whose runs (κ ∈ {1, 2}, 20 iterations) start from its state.
 fn write_phased_sweep(dir: &Path) -> std::path::PathBuf {
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sphere.ron");
+    let scene = crate::common::repo("scenes/sphere.ron");
     let text = format!(
         r#"Sweep(
     name: "phased",

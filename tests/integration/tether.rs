@@ -10,12 +10,6 @@ use std::path::{Path, PathBuf};
 use crate::common;
 use common::series_column;
 
-fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
-
 fn options(out: &Path, iterations: u64, from: Option<PathBuf>) -> RunOptions {
     RunOptions {
         out: out.to_path_buf(),
@@ -33,7 +27,7 @@ fn options(out: &Path, iterations: u64, from: Option<PathBuf>) -> RunOptions {
 #[test]
 fn a_phase_continues_from_the_saved_state_of_the_previous_one() {
     let dir = tempfile::tempdir().unwrap();
-    let initial_path = scene_path("tether_initial.ron");
+    let initial_path = crate::common::scene("tether_initial.ron");
     let initial = Scene::load(&initial_path).unwrap();
     let first = dir.path().join("initial");
     run_scene(&initial, &initial_path, &options(&first, 400, None), |_| {
@@ -49,7 +43,7 @@ fn a_phase_continues_from_the_saved_state_of_the_previous_one() {
     assert!((total - 642.0).abs() < 1e-9, "Σρ = {total}");
 
     // The pull starts exactly from that mesh and density.
-    let pull_path = scene_path("tether_pull.ron");
+    let pull_path = crate::common::scene("tether_pull.ron");
     let pull = Scene::load(&pull_path).unwrap();
     let mut opts = options(&dir.path().join("pull"), 50, None);
     opts.from = Some(first.join("state.json"));
@@ -94,7 +88,7 @@ fn a_bad_state_file_is_a_clear_error() {
             "positions":[[0,0,0],[1,0,0],[0,1,0]],"faces":[[0,1,7]],"lipid_density":null}"#,
     )
     .unwrap();
-    let path = scene_path("tether_pull.ron");
+    let path = crate::common::scene("tether_pull.ron");
     let scene = Scene::load(&path).unwrap();
     let mut opts = options(&dir.path().join("out"), 1, None);
     opts.from = Some(state.clone());
@@ -109,7 +103,7 @@ fn a_bad_state_file_is_a_clear_error() {
 #[test]
 fn time_scheduled_moves_follow_simulated_time() {
     // The pull scene moves point 0 by (−0.75, 0.75, 0) at t = 0, 1.25e-4, …
-    let path = scene_path("tether_pull.ron");
+    let path = crate::common::scene("tether_pull.ron");
     let mut scene = Scene::load(&path).unwrap();
     scene.membrane = remembrane::scene::MembraneSource::Icosphere {
         level: 3,

@@ -21,8 +21,7 @@ type RunFiles = std::collections::BTreeMap<PathBuf, Vec<u8>>;
 /// The scaled red blood cell (level 5) with k_BT = 0.02 Ē: noisy enough
 /// that a few hundred edges cross a barrier and are remeshed in 120 ticks.
 fn noisy_scene() -> (Scene, PathBuf) {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/scaled/red_blood_cell_l5.ron");
+    let path = crate::common::repo("scenes/scaled/red_blood_cell_l5.ron");
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("temperature: 0.0,"));
     let text = text.replace("temperature: 0.0,", "temperature: 0.02,");
@@ -49,7 +48,7 @@ fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
 #[test]
 fn a_vesicle_fluid_by_edge_flips_is_byte_identical_on_1_2_and_3_threads() {
     remembrane::util::parallel::set_grain(128);
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/fluctuating_vesicle.ron");
+    let path = crate::common::repo("scenes/fluctuating_vesicle.ron");
     let scene = Scene::load(&path).unwrap();
     let runs = run_on_1_2_and_3_threads(&scene, &path, 300);
     let summary: serde_json::Value =

@@ -9,16 +9,11 @@
 //! a stronger adhesion. (The forces'
 //! finite-difference checks are in `energy/wall.rs` and `energy/adhesion.rs`.)
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 
 use crate::common;
-
-fn scene(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
-}
+use crate::common::scene;
 
 #[test]
 fn the_confined_vesicle_rests_on_its_wall_without_crossing_it() {

@@ -5,6 +5,16 @@ use remembrane::mesh::SurfaceMesh;
 use remembrane::workflow::run::{Progress, RunOptions};
 use std::path::Path;
 
+/// `path` in the repository (relative to its root).
+pub fn repo(path: impl AsRef<Path>) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+/// The bundled scene `scenes/<name>`.
+pub fn scene(name: &str) -> std::path::PathBuf {
+    repo("scenes").join(name)
+}
+
 /// Run options writing into `out`: the scene's iterations and frames, no
 /// progress output, no extra invariant checks.
 pub fn quiet_options(out: &Path) -> RunOptions {
