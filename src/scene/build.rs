@@ -118,15 +118,11 @@ impl Scene {
     /// declares (and frame output), for a caller that adds its own
     /// plugins or force terms before [`SimBuilder::build`].
     pub fn builder(&self, scene_path: &Path) -> Result<SimBuilder, SceneError> {
-        if let crate::scene::resolution::Resolution::Ladder { refinements } = self.resolution {
+        if let Err(reason) = self.refuse_ladder("a single build (`energy`, Python)") {
             return Err(SceneError::Invalid {
                 path: scene_path.to_owned(),
                 field: "resolution".into(),
-                reason: format!(
-                    "Ladder(refinements: {refinements}) is a sequence of runs, one per rung: \
-                     `remembrane run` runs it as a protocol; to build a single rung, give \
-                     EdgeLength(h)"
-                ),
+                reason: reason.replacen("field `resolution`: ", "", 1),
             });
         }
         let (mesh, saved_lipid) = self.initial_state(scene_path)?;

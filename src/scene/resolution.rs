@@ -94,6 +94,20 @@ fn count_over_h2(n: u32, h: f64) -> u32 {
 }
 
 impl Scene {
+    /// `Err` with the reason when this scene's resolution is a ladder: a
+    /// sequence of runs, one per rung, which `remembrane run` runs, where
+    /// `what` (a protocol's phase, a sweep's job, ...) runs the scene once.
+    pub fn refuse_ladder(&self, what: &str) -> Result<(), String> {
+        match self.resolution {
+            Resolution::Ladder { refinements } => Err(format!(
+                "field `resolution`: Ladder(refinements: {refinements}) is a sequence of runs, \
+                 one per rung, which `remembrane run` runs as a protocol; {what} runs the \
+                 scene once: give EdgeLength(h)"
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// This scene with every mesh-scale parameter at edge length `h` (see
     /// the module table). `h = 1` returns an equal scene.
     pub fn at_resolution(&self, h: f64) -> Scene {

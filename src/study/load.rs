@@ -179,6 +179,9 @@ impl Problem {
         for (r, rung) in self.rungs.iter().enumerate() {
             let scene = crate::scene::overrides::set_parameters(&scene, &scene_path, &rung.set)
                 .map_err(|e| format!("{}: {e}", field(p, &format!("rungs[{r}].set"))))?;
+            scene
+                .refuse_ladder("a study's rung")
+                .map_err(|e| format!("{}: {e}", field(p, &format!("rungs[{r}]"))))?;
             check_reference(self.reference, &scene)
                 .map_err(|reason| format!("{}: {reason}", field(p, &format!("rungs[{r}]"))))?;
             let start = rung

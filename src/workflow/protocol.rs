@@ -300,6 +300,9 @@ pub fn check_phases(
             s.apply(&mut scene)
                 .map_err(|r| err(i, &format!("set[{k}]"), r))?;
         }
+        scene
+            .refuse_ladder("a protocol's phase")
+            .map_err(|r| err(i, "scene", r))?;
         if let Some(n) = p.iterations {
             scene.dynamics.iterations = n;
         }

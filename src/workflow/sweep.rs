@@ -182,6 +182,9 @@ impl Sweep {
         })?;
         let scene_path = sweep.scene_path(path);
         let scene = Scene::load(&scene_path)?;
+        scene
+            .refuse_ladder("a sweep's job")
+            .map_err(|r| err(format!("field `scene` ({}): {r}", scene_path.display())))?;
         if sweep.repeats == 0 {
             return Err(err("field `repeats`: must be at least 1".into()));
         }

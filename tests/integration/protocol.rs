@@ -395,6 +395,31 @@ fn a_resolution_ladder_is_checked_and_built_only_rung_by_rung() {
     );
     // `--seed` and `--from` do not apply to the rungs.
     let path = write(d, "ladder.ron", &text);
+    // A protocol's phase and a sweep's job run a scene once: refused when
+    // loaded, naming the field.
+    let phase = write(
+        d,
+        "phase.ron",
+        r#"Protocol(name: "p", phases: [(name: "a", scene: "ladder.ron")])"#,
+    );
+    let e = remembrane::workflow::protocol::Protocol::load(Path::new(&phase))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("phases[0].scene") && e.contains("Ladder(refinements: 1)"),
+        "{e}"
+    );
+    let sweep = write(
+        d,
+        "sweep.ron",
+        r#"Sweep(name: "s", scene: "ladder.ron", conditions: [(name: "a", set: [Iterations(5)])])"#,
+    );
+    let out_sweep = d.join("sweep_out").display().to_string();
+    assert_eq!(
+        cli(&[&"sweep", &sweep, &"--out", &out_sweep, &"--quiet"]),
+        ExitCode::from(2)
+    );
+    assert!(!d.join("sweep_out").exists());
     let out = d.join("out").display().to_string();
     assert_eq!(
         cli(&[&"run", &path, &"--out", &out, &"--seed", &"3", &"--quiet"]),

@@ -330,6 +330,9 @@ impl ShapeDiagram {
             }
         }
         let scene = crate::scene::overrides::set_parameters(&scene, &scene_path, &changes)?;
+        scene
+            .refuse_ladder("a point of the diagram")
+            .map_err(|r| err(format!("field `branches[{i}].scene`: {r}")))?;
         if !matches!(scene.dynamics.method, crate::params::Method::Minimise(_)) {
             return Err(err(format!(
                 "field `branches[{i}].scene`: {} does not minimise (a shape diagram holds \
