@@ -118,11 +118,11 @@ impl Scene {
     /// declares (and frame output), for a caller that adds its own
     /// plugins or force terms before [`SimBuilder::build`].
     pub fn builder(&self, scene_path: &Path) -> Result<SimBuilder, SceneError> {
-        if let Err(reason) = self.refuse_ladder("a single build (`energy`, Python)") {
+        if let Some(reason) = self.ladder_reason("a single build (`energy`, Python)") {
             return Err(SceneError::Invalid {
                 path: scene_path.to_owned(),
                 field: "resolution".into(),
-                reason: reason.replacen("field `resolution`: ", "", 1),
+                reason,
             });
         }
         let (mesh, saved_lipid) = self.initial_state(scene_path)?;

@@ -97,14 +97,21 @@ impl Scene {
     /// `Err` with the reason when this scene's resolution is a ladder: a
     /// sequence of runs, one per rung, which `remembrane run` runs, where
     /// `what` (a protocol's phase, a sweep's job, ...) runs the scene once.
+    /// The reason names the field.
     pub fn refuse_ladder(&self, what: &str) -> Result<(), String> {
+        self.ladder_reason(what)
+            .map_or(Ok(()), |r| Err(format!("field `resolution`: {r}")))
+    }
+
+    /// Why `what` cannot run this scene (a ladder), without the field.
+    pub(crate) fn ladder_reason(&self, what: &str) -> Option<String> {
         match self.resolution {
-            Resolution::Ladder { refinements } => Err(format!(
-                "field `resolution`: Ladder(refinements: {refinements}) is a sequence of runs, \
-                 one per rung, which `remembrane run` runs as a protocol; {what} runs the \
-                 scene once: give EdgeLength(h)"
+            Resolution::Ladder { refinements } => Some(format!(
+                "Ladder(refinements: {refinements}) is a sequence of runs, one per rung, which \
+                 `remembrane run` runs as a protocol; {what} runs the scene once: give \
+                 EdgeLength(h)"
             )),
-            _ => Ok(()),
+            _ => None,
         }
     }
 
