@@ -4,10 +4,11 @@
 //! tension σ and pressure Δp that hold them.
 //!
 //! Stage: Forces (after `force_total`). Reads: [`Membrane`] (faces),
-//! [`DensePositions`], [`Constraints`]. Writes: the total force and
-//! `evaluation.constraint` in [`ForceBuffers`].
+//! [`DensePositions`], [`Constraints`]. Writes: the total force,
+//! `evaluation.constraint` and `evaluation.constraint_gradients` (the
+//! gradients the minimiser then uses, measured once) in [`ForceBuffers`].
 
-use remembrane_core::constraint::{ConstraintState, Constraints, Gradients, remove_reactions};
+use remembrane_core::constraint::{ConstraintState, Constraints, remove_reactions};
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
@@ -16,9 +17,7 @@ use remembrane_core::mesh::membrane::Membrane;
 
 /// The constraint-reaction system.
 #[derive(Default)]
-pub struct ConstraintReactions {
-    gradients: Gradients,
-}
+pub struct ConstraintReactions;
 
 /// Its name in the schedule.
 pub const CONSTRAINT_REACTIONS: &str = "constraint_reactions";
@@ -39,11 +38,12 @@ impl System for ConstraintReactions {
         &mut self,
         (membrane, positions, constraints, mut buffers): Self::Data<'_>,
     ) -> Result<(), SimError> {
-        let g = &mut self.gradients;
+        let ev = &mut buffers.evaluation;
+        let g = &mut ev.constraint_gradients;
         g.measure_on(&positions.0, membrane.cached_topology());
         let targets = constraints.targets;
-        let reactions = remove_reactions(g, targets, &mut buffers.evaluation.total);
-        buffers.evaluation.constraint = Some(ConstraintState {
+        let reactions = remove_reactions(g, targets, &mut ev.total);
+        ev.constraint = Some(ConstraintState {
             targets,
             area: g.area,
             volume: g.volume,

@@ -28,6 +28,12 @@
 //! Gaussian coupling, whose weights depend on the vertices' distances to
 //! the point, not on the connectivity. Deterministic: the sweep order is
 //! the edge slots', and there is no randomness.
+//!
+//! The Delaunay test of every edge runs first, in parallel on a large mesh
+//! (a map: the same bits on any thread count), and the sweep then visits
+//! only the edges it found and those whose quad a flip has since changed:
+//! the same flips as testing every edge in the sweep (at 10 242 vertices
+//! the serial sweep took 1.3 ms a tick, almost all of it the test).
 
 use glam::DVec3;
 use remembrane_core::engine::resources::{Res, ResMut};
@@ -59,12 +65,18 @@ pub struct MaintenanceFlipStats {
 /// The maintenance-flip system.
 pub struct MaintenanceFlips {
     params: MaintenanceFlipParams,
+    /// By edge slot: whether the sweep must test the edge (not locally
+    /// Delaunay at the sweep's start, or in a quad a flip changed).
+    to_test: Vec<bool>,
 }
 
 impl MaintenanceFlips {
     /// Sweeps at `params`' interval with its dihedral guard.
     pub fn new(params: MaintenanceFlipParams) -> Self {
-        Self { params }
+        Self {
+            params,
+            to_test: Vec::new(),
+        }
     }
 }
 
@@ -114,11 +126,20 @@ impl System for MaintenanceFlips {
         let positions = &positions.0;
         let max_dihedral = self.params.max_dihedral.to_radians();
         stats.sweeps += 1;
+        {
+            let t = membrane.cached_topology();
+            remembrane_core::util::parallel::fill_vec(&mut self.to_test, t.edges.len(), |e| {
+                Flip::of(t, e as u32).is_some_and(|flip| is_non_delaunay(&flip, positions))
+            });
+        }
         let mut edge = 0;
         while edge < membrane.cached_topology().edges.len() {
             let t = membrane.cached_topology();
             let slot = edge as u32;
             edge += 1;
+            if !self.to_test.get(slot as usize).copied().unwrap_or(true) {
+                continue;
+            }
             let Some(flip) = Flip::of(t, slot) else {
                 continue;
             };
@@ -150,6 +171,17 @@ impl System for MaintenanceFlips {
                 continue;
             }
             stats.flipped += 1;
+            // The new edge and the quad's four sides have new opposite
+            // corners: test them when the sweep reaches them.
+            let t = membrane.cached_topology();
+            let (a, b, c, d) = (flip.a, flip.b, flip.c, flip.d);
+            for (u, v) in [(c, d), (a, c), (c, b), (b, d), (d, a)] {
+                if let Some(e) = t.edge_between(u, v)
+                    && let Some(x) = self.to_test.get_mut(e as usize)
+                {
+                    *x = true;
+                }
+            }
             if check.0 {
                 let t = membrane.cached_topology();
                 if let Err(e) =

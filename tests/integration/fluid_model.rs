@@ -405,6 +405,73 @@ fn maintenance_flips_make_a_jittered_fluid_mesh_delaunay_and_count_it() {
     assert!((area(&sim) / a0 - 1.0).abs() < 0.01);
 }
 
+/// A maintenance sweep tests only the edges that were not locally Delaunay
+/// at its start and those in quads its flips changed: the same flips, in
+/// the same order, as testing every edge in slot order (the sweep before
+/// the prefilter), here on a jittered mesh where flips neighbour flips.
+#[test]
+fn a_maintenance_sweep_flips_what_testing_every_edge_flips() {
+    use remembrane::mesh::ValenceRange;
+    use remembrane::remesh::flip::{Flip, keeps_surface_unfolded};
+    use remembrane::systems::maintenance_flips::{MaintenanceFlipStats, dihedral, is_non_delaunay};
+    let build = |every: u32| {
+        let text = format!(
+            "Scene(name: \"flips\", seed: 3, \
+             membrane: Ellipsoid(level: 3, semi_axes: (4.5, 4.5, 9.0), jitter: 0.45), \
+             valence: (min: 5, max: 8), \
+             model: Fluid(flips: (max_dihedral: 20.0, every: {every})), \
+             energy: [Vin(form: Exact), Bending(kappa: 5.0)], remesh: (mode: Off), \
+             dynamics: (method: Minimise(), iterations: 10))"
+        );
+        let path = Path::new("flips.ron");
+        Scene::from_ron_str(&text, path)
+            .unwrap()
+            .build(path)
+            .unwrap()
+    };
+    // One tick each: the same step, then the system's sweep in one and no
+    // sweep in the other (iteration 1 is not a multiple of 1000).
+    let (mut swept, mut reference) = (build(1), build(1000));
+    swept.tick().unwrap();
+    reference.tick().unwrap();
+    let membrane = reference.membrane_mut();
+    let mut p = Vec::new();
+    membrane.gather_positions(&mut p);
+    let valence = ValenceRange { min: 5, max: 8 };
+    let (mut flipped, mut edge) = (0, 0);
+    while edge < membrane.cached_topology().edges.len() {
+        let t = membrane.cached_topology();
+        let slot = edge as u32;
+        edge += 1;
+        let Some(flip) = Flip::of(t, slot) else {
+            continue;
+        };
+        let degree = |v: u32| t.valence(v as usize) as u32;
+        if !is_non_delaunay(&flip, &p)
+            || degree(flip.a) <= valence.min
+            || degree(flip.b) <= valence.min
+            || degree(flip.c) >= valence.max
+            || degree(flip.d) >= valence.max
+            || t.edge_between(flip.c, flip.d).is_some()
+            || dihedral(&flip, &p) > 20f64.to_radians()
+            || !keeps_surface_unfolded(&flip, &p)
+        {
+            continue;
+        }
+        let edit = flip.edit(t);
+        if membrane.apply_patch(&edit, valence).is_ok() {
+            flipped += 1;
+        }
+    }
+    let stats = *swept.resource::<MaintenanceFlipStats>();
+    assert!(flipped > 20, "{flipped} flips");
+    assert_eq!(stats.flipped, flipped, "{stats:?}");
+    assert_eq!(
+        swept.membrane().cached_topology().faces,
+        reference.membrane().cached_topology().faces
+    );
+}
+
 #[test]
 fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     let out = tempfile::tempdir().unwrap();

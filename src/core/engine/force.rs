@@ -199,6 +199,11 @@ pub struct ForceEvaluation {
     /// The exact constraints' multipliers and the area and volume they
     /// were measured at; `None` when the scene holds no constraint.
     pub constraint: Option<crate::constraint::ConstraintState>,
+    /// The exact constraints' area and volume gradients at the evaluated
+    /// positions (measured once per evaluation by the
+    /// `constraint_reactions` system, and read by the minimiser); empty
+    /// or stale when `constraint` is `None`.
+    pub constraint_gradients: crate::constraint::Gradients,
 }
 
 impl ForceEvaluation {
