@@ -123,7 +123,7 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
             max_correction: params.max_correction,
             smoothing: params.smoothing,
         });
-        b.add_system(Stage::Forces, ConstraintReactions::default())
+        b.add_system(Stage::Forces, ConstraintReactions)
             .after(crate::engine::force::FORCE_TOTAL);
         if b.resources()
             .get::<crate::params::DynamicsParams>()
