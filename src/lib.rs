@@ -65,12 +65,14 @@
 //!   parameters by part), [`constraint`], [`fluid`], [`minimise`], [`timestep`] and [`fd`].
 //!   The built-in systems are the crate `remembrane_systems` (`systems/`, one system per
 //!   file), which depends on the core's public API only, as a user's plugin does; the core
-//!   never imports it. This crate (`src/`) sits on both: [`io`] (run directories, frames,
-//!   state, checkpoints, reports, the built-in recorders) → [`analysis`] (measuring a run) →
-//!   [`scene`] (the file format, overrides, the plugin registry, and the scene build, the one
-//!   place that assembles the built-in plugins, [`scene::plugins`]) → [`workflow`] (runs,
-//!   protocols, sweeps, collection, comparison, the shape diagram) → [`study`] (speed against
-//!   error, the axisymmetric reference solver) → [`cli`] (one file per group of commands).
+//!   never imports it. This crate (`src/`) sits on both: [`analysis`] (measuring a run's
+//!   shapes, and the continuum references it is held against: axisymmetric shapes, the
+//!   adhered vesicle) → [`io`] (run directories and their typed summary, frames, state,
+//!   checkpoints, reports, plots, the built-in recorders) → [`scene`] (the file format,
+//!   overrides, the plugin registry, and the scene build, the one place that assembles the
+//!   built-in plugins, [`scene::plugins`]) → [`workflow`] (runs, protocols, sweeps,
+//!   collection, comparison, the shape diagram) → [`study`] (speed against error) → [`cli`]
+//!   (one file per group of commands). Each folder imports only the ones before it.
 //!   It re-exports the core's modules and the systems under their names
 //!   (`remembrane::mesh`, …, [`systems`]), so one path names every public item.
 //!

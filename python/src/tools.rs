@@ -421,7 +421,7 @@ pub fn collect<'py>(
 /// engine wrote always passes). `series.csv` is optional.
 #[pyfunction]
 pub fn check_run_dir(dir: PathBuf) -> PyResult<()> {
-    remembrane::workflow::run::RunSummary::read(&dir)
+    remembrane::io::summary::RunSummary::read(&dir)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     if dir.join("series.csv").is_file() {
         remembrane::io::run_dir::Series::read(&dir)

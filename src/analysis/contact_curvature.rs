@@ -34,7 +34,7 @@
 //! h = 1/2 and W R0²/κ = 5.94, where the fit to the continuum vesicle
 //! reads 1.047). The study's adhesion problems measure the contact
 //! curvature against the continuum adhered vesicle
-//! (`crate::study::axisymmetric::contact_fit`, docs/adhesion.md).
+//! (`crate::analysis::axisymmetric::contact_fit`, docs/adhesion.md).
 //!
 //! Units: heights in l̄, curvature in 1/l̄, angles in radians.
 

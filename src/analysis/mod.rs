@@ -1,7 +1,11 @@
 //! Measuring a run: shape classes and dimensions, tube radii at probe
 //! planes, flicker spectra of fluctuating vesicles, and the contact
-//! curvature of an adhered vesicle.
+//! curvature of an adhered vesicle; and the continuum references they are
+//! held against (axisymmetric shapes and the adhered vesicle), which a
+//! scene may also start from.
 
+pub mod adhesion;
+pub mod axisymmetric;
 pub mod contact_curvature;
 pub mod shape;
 pub mod spectrum;

@@ -63,7 +63,7 @@ pub(super) fn spectrum_command(
             _ => None,
         })
     });
-    let options = crate::analysis::spectrum::SpectrumOptions {
+    let options = crate::io::spectrum::SpectrumOptions {
         equilibration,
         l_min,
         l_max,
@@ -72,7 +72,7 @@ pub(super) fn spectrum_command(
         kappa_input,
         discrete,
     };
-    let s = crate::analysis::spectrum::analyse_run(dir, &options)?;
+    let s = crate::io::spectrum::analyse_run(dir, &options)?;
     say!(
         "{} frames, R0 = {:.4} l̄, l = {}..={}: κ = {:.4} ± {:.4} Ē, σ = {:.4e} ± {:.1e} Ē/l̄², χ²/dof = {:.2}",
         s.frames,

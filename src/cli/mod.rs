@@ -399,6 +399,6 @@ fn load(path: &Path) -> Result<(Scene, crate::engine::simulation::Simulation), S
 
 /// The scene a run directory's summary names, if it still loads.
 fn run_scene_file(dir: &Path) -> Option<Scene> {
-    let summary = crate::workflow::run::RunSummary::read(dir).ok()?;
+    let summary = crate::io::summary::RunSummary::read(dir).ok()?;
     Scene::load(Path::new(&summary.scene_file)).ok()
 }

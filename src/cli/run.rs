@@ -193,7 +193,7 @@ pub(super) fn report_run(
     path: &Path,
     out: &Path,
     quiet: bool,
-    result: Result<crate::workflow::run::RunSummary, crate::workflow::run::RunError>,
+    result: Result<crate::io::summary::RunSummary, crate::workflow::run::RunError>,
 ) -> ExitCode {
     match result {
         Ok(summary) => {

@@ -3,7 +3,7 @@
 //! malformed field is an error that names the file and the field, never a
 //! NaN.
 
-use crate::workflow::run::RunSummary;
+use crate::io::summary::RunSummary;
 use std::path::{Path, PathBuf};
 
 /// Why a run directory's output could not be read.

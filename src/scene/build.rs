@@ -326,7 +326,7 @@ fn add_declared<'b>(
 /// `edge_length`.
 fn axisymmetric_mesh(
     scene_path: &Path,
-    branch: crate::study::axisymmetric::Branch,
+    branch: crate::analysis::axisymmetric::Branch,
     reduced_volume: f64,
     area: f64,
     mean_edge_length: f64,
@@ -336,8 +336,8 @@ fn axisymmetric_mesh(
         field: field.to_string(),
         reason,
     };
-    let shape =
-        crate::study::axisymmetric::solve_on_branch(reduced_volume, 200, branch).map_err(|e| {
+    let shape = crate::analysis::axisymmetric::solve_on_branch(reduced_volume, 200, branch)
+        .map_err(|e| {
             invalid(
                 "membrane.reduced_volume",
                 format!("no {branch} shape at v = {reduced_volume}: {e}"),

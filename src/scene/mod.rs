@@ -177,7 +177,7 @@ pub enum MembraneSource {
         mean_edge_length: f64,
     },
     /// The continuum's equilibrium vesicle on `branch` at `reduced_volume`
-    /// (the project's axisymmetric solver, `crate::study::axisymmetric`, at 200
+    /// (the project's axisymmetric solver, `crate::analysis::axisymmetric`, at 200
     /// segments, κ-independent at `c0 = 0`), scaled to `area`, axis along z,
     /// as a surface of revolution in rings of nearly equilateral triangles
     /// of side `mean_edge_length`: a start on a branch that a deflated
@@ -185,7 +185,7 @@ pub enum MembraneSource {
     Axisymmetric {
         /// `Prolate`, `Oblate` or `Stomatocyte` (the last exists below
         /// v ≈ 0.6608).
-        branch: crate::study::axisymmetric::Branch,
+        branch: crate::analysis::axisymmetric::Branch,
         /// Reduced volume v = 3V/(4πR0³), R0 = √(area/4π), in (0.5, 1]
         /// (dimensionless).
         reduced_volume: f64,
@@ -479,6 +479,50 @@ impl Scene {
             source,
         })?;
         Self::from_ron_str_with(&text, path, registry)
+    }
+
+    /// κ of the scene's bending term, if it has one (Ē).
+    pub fn bending_kappa(&self) -> Option<f64> {
+        self.energy.iter().find_map(|t| match t {
+            EnergyTerm::Bending(p) => Some(p.kappa),
+            _ => None,
+        })
+    }
+
+    /// The scene's one adhesive substrate, if it has exactly one and it is
+    /// a plane (the condition of the continuum adhered vesicle).
+    pub fn adhesion_plane(&self) -> Option<crate::energy::adhesion::AdhesionParams> {
+        let mut terms = self.energy.iter().filter_map(|t| match t {
+            EnergyTerm::Adhesion(p) => Some(p),
+            _ => None,
+        });
+        match (terms.next(), terms.next()) {
+            (Some(p), None) if matches!(p.shape, crate::energy::wall::WallShape::Plane { .. }) => {
+                Some(p.clone())
+            }
+            _ => None,
+        }
+    }
+
+    /// The continuum adhered vesicle's parameters of this scene: its plane
+    /// substrate at the scene's resolution and κ; `Err` says why the scene
+    /// has none (it needs one plane `Adhesion` term, a bending term and
+    /// `resolution: EdgeLength(h)`).
+    pub fn adhesion_substrate(
+        &self,
+    ) -> Result<(crate::energy::adhesion::AdhesionParams, f64), String> {
+        let h = match self.resolution {
+            resolution::Resolution::EdgeLength(h) => h,
+            resolution::Resolution::FromMesh | resolution::Resolution::Ladder { .. } => {
+                return Err("needs `resolution: EdgeLength(h)` (a ladder's rungs have one)".into());
+            }
+        };
+        let kappa = self.bending_kappa().ok_or("no bending term")?;
+        let adhesion = self
+            .at_resolution(h)
+            .adhesion_plane()
+            .ok_or("no plane adhesion term")?;
+        Ok((adhesion, kappa))
     }
 
     /// Checks that need the whole scene.

@@ -240,7 +240,7 @@ fn check_reference(reference: Reference, scene: &Scene) -> Result<(), String> {
             );
         }
     }
-    if reference == Reference::Adhesion && super::adhesion_plane(scene).is_none() {
+    if reference == Reference::Adhesion && scene.adhesion_plane().is_none() {
         return Err(
             "Adhesion needs exactly one `Adhesion(shape: Plane(...))` term (the continuum \
              reference lies on a flat substrate)"

@@ -16,8 +16,6 @@
 //! reference, fits the observed convergence order and writes `study.csv`,
 //! `study.md`, `study.json` and the charts.
 
-pub mod adhesion;
-pub mod axisymmetric;
 mod load;
 pub mod peer;
 pub mod reference;
@@ -167,7 +165,7 @@ pub enum Reference {
     SpheroidBending,
     /// The continuum minimiser of the bending energy at fixed area and
     /// volume, solved at the reduced volume the case ends at
-    /// ([`crate::study::axisymmetric`]): E_b/8πκ, D/R0, centre and maximal
+    /// ([`crate::analysis::axisymmetric`]): E_b/8πκ, D/R0, centre and maximal
     /// thickness over R0, compared with the final mesh. The cost is the
     /// case's whole wall time.
     Axisymmetric,
@@ -185,9 +183,9 @@ pub enum Reference {
     Tether,
     /// A vesicle adhered to the scene's plane `Adhesion` substrate, against
     /// the continuum adhered vesicle of the same area, final reduced volume,
-    /// κ and W ([`crate::study::axisymmetric::adhered`]): the contact
+    /// κ and W ([`crate::analysis::axisymmetric::adhered`]): the contact
     /// curvature fitted to the final mesh near the contact line
-    /// ([`crate::study::axisymmetric::contact_fit`]) against Seifert &
+    /// ([`crate::analysis::axisymmetric::contact_fit`]) against Seifert &
     /// Lipowsky's √(2W/κ), and the height above the bound membrane against
     /// the continuum vesicle's. The cost is the case's whole wall time.
     Adhesion,
@@ -268,34 +266,11 @@ pub struct Case {
     pub start: Option<(PathBuf, u32)>,
 }
 
-/// κ of the scene's bending term, if it has one.
-pub fn bending_kappa(scene: &Scene) -> Option<f64> {
-    scene.energy.iter().find_map(|t| match t {
-        crate::scene::EnergyTerm::Bending(p) => Some(p.kappa),
-        _ => None,
-    })
-}
-
-/// The scene's one adhesive substrate, if it has exactly one and it is a
-/// plane (the [`Reference::Adhesion`] problem's condition).
-pub fn adhesion_plane(scene: &Scene) -> Option<crate::energy::adhesion::AdhesionParams> {
-    let mut terms = scene.energy.iter().filter_map(|t| match t {
-        crate::scene::EnergyTerm::Adhesion(p) => Some(p),
-        _ => None,
-    });
-    match (terms.next(), terms.next()) {
-        (Some(p), None) if matches!(p.shape, crate::energy::wall::WallShape::Plane { .. }) => {
-            Some(p.clone())
-        }
-        _ => None,
-    }
-}
-
 /// Whether the run in `dir` stopped on a numerical blow-up and wrote its
 /// summary saying so.
 fn blew_up(dir: &Path) -> bool {
-    crate::workflow::run::RunSummary::read(dir)
-        .is_ok_and(|s| s.status == crate::workflow::run::RunStatus::BlewUp)
+    crate::io::summary::RunSummary::read(dir)
+        .is_ok_and(|s| s.status == crate::io::summary::RunStatus::BlewUp)
 }
 
 /// Options of [`run_cases`].

@@ -52,7 +52,7 @@ pub fn peer_spec(
     scene: &Scene,
     out: &Path,
 ) -> Result<serde_json::Value, String> {
-    let kappa = crate::study::bending_kappa(scene).ok_or("no Bending term")?;
+    let kappa = scene.bending_kappa().ok_or("no Bending term")?;
     let level = match scene.membrane {
         MembraneSource::Icosphere { level, .. } | MembraneSource::Ellipsoid { level, .. } => level,
         _ => return Err("the membrane is not an icosphere or ellipsoid".into()),

@@ -1,6 +1,6 @@
 //! Exact answers of the study's reference problems, computed without the
 //! engine: a sphere's bending energy 8πκ, a spheroid's by 1-D quadrature,
-//! and the axisymmetric minimiser of [`crate::study::axisymmetric`].
+//! and the axisymmetric minimiser of [`crate::analysis::axisymmetric`].
 
 use std::f64::consts::PI;
 

@@ -167,10 +167,10 @@ pub fn collect(dir: &Path, options: &CollectOptions) -> Result<CollectReport, Co
             report.missing.push(spec.dir.clone());
             continue;
         }
-        let summary = crate::workflow::run::RunSummary::read(&run_dir)?;
+        let summary = crate::io::summary::RunSummary::read(&run_dir)?;
         let status = match summary.status {
-            crate::workflow::run::RunStatus::Completed => "completed",
-            crate::workflow::run::RunStatus::BlewUp => "blew_up",
+            crate::io::summary::RunStatus::Completed => "completed",
+            crate::io::summary::RunStatus::BlewUp => "blew_up",
         }
         .to_string();
         let points = read_points(&run_dir, options)?;

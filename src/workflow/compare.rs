@@ -3,7 +3,7 @@
 //! a PNG bar chart.
 
 use crate::io::plot::{BarPanel, bar_chart};
-use crate::workflow::run::RunSummary;
+use crate::io::summary::RunSummary;
 
 /// One row of the comparison.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

@@ -10,7 +10,7 @@
 //! `adhesion_w6` and `adhesion_w10` (W R²/κ = 5.94 and 9.91, h = 1, 1/2,
 //! 1/4) through `remembrane study`, which measures the contact curvature by
 //! fitting the continuum adhered vesicle near the contact line
-//! (src/study/axisymmetric/contact_fit.rs), and checks the 5 % tolerance at
+//! (src/analysis/axisymmetric/contact_fit.rs), and checks the 5 % tolerance at
 //! h = 1/4: `cargo test --release --test integration adhesion:: -- --ignored`. In CI: the
 //! continuum solver's and the fit's unit tests (the contact condition as
 //! the solver's natural boundary condition, the fit recovering a known

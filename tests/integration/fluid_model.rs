@@ -137,14 +137,14 @@ fn twisted_sphere_measures_the_shear_modulus_of_each_model() {
 }
 
 /// Runs `scene` (read from `path`) quietly into `out`.
-fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::workflow::run::RunSummary {
+fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::io::summary::RunSummary {
     remembrane::workflow::run::run_scene(scene, path, &common::quiet_options(out), |_| Ok(()))
         .unwrap()
 }
 
 /// Runs a variant of the fluid red blood cell (scene text `text`, named
 /// `name`) and checks that it converged at v = 0.6.
-fn converged_cell(text: &str, name: &str) -> remembrane::workflow::run::RunSummary {
+fn converged_cell(text: &str, name: &str) -> remembrane::io::summary::RunSummary {
     let path = Path::new(name);
     let scene = Scene::from_ron_str(text, path).unwrap();
     let out = tempfile::tempdir().unwrap();

@@ -3,8 +3,9 @@
 //! never writing a bad frame.
 
 use remembrane::engine::error::{FoldCause, SimError};
+use remembrane::io::summary::RunSummary;
 use remembrane::scene::Scene;
-use remembrane::workflow::run::{RunError, RunSummary, run_scene};
+use remembrane::workflow::run::{RunError, run_scene};
 use std::path::{Path, PathBuf};
 
 use crate::common;

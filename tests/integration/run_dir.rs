@@ -3,7 +3,7 @@
 //! missing field is an error naming the file and the field, not a NaN.
 
 use remembrane::io::run_dir::Series;
-use remembrane::workflow::run::RunSummary;
+use remembrane::io::summary::RunSummary;
 use std::process::Command;
 
 #[test]

@@ -206,7 +206,7 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
 /// (l = 6: 11×).
 #[test]
 fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
-    use remembrane::analysis::spectrum::{SpectrumOptions, analyse_run};
+    use remembrane::io::spectrum::{SpectrumOptions, analyse_run};
     let scene = crate::common::repo("scenes/fluctuating/tethered.ron");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");

@@ -131,7 +131,7 @@ fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
     assert_eq!(m.stopped_by, "force_residual", "W = {w}");
     // summary.json compares the vesicle with the continuum adhered vesicle
     // of its area, reduced volume, κ = 1 and W (the contact curvature
-    // itself is unit-tested in src/study/axisymmetric/contact_fit.rs).
+    // itself is unit-tested in src/analysis/axisymmetric/contact_fit.rs).
     let a = summary.adhesion.as_ref().expect("a plane substrate");
     let r0_squared = summary.last.area / (4.0 * std::f64::consts::PI);
     assert!((a.reduced_adhesion / (w * r0_squared) - 1.0).abs() < 1e-12);

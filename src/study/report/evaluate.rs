@@ -174,7 +174,7 @@ fn case_measurements(
             }
         }
         Reference::Axisymmetric => {
-            let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
+            let kappa = case.scene.bending_kappa().unwrap_or(f64::NAN);
             // Err, e.g., for a run that ends outside the solver's range of
             // v: the case stays in the table, unmeasured.
             let (m, n) = axisymmetric_measurements(
@@ -280,8 +280,8 @@ pub(super) fn systems_time(timings: &[crate::engine::schedule::SystemTiming]) ->
 
 pub(super) fn status(d: &RunData) -> String {
     match d.summary.status {
-        crate::workflow::run::RunStatus::Completed => "completed",
-        crate::workflow::run::RunStatus::BlewUp => "blew_up",
+        crate::io::summary::RunStatus::Completed => "completed",
+        crate::io::summary::RunStatus::BlewUp => "blew_up",
     }
     .to_string()
 }

@@ -5,7 +5,7 @@ use super::*;
 
 /// A run directory's outputs needed here.
 pub(super) struct RunData {
-    pub(super) summary: crate::workflow::run::RunSummary,
+    pub(super) summary: crate::io::summary::RunSummary,
     /// Every row of series.csv by column name, the first included.
     pub(super) rows: Vec<HashMap<String, f64>>,
     /// The vertex count of the first row.
@@ -15,7 +15,7 @@ pub(super) struct RunData {
 }
 
 pub(super) fn read_run(dir: &Path) -> Result<RunData, String> {
-    let summary = crate::workflow::run::RunSummary::read(dir).map_err(|e| e.to_string())?;
+    let summary = crate::io::summary::RunSummary::read(dir).map_err(|e| e.to_string())?;
     let series = crate::io::run_dir::Series::read(dir).map_err(|e| e.to_string())?;
     let vertices = series.first("vertices").map_err(|e| e.to_string())?;
     let initial_bending = series.first("energy_bending").unwrap_or(f64::NAN);
@@ -40,7 +40,7 @@ pub(super) fn read_run(dir: &Path) -> Result<RunData, String> {
 }
 
 /// The final bending energy in a summary (NaN without a bending term).
-pub(super) fn final_bending(summary: &crate::workflow::run::RunSummary) -> f64 {
+pub(super) fn final_bending(summary: &crate::io::summary::RunSummary) -> f64 {
     summary
         .last
         .energies
@@ -49,7 +49,7 @@ pub(super) fn final_bending(summary: &crate::workflow::run::RunSummary) -> f64 {
         .map_or(f64::NAN, |t| t.energy)
 }
 
-pub(super) fn quantity(summary: &crate::workflow::run::RunSummary, q: Quantity) -> f64 {
+pub(super) fn quantity(summary: &crate::io::summary::RunSummary, q: Quantity) -> f64 {
     match q {
         Quantity::ReducedVolume => summary.last.reduced_volume.unwrap_or(f64::NAN),
         Quantity::BendingEnergy => final_bending(summary),
@@ -79,12 +79,12 @@ pub(super) fn axisymmetric_measurements(
     kappa: f64,
 ) -> Result<(Vec<Measurement>, String), String> {
     let r0 = (area / (4.0 * PI)).sqrt();
-    let exact = crate::study::axisymmetric::converged(v)
+    let exact = crate::analysis::axisymmetric::converged(v)
         .map_err(|e| format!("reference at v = {v}: {e}"))?;
     let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
     let t = crate::analysis::shape::axial_thickness(&mesh.positions, &mesh.faces);
     let class = crate::analysis::shape::shape_metrics(&mesh.positions, &mesh.faces).class;
-    let value = |x: crate::study::axisymmetric::Extrapolated| Value {
+    let value = |x: crate::analysis::axisymmetric::Extrapolated| Value {
         value: x.value,
         error: x.error,
     };
@@ -157,7 +157,7 @@ pub(super) fn equilibration(rows: &[HashMap<String, f64>]) -> String {
 /// The exact bending energy of a static problem's initial shape (None for
 /// other references, or a spheroid problem whose membrane is not one).
 pub(super) fn static_reference(reference: Reference, case: &Case) -> Option<Value> {
-    let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
+    let kappa = case.scene.bending_kappa().unwrap_or(f64::NAN);
     match (reference, &case.scene.membrane) {
         (Reference::SphereBending, _) => Some(sphere_bending(kappa)),
         (
@@ -177,7 +177,7 @@ pub(super) fn peer_measurements(
     case: &Case,
     output: &PeerOutput,
 ) -> Result<(Vec<Measurement>, String), String> {
-    let kappa = bending_kappa(&case.scene).unwrap_or(f64::NAN);
+    let kappa = case.scene.bending_kappa().unwrap_or(f64::NAN);
     match reference {
         Reference::SphereBending | Reference::SpheroidBending => {
             let exact = static_reference(reference, case).ok_or("not an ellipsoid")?;
@@ -209,7 +209,7 @@ pub(super) fn tether_measurements(
     scene: &crate::scene::Scene,
     d: &RunData,
 ) -> (Vec<Measurement>, String) {
-    let kappa = bending_kappa(scene).unwrap_or(f64::NAN);
+    let kappa = scene.bending_kappa().unwrap_or(f64::NAN);
     let sigma = scene
         .energy
         .iter()
@@ -266,7 +266,7 @@ pub(super) fn tether_measurements(
 }
 
 /// The adhered vesicle's contact curvature (fitted near the contact line to
-/// the continuum family, [`crate::study::adhesion`]) against √(2W/κ), its
+/// the continuum family, [`crate::analysis::adhesion`]) against √(2W/κ), its
 /// height above the bound membrane and its contact area against the
 /// continuum vesicle's at the scene's W. NaN marks the contact curvature
 /// and area unmeasured when no member of the family fits (the columns stay
@@ -275,7 +275,7 @@ pub(super) fn tether_measurements(
 pub(super) fn adhesion_measurements(
     scene: &crate::scene::Scene,
     mesh_path: &Path,
-    summary: &crate::workflow::run::RunSummary,
+    summary: &crate::io::summary::RunSummary,
 ) -> Result<(Vec<Measurement>, String), String> {
     let v = summary.last.reduced_volume.unwrap_or(f64::NAN);
     let r = match &summary.adhesion {
@@ -283,7 +283,13 @@ pub(super) fn adhesion_measurements(
         None => {
             let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
             let positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
-            crate::study::adhesion::measure(scene, &positions, summary.last.area, v)?
+            let (substrate, kappa) = scene.adhesion_substrate()?;
+            crate::analysis::adhesion::measure(
+                (&substrate, kappa),
+                &positions,
+                summary.last.area,
+                v,
+            )?
         }
     };
     let exact = |value: f64| Value { value, error: 0.0 };

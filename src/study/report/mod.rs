@@ -5,7 +5,7 @@
 use crate::io::plot::{Chart, Legend, Marker, Scale, Series};
 use crate::study::peer::{PeerOutput, PeerRun};
 use crate::study::reference::{Value, sphere_bending, spheroid_bending};
-use crate::study::{Case, Quantity, Reference, Resolution, Study, StudyError, bending_kappa};
+use crate::study::{Case, Quantity, Reference, Resolution, Study, StudyError};
 use serde::Serialize;
 use std::collections::HashMap;
 use std::f64::consts::PI;

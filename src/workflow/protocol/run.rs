@@ -277,9 +277,9 @@ fn completed_record(
     out: &Path,
     resumed: bool,
 ) -> Option<PhaseRecord> {
-    let v = crate::workflow::run::RunSummary::read(out).ok()?;
-    (v.status == crate::workflow::run::RunStatus::Completed && out.join("state.json").exists())
-        .then(|| PhaseRecord {
+    let v = crate::io::summary::RunSummary::read(out).ok()?;
+    (v.status == crate::io::summary::RunStatus::Completed && out.join("state.json").exists()).then(
+        || PhaseRecord {
             name: phase.name.clone(),
             scene: scene.to_owned(),
             from,
@@ -287,7 +287,8 @@ fn completed_record(
             iterations: v.iterations,
             simulated_time: v.simulated_time,
             wall_time_s: if resumed { v.wall_time_s } else { 0.0 },
-        })
+        },
+    )
 }
 
 /// `protocol.json`.

@@ -1,7 +1,6 @@
 //! Running a scene to completion with outputs: the driver behind
 //! `remembrane run`.
 
-use crate::engine::schedule::SystemTiming;
 use crate::engine::simulation::{
     BuildError, CheckInvariants, DenseLipid, DensePositions, InitialState, SimBuilder, SimError,
     Simulation,
@@ -9,6 +8,7 @@ use crate::engine::simulation::{
 use crate::io::checkpoint::{Checkpoint, CheckpointError};
 use crate::io::output::{FrameSchedule, OpenOutput, OutputError, RunOutput};
 use crate::io::report::EnergyReport;
+use crate::io::summary::{MinimiserSummary, RemeshSummary, RunStatus, RunSummary};
 use crate::remesh::RemeshStats;
 use crate::scene::{Scene, SceneError};
 use crate::systems::barrier_check::AbnormalEdges;
@@ -16,10 +16,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 mod summarize;
-mod summary;
 
 pub use summarize::*;
-pub use summary::*;
 
 /// How a run reports progress.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

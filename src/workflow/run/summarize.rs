@@ -114,10 +114,8 @@ fn adhesion_report(
     scene: &Scene,
     sim: &Simulation,
     last: &EnergyReport,
-) -> Option<crate::study::adhesion::AdhesionReport> {
-    if !crate::study::adhesion::has_continuum(scene) {
-        return None;
-    }
+) -> Option<crate::analysis::adhesion::AdhesionReport> {
+    let (substrate, kappa) = scene.adhesion_substrate().ok()?;
     let v = last.reduced_volume?;
     let positions: Vec<[f64; 3]> = sim
         .resource::<DensePositions>()
@@ -125,7 +123,7 @@ fn adhesion_report(
         .iter()
         .map(|p| p.to_array())
         .collect();
-    crate::study::adhesion::measure(scene, &positions, last.area, v).ok()
+    crate::analysis::adhesion::measure((&substrate, kappa), &positions, last.area, v).ok()
 }
 
 /// The membrane model of `sim` and V_in's network moduli at its current

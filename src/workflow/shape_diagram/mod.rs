@@ -37,10 +37,11 @@
 //! Everything is staged in `DIR.incomplete` and renamed only when every
 //! point completed, so a failed diagram never looks like a result.
 
+use crate::analysis::axisymmetric::{self, Branch};
+use crate::io::summary::RunSummary;
 use crate::scene::setting::Setting;
 use crate::scene::{Scene, SceneError};
-use crate::study::axisymmetric::{self, Branch};
-use crate::workflow::run::{Progress, RunOptions, RunSummary, run_scene};
+use crate::workflow::run::{Progress, RunOptions, run_scene};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -340,7 +341,7 @@ impl ShapeDiagram {
                 scene_path.display()
             )));
         }
-        if crate::study::bending_kappa(&scene).is_none() {
+        if scene.bending_kappa().is_none() {
             return Err(err(format!(
                 "field `branches[{i}].scene`: {} has no Bending term",
                 scene_path.display()

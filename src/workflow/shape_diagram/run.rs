@@ -361,7 +361,7 @@ fn publish(
 
 /// Fills a completed point from its run's summary.
 pub(super) fn fill_point(point: &mut DiagramPoint, s: &RunSummary, scene: &Scene) {
-    let kappa = crate::study::bending_kappa(scene).unwrap_or(f64::NAN);
+    let kappa = scene.bending_kappa().unwrap_or(f64::NAN);
     let bending: f64 = s
         .last
         .energies

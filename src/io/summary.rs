@@ -1,7 +1,8 @@
 //! What `summary.json` holds: a run's status, energies, shape, remeshing
 //! and minimiser.
 
-use super::*;
+use crate::engine::schedule::SystemTiming;
+use crate::io::report::EnergyReport;
 
 /// How a run ended.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -65,9 +66,9 @@ pub struct RunSummary {
     /// The adhered vesicle against the continuum adhered vesicle: contact
     /// curvature, height and contact area (closed membranes on one plane
     /// `Adhesion` substrate, completed runs only;
-    /// [`crate::study::adhesion`]).
+    /// [`crate::analysis::adhesion`]).
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub adhesion: Option<crate::study::adhesion::AdhesionReport>,
+    pub adhesion: Option<crate::analysis::adhesion::AdhesionReport>,
     /// The exact constraints at the final state: targets, area, volume and
     /// the multipliers σ (`tension`, Ē/l̄²) and Δp (`pressure`, Ē/l̄³)
     /// (scenes with `constraints` only).

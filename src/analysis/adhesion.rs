@@ -1,9 +1,10 @@
-//! A scene's adhered vesicle against the continuum: the scene-aware side of
-//! [`crate::study::axisymmetric::contact_fit`], shared by the study's
-//! `Adhesion` problems and every run's `summary.json`.
+//! An adhered vesicle against the continuum adhered vesicle of the same
+//! area, reduced volume, κ and W: the report of
+//! [`crate::analysis::axisymmetric::contact_fit`], shared by the study's
+//! `Adhesion` problems and every run's `summary.json` (the scene gives the
+//! substrate and κ: [`crate::scene::Scene::adhesion_substrate`]).
 
-use crate::scene::Scene;
-use crate::study::axisymmetric::contact_fit::{
+use crate::analysis::axisymmetric::contact_fit::{
     ContactFitInput, compare_with_continuum, fit_contact_curvature,
 };
 use serde::{Deserialize, Serialize};
@@ -35,40 +36,17 @@ pub struct AdhesionReport {
     pub fit: String,
 }
 
-/// Whether the scene's one adhesive substrate is a plane, and its
-/// parameters at the scene's resolution with κ; `Err` says why the scene
-/// has no continuum counterpart.
-fn substrate(scene: &Scene) -> Result<(crate::energy::adhesion::AdhesionParams, f64), String> {
-    let h = match scene.resolution {
-        crate::scene::resolution::Resolution::EdgeLength(h) => h,
-        crate::scene::resolution::Resolution::FromMesh
-        | crate::scene::resolution::Resolution::Ladder { .. } => {
-            return Err("needs `resolution: EdgeLength(h)` (a ladder's rungs have one)".into());
-        }
-    };
-    let kappa = crate::study::bending_kappa(scene).ok_or("no bending term")?;
-    let adhesion =
-        crate::study::adhesion_plane(&scene.at_resolution(h)).ok_or("no plane adhesion term")?;
-    Ok((adhesion, kappa))
-}
-
-/// Whether `scene` has a continuum counterpart: one plane `Adhesion` term,
-/// a bending term and an explicit resolution.
-pub fn has_continuum(scene: &Scene) -> bool {
-    substrate(scene).is_ok()
-}
-
 /// Measures the closed vesicle `positions` (area `area`, reduced volume
-/// `v`) of `scene` against the continuum adhered vesicle. `Err` when the
-/// scene has no continuum counterpart or the continuum vesicle cannot be
-/// solved; a failed curvature fit is reported inside.
+/// `v`) on the plane substrate `adhesion`, with bending rigidity `kappa`,
+/// against the continuum adhered vesicle. `Err` when the substrate is not
+/// a plane or the continuum vesicle cannot be solved; a failed curvature
+/// fit is reported inside.
 pub fn measure(
-    scene: &Scene,
+    (adhesion, kappa): (&crate::energy::adhesion::AdhesionParams, f64),
     positions: &[[f64; 3]],
     area: f64,
     v: f64,
 ) -> Result<AdhesionReport, String> {
-    let (adhesion, kappa) = substrate(scene)?;
     let crate::energy::wall::WallShape::Plane { point, normal } = adhesion.shape else {
         return Err("the substrate is not a plane".into());
     };
