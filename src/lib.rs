@@ -81,13 +81,14 @@
 //! | stage | systems | resources written |
 //! |---|---|---|
 //! | Prepare | [`control_point_schedule`](systems::control_point_schedule) (when scheduled) | control points in [`Membrane`] |
-//! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`TermInputs`] (what is measured once for the terms: with V_in its [`VinEdgeSamples`], each edge's vector, length and V_in segment, read by the V_in force and the time step) |
-//! | Forces | `force_terms` (every term: `vin`, `bending`, `volume`, `area`, `local_tension`, `springs`, plugins' terms, each timed under its name), then [`force_total`](systems::force_total), then [`constraint_reactions`](systems::constraint_reactions) (with `constraints`) | [`ForceBuffers`] only |
+//! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in), [`vertex_normals`](systems::vertex_normals) (the fluid model) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`TermInputs`] (what is measured once for the terms: with V_in its [`VinEdgeSamples`], each edge's vector, length and V_in segment, read by the V_in force and the time step), [`VertexNormals`] |
+//! | Forces | `force_terms` (every term: `vin`, `bending`, `volume`, `area`, `local_tension`, `springs`, plugins' terms, each timed under its name), [`fluid_projection`](systems::fluid_projection) (the fluid model: the physical forces' tangential parts), then [`force_total`](systems::force_total), then [`pin_forces`](systems::pin_forces) (with held boundary vertices) and [`constraint_reactions`](systems::constraint_reactions) (with `constraints`: also the constraint gradients the minimiser uses) | [`ForceBuffers`] only |
 //! | Observe | `frame_clock`, then the recorders (`record_state_columns`, `record_force`, …) | [`FrameSchedule`], [`CurrentFrame`] |
 //! | Output | `frames` ([`FrameWriter`]: only when a run opened an output directory) | [`OpenOutput`] |
 //! | TimeStep | [`adaptive_time_step`](systems::adaptive_time_step) | [`TimeStepChoice`] |
-//! | Integrate | [`langevin_integration`](systems::langevin_integration) (fold and inside-out checks), or [`fire_minimiser`](systems::fire_minimiser) with `method: Minimise`; then [`constraint_projection`](systems::constraint_projection) (with `constraints`) | [`DensePositions`], [`Membrane`] (positions, forces), [`Clock`]; the minimiser also [`MinimiserStatus`], [`StopRequest`] |
+//! | Integrate | [`langevin_integration`](systems::langevin_integration) (fold and inside-out checks), or [`fire_minimiser`](systems::fire_minimiser) with `method: Minimise`; then [`pin_positions`](systems::pin_positions) (with held boundary vertices) and [`constraint_projection`](systems::constraint_projection) (with `constraints`) | [`DensePositions`], [`Membrane`] (positions, forces), [`Clock`]; the minimiser also [`MinimiserStatus`], [`StopRequest`] |
 //! | BarrierCheck | [`barrier_check`](systems::barrier_check) | [`AbnormalEdges`] |
+//! | Remesh | [`maintenance_flips`](systems::maintenance_flips) (the fluid model's Delaunay flips; before `remesh`) | [`Membrane`] (faces and edges only), [`MaintenanceFlipStats`] |
 //! | Remesh | [`remesh`](systems::remesh) (when declared) | [`Membrane`], [`DensePositions`], [`DenseLipid`], [`AbnormalEdges`], [`RemeshStats`], [`RemeshTriggered`] |
 //! | Remesh | [`edge_flips`](systems::edge_flips) (when declared; after `remesh`) | [`Membrane`] (faces and edges only), [`FlipStats`] |
 //! | Diffuse | [`lipid_diffusion`](systems::lipid_diffusion) (when declared), plugins' systems | [`DenseLipid`], [`Membrane`] |
@@ -96,10 +97,13 @@
 //!
 //! | plugin ([`scene::plugins`]) | resources | systems |
 //! |---|---|---|
-//! | `core` | [`Clock`], [`DensePositions`], [`DenseLipid`], [`ForceBuffers`], [`FaceGeometry`], [`TimeStepChoice`], [`DynamicsParams`], [`RemeshParams`], [`AbnormalEdges`], [`Seed`], [`CheckInvariants`] | gather, face geometry, force total, time step, integration, barrier check |
+//! | `core` | [`Clock`], [`DensePositions`], [`DenseLipid`], [`ForceBuffers`], [`FaceGeometry`], [`TimeStepChoice`], [`DynamicsParams`], [`RemeshParams`], [`AbnormalEdges`], [`Seed`], [`CheckInvariants`], [`StopRequest`]; [`MinimiserStatus`] with the minimiser | gather, face geometry, force terms, force total, time step and integration or the minimiser, barrier check |
 //! | `vin` ([`energy::vin`]) | [`VinSegmentation`], [`VinEdgeSamples`] in [`TermInputs`] | `vin_edge_samples`, term `vin` (unless the geometric baseline) |
 //! | each term's `plugin` in [`energy`] (`bending`, `volume`, `area`, `tension`, `local_tension`, `springs`, `self_avoidance`) | — | their term |
 //! | `constraints` | [`Constraints`] | `constraint_reactions`, `constraint_projection` |
+//! | `fluid` (`model: Fluid(...)`) | [`MembraneModel`], [`VertexNormals`] | `vertex_normals`, `fluid_projection` |
+//! | `maintenance_flips` (the fluid model's `flips`) | [`ValenceRange`], [`MaintenanceFlipStats`] | `maintenance_flips` |
+//! | `boundary_conditions` (open membranes' `boundary`) | [`PinnedVertices`] (when a loop is held) | `pin_forces`, `pin_positions`, term `line_tension` (when a free loop has one) |
 //! | `control_points` | control-point entities | `control_point_schedule` |
 //! | `remesh` | [`ValenceRange`], [`RemeshStats`], [`RemeshTriggered`] | `remesh` |
 //! | `edge_flips` | [`ValenceRange`], [`FlipStats`] | `edge_flips` |
@@ -146,6 +150,10 @@
 //! [`RemeshStats`]: remesh::RemeshStats
 //! [`RemeshTriggered`]: systems::remesh::RemeshTriggered
 //! [`FlipStats`]: systems::edge_flips::FlipStats
+//! [`MaintenanceFlipStats`]: systems::maintenance_flips::MaintenanceFlipStats
+//! [`VertexNormals`]: systems::vertex_normals::VertexNormals
+//! [`PinnedVertices`]: systems::pin_forces::PinnedVertices
+//! [`MembraneModel`]: params::MembraneModel
 //! [`DynamicsParams`]: params::DynamicsParams
 //! [`RemeshParams`]: params::RemeshParams
 //! [`Constraints`]: constraint::Constraints
