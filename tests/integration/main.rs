@@ -12,6 +12,7 @@ mod cli;
 mod closed_forms;
 mod control_points;
 mod diffusion;
+mod docs;
 mod dynamics;
 mod edge_flips;
 mod fluid_model;
