@@ -58,15 +58,10 @@ fn run_options(
     check_invariants: bool,
 ) -> RunOptions {
     RunOptions {
-        out,
         overwrite,
-        seed: None,
-        iterations: None,
-        frames: None,
-        from: None,
         progress,
         check_invariants,
-        checkpoint: None,
+        ..RunOptions::quiet(out)
     }
 }
 

@@ -89,14 +89,19 @@ const PROLATE_ELONGATION: f64 = 1.1;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct ShapeMetrics {
     /// Largest distance from the symmetry axis, doubled.
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub diameter: f64,
     /// Thickness along the axis at the centre (innermost 10 % of the radius).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub centre_height: f64,
     /// Largest thickness along the axis over the radius.
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub max_height: f64,
     /// centre_height / max_height (< 1: dimpled).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub centre_to_max_height: f64,
     /// Ratio of the two larger second moments (1 = axisymmetric).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub axisymmetry: f64,
     /// The classification.
     pub class: ShapeClass,

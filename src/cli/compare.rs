@@ -55,19 +55,14 @@ pub(super) fn compare_command(
     let mut rows = Vec::new();
     for ((scene, path), name) in scenes.iter().zip(&names) {
         let options = RunOptions {
-            out: dir.join(name),
-            overwrite: false,
             seed,
             iterations,
-            frames: None,
-            from: None,
             progress: if quiet {
                 Progress::Quiet
             } else {
                 Progress::Lines
             },
-            check_invariants: false,
-            checkpoint: None,
+            ..RunOptions::quiet(dir.join(name))
         };
         match run_scene(scene, path, &options, |_| Ok(())) {
             Ok(summary) => rows.push(ComparisonRow::from_summary(&summary)),

@@ -164,9 +164,11 @@ impl Gradients {
 pub struct Reactions {
     /// σ, the tension that holds the area (Ē/l̄²; 0 without an area
     /// constraint).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub tension: f64,
     /// Δp = p_in − p_out, the pressure that holds the volume (Ē/l̄³; 0
     /// without a volume constraint).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub pressure: f64,
 }
 
@@ -236,8 +238,10 @@ pub struct ConstraintState {
     /// The targets held.
     pub targets: ConstraintTargets,
     /// Area at the evaluation (l̄²).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub area: f64,
     /// Volume at the evaluation (l̄³).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub volume: f64,
     /// The multipliers removed from the force.
     pub reactions: Reactions,

@@ -14,6 +14,7 @@ pub struct TermEnergy {
     /// Term name.
     pub term: String,
     /// Energy (Ē = 10 k_BT).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub energy: f64,
 }
 
@@ -41,8 +42,10 @@ pub struct EnergyReport {
     /// Energy by term, in evaluation order.
     pub energies: Vec<TermEnergy>,
     /// Sum of all terms (Ē).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub total_energy: f64,
     /// Total area (l̄²).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub area: f64,
     /// Enclosed volume (l̄³); `None` (null in JSON) for an open membrane,
     /// which encloses none.

@@ -93,11 +93,13 @@ pub struct MinimiserSummary {
     pub converged: bool,
     /// The largest force on a vertex at the final state, constraint
     /// reactions removed (Ē/l̄).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub force_residual: f64,
     /// |ΔE| / |E| over the energy window at the end (absent until the
     /// window had filled since the last restart).
     pub energy_change: Option<f64>,
     /// The largest relative constraint violation at the end.
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub constraint_violation: f64,
     /// Restarts after topology changes.
     pub restarts: u64,

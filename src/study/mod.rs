@@ -421,15 +421,8 @@ fn run_wave(
             let case = todo[k];
             let dir = options.out.join(&case.dir);
             let opts = crate::workflow::run::RunOptions {
-                out: dir.clone(),
                 overwrite: true,
-                seed: None,
-                iterations: None,
-                frames: None,
-                from: None,
-                progress: crate::workflow::run::Progress::Quiet,
-                check_invariants: false,
-                checkpoint: None,
+                ..crate::workflow::run::RunOptions::quiet(dir.clone())
             };
             let t = std::time::Instant::now();
             let mut scene = case.scene.clone();

@@ -561,15 +561,10 @@ pub fn run_sweep_with(
             let run = todo[k];
             let (scene, from) = sweep.scene_for(sweep_path, out, &base, run)?;
             let opts = crate::workflow::run::RunOptions {
-                out: out.join(&run.dir),
                 overwrite: true,
-                seed: None,
                 iterations: options.iterations,
-                frames: None,
                 from,
-                progress: crate::workflow::run::Progress::Quiet,
-                check_invariants: false,
-                checkpoint: None,
+                ..crate::workflow::run::RunOptions::quiet(out.join(&run.dir))
             };
             let started = std::time::Instant::now();
             let mut prepared = crate::workflow::run::prepare_run(&scene, &scene_path, &opts)

@@ -55,10 +55,10 @@ fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
     ] {
         let out = dir.path().join(name);
         assert_eq!(run(&path, &out, &[]), ExitCode::SUCCESS);
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
-        assert_eq!(summary["status"], "completed");
+        assert_eq!(
+            common::summary(&out).status,
+            remembrane::io::summary::RunStatus::Completed
+        );
         let area = last(&out, "adhesion_contact_area");
         let curvature = last(&out, "adhesion_contact_curvature");
         // Adhered over more than the contact zone of a sphere touching the

@@ -169,12 +169,8 @@ fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
         &common::run_contents(&whole),
         &common::run_contents(&killed),
     );
-    let summary: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(killed.join("summary.json")).unwrap()).unwrap();
-    assert!(
-        summary["remesh"]["events"].as_u64().unwrap() > 50,
-        "the scene remeshes"
-    );
+    let summary = crate::common::summary(&killed);
+    assert!(summary.remesh.events > 50, "the scene remeshes");
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! The command line: exit codes, output, and clean errors (no panics).
 
+use remembrane::io::summary::RunStatus;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -151,11 +152,10 @@ fn run_without_a_scene_uses_the_bundled_default_and_writes_a_complete_run() {
     ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["scene"], "red_blood_cell");
-    assert_eq!(summary["status"], "completed");
-    assert_eq!(summary["iterations"], 30);
+    let summary = crate::common::summary(&out);
+    assert_eq!(summary.last.scene, "red_blood_cell");
+    assert_eq!(summary.status, RunStatus::Completed);
+    assert_eq!(summary.iterations, 30);
     // The same run again into the same directory is refused (exit 2), and
     // --overwrite replaces it.
     let again = remembrane(&["run", "--iterations", "30", "--out", out_s, "--quiet"]);

@@ -9,6 +9,7 @@ use remembrane::engine::schedule::{ScheduleBuilder, ScheduleError, Stage, System
 use remembrane::engine::simulation::{
     BuildError, Clock, DensePositions, Seed, SimError, Simulation,
 };
+use remembrane::io::summary::RunStatus;
 use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::DynamicsParams;
@@ -375,8 +376,7 @@ fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
 fn options(out: &Path) -> RunOptions {
     RunOptions {
         check_invariants: true,
-        checkpoint: None,
-        ..common::quiet_options(out)
+        ..RunOptions::quiet(out)
     }
 }
 
@@ -398,16 +398,13 @@ fn a_blow_up_is_reported_and_the_last_good_frame_kept() {
         "{msg}"
     );
     assert_eq!(err.exit_code(), 1);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["status"], "blew_up");
-    let last = summary["last_good_frame"].as_str().unwrap();
+    let summary = common::summary(&out);
+    assert_eq!(summary.status, RunStatus::BlewUp);
+    let last = summary.last_good_frame.unwrap();
     assert!(out.join(last).exists());
     // Every written frame is finite.
-    for f in summary["frames"].as_array().unwrap() {
-        assert!(common::frame_is_finite(
-            &out.join(f["file"].as_str().unwrap())
-        ));
+    for f in &summary.frames {
+        assert!(common::frame_is_finite(&out.join(&f.file)));
     }
     assert!(!dir.path().join("run.incomplete").exists());
 }
@@ -550,9 +547,7 @@ fn a_step_that_folds_the_mesh_stops_the_run_with_finite_frames_only() {
         "{msg}"
     );
     assert_eq!(err.exit_code(), 1);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["status"], "blew_up");
+    assert_eq!(common::summary(&out).status, RunStatus::BlewUp);
     // The final mesh is the last good one: no face turned over relative to
     // the initial mesh's orientation check.
     let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();

@@ -214,17 +214,14 @@ fn flipping_keeps_every_invariant_and_counts_every_proposal() {
         ]),
         std::process::ExitCode::SUCCESS
     );
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let f = &summary["edge_flips"];
-    let n = |k: &str| f[k].as_u64().unwrap();
-    assert!(n("accepted") > 100, "{f}");
+    let f = crate::common::summary(&out).edge_flips.unwrap();
+    assert!(f.accepted > 100, "{f:?}");
     assert_eq!(
-        n("proposed"),
-        n("accepted") + n("rejected_topology") + n("rejected_geometry") + n("rejected_energy")
+        f.proposed,
+        f.accepted + f.rejected_topology + f.rejected_geometry + f.rejected_energy
     );
     // 0.01 proposals per edge per tick on 1920 edges: 19.2 per tick.
-    assert!((n("proposed") as f64 - 2000.0 * 19.2).abs() < 500.0, "{f}");
+    assert!((f.proposed as f64 - 2000.0 * 19.2).abs() < 500.0, "{f:?}");
 }
 
 /// A scene with flips and an empty edge range is refused, naming the field.

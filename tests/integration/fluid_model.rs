@@ -4,6 +4,7 @@
 //! model's forces, residuals and refusals are checked on real scenes.
 
 use crate::common;
+use remembrane::workflow::run::RunOptions;
 
 use glam::DVec3;
 use remembrane::energy::vin::{Segmentation, VinParams};
@@ -138,8 +139,7 @@ fn twisted_sphere_measures_the_shear_modulus_of_each_model() {
 
 /// Runs `scene` (read from `path`) quietly into `out`.
 fn run(scene: &Scene, path: &Path, out: &Path) -> remembrane::io::summary::RunSummary {
-    remembrane::workflow::run::run_scene(scene, path, &common::quiet_options(out), |_| Ok(()))
-        .unwrap()
+    remembrane::workflow::run::run_scene(scene, path, &RunOptions::quiet(out), |_| Ok(())).unwrap()
 }
 
 /// Runs a variant of the fluid red blood cell (scene text `text`, named
@@ -304,7 +304,7 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
     assert!(text.contains("every: 1)"));
     assert!(text.contains("max_correction: 0.02,"));
     let scene = Scene::from_ron_str(&text, path).unwrap();
-    let mut options = common::quiet_options(&out.path().join("run"));
+    let mut options = RunOptions::quiet(out.path().join("run"));
     options.iterations = Some(600);
     options.check_invariants = true;
     let summary = remembrane::workflow::run::run_scene(&scene, path, &options, |_| Ok(())).unwrap();
@@ -486,8 +486,7 @@ fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     // E_b -1.9 %, Δp -2.9 %, σ -4.6 %.
     let kappa = 5.0;
     let r0 = (553.0 / (4.0 * std::f64::consts::PI)).sqrt();
-    let json = serde_json::to_value(&summary).unwrap();
-    let eb = common::term_energy(&json, "bending") / (8.0 * std::f64::consts::PI * kappa);
+    let eb = common::term_energy(&summary, "bending") / (8.0 * std::f64::consts::PI * kappa);
     assert!((eb / 1.95568 - 1.0).abs() < 0.025, "E_b/8πκ = {eb}");
     let c = summary.constraints.unwrap().reactions;
     let (dp, sigma) = (-15.667 * kappa / r0.powi(3), -4.700 * kappa / r0.powi(2));
@@ -513,7 +512,7 @@ fn fluid_red_blood_cell_holds_its_constraints_and_reports_its_model() {
     // The paper's model earns the elastic-shell caution; the fluid one not.
     assert!(model.caution.is_none());
     let paper = Path::new("scenes/minimise/red_blood_cell.ron");
-    let mut quick = common::quiet_options(&out.path().join("paper"));
+    let mut quick = RunOptions::quiet(out.path().join("paper"));
     quick.iterations = Some(5);
     let paper =
         remembrane::workflow::run::run_scene(&Scene::load(paper).unwrap(), paper, &quick, |_| {
@@ -547,8 +546,7 @@ fn a_fluid_red_blood_cell_forgets_its_first_triangulation() {
         );
         assert!(text.contains("tilt"));
         let summary = converged_cell(&text, "tilted.ron");
-        let json = serde_json::to_value(&summary).unwrap();
-        (common::term_energy(&json, "bending"), summary.shape)
+        (common::term_energy(&summary, "bending"), summary.shape)
     };
     let (e0, s0) = bending(0.0);
     let (e45, s45) = bending(45.0);
@@ -576,17 +574,13 @@ fn fluid_tether_pulls_along_the_normals_and_reports_what_it_delivers() {
     let scene = Scene::load(path).unwrap();
     let dir = out.path().join("run");
     let mut springs_sum = DVec3::ZERO;
-    let summary = remembrane::workflow::run::run_scene(
-        &scene,
-        path,
-        &common::quiet_options(&dir),
-        |_| Ok(()),
-    )
-    .unwrap();
+    let summary =
+        remembrane::workflow::run::run_scene(&scene, path, &RunOptions::quiet(&dir), |_| Ok(()))
+            .unwrap();
     assert!(summary.minimiser.as_ref().unwrap().converged);
     // The final state's springs buffer: every vertex force along its
     // normal; the top point's share (z > 0) is what force_top reports.
-    let mut opts = common::quiet_options(&out.path().join("again"));
+    let mut opts = RunOptions::quiet(out.path().join("again"));
     opts.from = Some(dir.join("state.json"));
     let mut run = remembrane::workflow::run::prepare_run(&scene, path, &opts).unwrap();
     let sim = &mut run.sim;
@@ -667,7 +661,7 @@ fn fluid_tethers_from_four_starts_meet_derenyi_julicher_prost() {
             let summary = remembrane::workflow::run::run_scene(
                 &scene,
                 path,
-                &common::quiet_options(&dir),
+                &RunOptions::quiet(&dir),
                 |_| Ok(()),
             )
             .unwrap();
@@ -724,12 +718,11 @@ fn a_resolution_ladder_continues_the_fluid_red_blood_cell_onto_a_refined_mesh() 
         std::process::ExitCode::SUCCESS
     );
     let error = |phase: &str| {
-        let text = std::fs::read_to_string(out.join(phase).join("summary.json")).unwrap();
-        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
-        assert!((json["reduced_volume"].as_f64().unwrap() - 0.6).abs() < 1e-4);
-        assert!((json["area"].as_f64().unwrap() / 553.0 - 1.0).abs() < 1e-4);
-        let eb = common::term_energy(&json, "bending") / (8.0 * std::f64::consts::PI * 5.0);
-        (json["vertices"].as_u64().unwrap(), eb / 1.95568 - 1.0)
+        let summary = common::summary(&out.join(phase));
+        assert!((summary.last.reduced_volume.unwrap() - 0.6).abs() < 1e-4);
+        assert!((summary.last.area / 553.0 - 1.0).abs() < 1e-4);
+        let eb = common::term_energy(&summary, "bending") / (8.0 * std::f64::consts::PI * 5.0);
+        (summary.last.vertices as u64, eb / 1.95568 - 1.0)
     };
     let (v1, coarse) = error("h1");
     let (v2, fine) = error("h1_2");
@@ -844,8 +837,9 @@ fn refining_the_fluid_red_blood_cell_converges_at_order_two() {
                 "force_tolerance: 1e-3",
                 &format!("force_tolerance: {tolerance}"),
             );
-        let json = serde_json::to_value(converged_cell(&text, "refined.ron")).unwrap();
-        common::term_energy(&json, "bending") / (8.0 * std::f64::consts::PI * 5.0) / 1.95568 - 1.0
+        let summary = converged_cell(&text, "refined.ron");
+        common::term_energy(&summary, "bending") / (8.0 * std::f64::consts::PI * 5.0) / 1.95568
+            - 1.0
     };
     // The force tolerance is scaled by h² (a vertex's force ∝ its area);
     // 4e-3 at h = 1/2 stops at the same 1e-3 as the bundled scene, where

@@ -17,7 +17,7 @@
 //! which runs 10^6 inputs and 10^5 remesh operations and prints the counts
 //! and times. `REMEMBRANE_FUZZ_SEED` changes the seed.
 
-use crate::common;
+use remembrane::workflow::run::RunOptions;
 
 use rand::{RngExt, SeedableRng};
 use remembrane::mesh::io::{VertexScalar, read_mesh, write_obj_to, write_ply_to};
@@ -101,7 +101,7 @@ fn checkpoint_corpus(root: &Path) -> Vec<u8> {
         remesh: (mode: FreeEnergy), diffusion: (rate: Finite(0.1)))"#;
     let scene_path = root.join("fuzz_run.ron");
     let scene = remembrane::scene::Scene::from_ron_str(text, &scene_path).unwrap();
-    let mut options = common::quiet_options(&root.join(CHECKPOINT_RUN));
+    let mut options = RunOptions::quiet(root.join(CHECKPOINT_RUN));
     options.checkpoint = Some(CheckpointSettings {
         every: 5,
         scene_text: text.into(),

@@ -3,13 +3,14 @@
 //! never writing a bad frame.
 
 use remembrane::engine::error::{FoldCause, SimError};
-use remembrane::io::summary::RunSummary;
+use remembrane::io::summary::{RunStatus, RunSummary};
 use remembrane::scene::Scene;
+use remembrane::workflow::run::RunOptions;
 use remembrane::workflow::run::{RunError, run_scene};
 use std::path::{Path, PathBuf};
 
 use crate::common;
-use common::{frame_is_finite, quiet_options, series_column};
+use common::{frame_is_finite, series_column};
 
 /// Runs `scenes/hard/NAME.ron` (for `iterations` if given, 3 frames then)
 /// into a temporary directory; returns the outcome, the scene and the run
@@ -27,7 +28,7 @@ fn run_hard(
     let scene = Scene::load(&path).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
-    let mut opts = quiet_options(&out);
+    let mut opts = RunOptions::quiet(&out);
     if iterations.is_some() {
         opts.iterations = iterations;
         opts.frames = Some(3);
@@ -38,11 +39,10 @@ fn run_hard(
 
 /// The run's summary.json, after checking that every frame it lists is
 /// finite and that the final mesh is valid.
-fn checked_summary(out: &Path) -> serde_json::Value {
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    for f in summary["frames"].as_array().unwrap() {
-        assert!(frame_is_finite(&out.join(f["file"].as_str().unwrap())));
+fn checked_summary(out: &Path) -> RunSummary {
+    let summary = common::summary(out);
+    for f in &summary.frames {
+        assert!(frame_is_finite(&out.join(&f.file)));
     }
     let mesh = remembrane::mesh::io::read_mesh(&out.join("final.ply")).unwrap();
     assert!(remembrane::mesh::check_mesh(&mesh.positions, &mesh.faces, None).is_ok());
@@ -84,38 +84,34 @@ fn thermal_noise_on_the_as_run_vin_stops_naming_the_noise_and_its_fixes() {
         1
     );
     // Every written frame is finite; the summary says how it ended.
-    assert_eq!(checked_summary(&out)["status"], "blew_up");
+    assert_eq!(checked_summary(&out).status, RunStatus::BlewUp);
 }
 
 /// Runs `scenes/hard/NAME.ron` for 3000 iterations; it must complete with
 /// every valence in the scene's range, every edge inside the remesh
 /// triggers (or the leftover reported as an unresolved tick) and no angle
 /// below `MIN_ANGLE_DEG`.
-fn completes_healthy(name: &str) -> serde_json::Value {
+fn completes_healthy(name: &str) -> RunSummary {
     completes_healthy_in(name).0
 }
 
 /// [`completes_healthy`], also returning the run directory (and the
 /// temporary directory that holds it).
-fn completes_healthy_in(name: &str) -> (serde_json::Value, tempfile::TempDir, PathBuf) {
+fn completes_healthy_in(name: &str) -> (RunSummary, tempfile::TempDir, PathBuf) {
     let (outcome, scene, dir, out) = run_hard(name, Some(3000));
     assert!(outcome.is_ok(), "{name}: {}", outcome.err().unwrap());
     let s = checked_summary(&out);
-    let q = &s["quality"];
-    println!("{name}: {q}");
-    let unresolved = s["remesh"]["unresolved_ticks"].as_u64().unwrap();
+    let q = &s.last.quality;
+    println!("{name}: {q:?}");
+    let unresolved = s.remesh.unresolved_ticks;
     let (lo, hi) = (scene.remesh.shorter_than, scene.remesh.longer_than);
     assert!(
-        unresolved > 0
-            || (q["edge_min"].as_f64().unwrap() >= lo && q["edge_max"].as_f64().unwrap() <= hi),
+        unresolved > 0 || (q.edge_min >= lo && q.edge_max <= hi),
         "{name}: an edge left outside [{lo}, {hi}] unreported"
     );
-    assert!(
-        q["min_angle_deg"].as_f64().unwrap() > MIN_ANGLE_DEG,
-        "{name}"
-    );
-    for (valence, _) in q["valence_histogram"].as_object().unwrap() {
-        let v: u32 = valence.parse().unwrap();
+    assert!(q.min_angle_deg > MIN_ANGLE_DEG, "{name}");
+    for &valence in q.valence_histogram.keys() {
+        let v = valence as u32;
         assert!(
             (scene.valence.min..=scene.valence.max).contains(&v),
             "{name}: valence {v}"
@@ -131,10 +127,7 @@ const MIN_ANGLE_DEG: f64 = 20.0;
 #[test]
 fn control_points_100_times_stiffer_than_as_run_complete_with_a_healthy_mesh() {
     let s = completes_healthy("stiff_control_points");
-    assert!(
-        s["remesh"]["split"]["success"].as_u64().unwrap() > 100,
-        "the pull grows the mesh"
-    );
+    assert!(s.remesh.split.success > 100, "the pull grows the mesh");
 }
 
 #[test]
@@ -145,13 +138,13 @@ fn a_one_second_step_cap_at_mobility_ten_thousand_completes_with_a_healthy_mesh(
 #[test]
 fn valences_limited_to_5_to_7_stay_in_range_through_remeshing() {
     let s = completes_healthy("narrow_valence");
-    assert!(s["remesh"]["merge"]["success"].as_u64().unwrap() > 50);
+    assert!(s.remesh.merge.success > 50);
 }
 
 #[test]
 fn a_sudden_deflation_to_v_0_4_completes_with_a_healthy_mesh() {
     let s = completes_healthy("sudden_deflation");
-    let v = s["reduced_volume"].as_f64().unwrap();
+    let v = s.last.reduced_volume.unwrap();
     assert!(v < 0.5, "deflated: v = {v}");
 }
 
@@ -176,7 +169,7 @@ fn bending_without_a_step_limit_stops_naming_the_drift_and_its_fixes() {
     );
     assert!(message.contains("dynamics.max_displacement") && message.contains("Vin"));
     assert!(message.contains("dynamics.bending_step_limit"));
-    assert_eq!(checked_summary(&out)["status"], "blew_up");
+    assert_eq!(checked_summary(&out).status, RunStatus::BlewUp);
 }
 
 #[test]
@@ -185,7 +178,7 @@ fn bending_with_the_stability_bound_relaxes_without_a_cap() {
     let summary = outcome.unwrap();
     assert_eq!(summary.iterations, 3000);
     let s = checked_summary(&out);
-    assert_eq!(s["status"], "completed");
+    assert_eq!(s.status, RunStatus::Completed);
     // The energy never rises (an unstable explicit step makes it grow).
     let series = remembrane::io::run_dir::Series::read(&out).unwrap();
     let (e, dt) = (
@@ -207,15 +200,15 @@ fn bending_with_the_stability_bound_relaxes_without_a_cap() {
     assert!((last[e] - 25.0136).abs() < 1e-3, "{}", last[e]);
     let steps: Vec<f64> = rows[1..].iter().map(|r| r[dt]).collect();
     assert!(steps.iter().all(|&d| d > 2e-5 && d < 6e-5), "{steps:?}");
-    assert!(s["quality"]["min_angle_deg"].as_f64().unwrap() > 45.0);
+    assert!(s.last.quality.min_angle_deg > 45.0);
 }
 
 #[test]
 fn a_thin_tether_pulled_fast_grows_by_splits_and_keeps_its_radius() {
     let (s, _dir, out) = completes_healthy_in("thin_tether_fast_pull");
-    assert_eq!(s["remesh"]["unresolved_ticks"], 0);
+    assert_eq!(s.remesh.unresolved_ticks, 0);
     // 34 moves of 0.25 l̄ in 0.034 s: the splits keep up with the pull.
-    let splits = s["remesh"]["split"]["success"].as_u64().unwrap();
+    let splits = s.remesh.split.success;
     assert!(splits > 50, "{splits} splits");
     // The tube stays a tube at about its DJP radius (1.1524 l̄) while
     // stretched by 74 %: within 10 % on every frame, no pinch.
@@ -231,14 +224,14 @@ fn thermal_noise_ten_times_300_k_with_remeshing_keeps_a_valid_mesh() {
     let (outcome, scene, _dir, out) = run_hard("thermal_noise_hot", Some(150));
     assert!(outcome.is_ok(), "{}", outcome.err().unwrap());
     let s = checked_summary(&out);
-    let q = &s["quality"];
-    assert!(q["min_angle_deg"].as_f64().unwrap() > MIN_ANGLE_DEG, "{q}");
-    for (valence, _) in q["valence_histogram"].as_object().unwrap() {
-        let v: u32 = valence.parse().unwrap();
+    let q = &s.last.quality;
+    assert!(q.min_angle_deg > MIN_ANGLE_DEG, "{q:?}");
+    for &valence in q.valence_histogram.keys() {
+        let v = valence as u32;
         assert!((scene.valence.min..=scene.valence.max).contains(&v));
     }
     // The noise keeps remeshing busy: over a thousand events in 150 ticks.
-    let events = s["remesh"]["events"].as_u64().unwrap();
+    let events = s.remesh.events;
     assert!(events > 1000, "{events} events");
 }
 
@@ -252,7 +245,7 @@ fn the_lamellipodium_rim_leaves_no_edge_unresolved() {
     let scene = Scene::load(&path).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
-    let mut opts = quiet_options(&out);
+    let mut opts = RunOptions::quiet(&out);
     opts.frames = Some(2);
     let summary = run_scene(&scene, &path, &opts, |_| Ok(())).unwrap();
     println!("{:?}", summary.remesh);
@@ -287,7 +280,7 @@ fn walls_pressed_together_stay_apart_with_a_healthy_mesh() {
     let scene = Scene::from_ron_str(&text.replace(term, ""), &path).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let bare = dir.path().join("run");
-    run_scene(&scene, &path, &quiet_options(&bare), |_| Ok(())).unwrap();
+    run_scene(&scene, &path, &RunOptions::quiet(&bare), |_| Ok(())).unwrap();
     let without = common::closest_non_neighbours(&bare);
     println!("closest non-neighbours: {with:.3} l̄ with self-avoidance, {without:.3} l̄ without");
     // Measured (seed 1): 0.560 l̄ with, 0.153 l̄ without.

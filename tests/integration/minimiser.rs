@@ -5,6 +5,9 @@
 //! minimisation checkpointed and resumed, and the scene checks.
 
 use crate::common;
+use remembrane::analysis::shape::ShapeClass;
+use remembrane::io::summary::{RunStatus, RunSummary};
+use remembrane::workflow::run::RunOptions;
 
 use glam::DVec3;
 use remembrane::constraint::{
@@ -120,8 +123,8 @@ fn scene_from(text: &str) -> Scene {
     Scene::from_ron_str(text, Path::new("test.ron")).unwrap()
 }
 
-fn summary_of(dir: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
+fn summary_of(dir: &Path) -> RunSummary {
+    common::summary(dir)
 }
 
 /// A sphere under a tension term with its volume held exactly: the
@@ -146,15 +149,16 @@ fn a_sphere_under_tension_with_its_volume_held_obeys_laplace() {
         run_scene(
             &scene,
             Path::new("laplace.ron"),
-            &common::quiet_options(&out),
+            &RunOptions::quiet(&out),
             |_| Ok(()),
         )
         .unwrap();
         let s = summary_of(&out);
-        assert_eq!(s["minimiser"]["converged"], true, "{s}");
-        let volume = s["constraints"]["volume"].as_f64().unwrap();
+        assert!(s.minimiser.as_ref().unwrap().converged, "{s:?}");
+        let c = s.constraints.unwrap();
+        let volume = c.volume;
         let radius = (3.0 * volume / (4.0 * std::f64::consts::PI)).cbrt();
-        let pressure = s["constraints"]["reactions"]["pressure"].as_f64().unwrap();
+        let pressure = c.reactions.pressure;
         let laplace = 2.0 * sigma / radius;
         // The discrete sphere's |∇A|/|∇V| differs from 2/R by its faceting
         // (0.2 % at 642 vertices); bending adds nothing on a sphere.
@@ -162,7 +166,7 @@ fn a_sphere_under_tension_with_its_volume_held_obeys_laplace() {
             (pressure / laplace - 1.0).abs() < 5e-3,
             "σ = {sigma}, {metric}: Δp = {pressure}, 2σ/R = {laplace}"
         );
-        assert_eq!(s["constraints"]["reactions"]["tension"], 0.0);
+        assert_eq!(c.reactions.tension, 0.0);
     }
 }
 
@@ -257,11 +261,11 @@ fn the_bundled_red_blood_cell_minimises_to_a_discocyte_at_v_0_6() {
     let scene = Scene::load(&path).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("rbc");
-    run_scene(&scene, &path, &common::quiet_options(&out), |_| Ok(())).unwrap();
+    run_scene(&scene, &path, &RunOptions::quiet(&out), |_| Ok(())).unwrap();
     let s = summary_of(&out);
-    assert_eq!(s["minimiser"]["converged"], true, "{}", s["minimiser"]);
-    let v = s["reduced_volume"].as_f64().unwrap();
-    let area = s["area"].as_f64().unwrap();
+    assert!(s.minimiser.as_ref().unwrap().converged, "{:?}", s.minimiser);
+    let v = s.last.reduced_volume.unwrap();
+    let area = s.last.area;
     assert!((v - 0.6).abs() < 1e-4, "v = {v}");
     assert!((area / 553.0 - 1.0).abs() < 1e-4, "A = {area}");
     let reduced = common::term_energy(&s, "bending") / (8.0 * std::f64::consts::PI * 5.0);
@@ -269,12 +273,12 @@ fn the_bundled_red_blood_cell_minimises_to_a_discocyte_at_v_0_6() {
         (reduced / 1.95568 - 1.0).abs() < 0.02,
         "E_b/8πκ = {reduced}"
     );
-    assert_eq!(s["shape"]["class"], "discocyte");
+    assert_eq!(s.shape.class, ShapeClass::Discocyte);
     // The multipliers are in the series too.
     let tension = common::series_column(&out, "tension");
     assert_eq!(
         *tension.last().unwrap(),
-        s["constraints"]["reactions"]["tension"].as_f64().unwrap()
+        s.constraints.unwrap().reactions.tension
     );
 }
 
@@ -295,12 +299,12 @@ fn a_badly_shaped_start_relaxes_without_folding() {
     );
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("flat");
-    let mut options = common::quiet_options(&out);
+    let mut options = RunOptions::quiet(&out);
     options.check_invariants = true;
     run_scene(&scene, Path::new("flat.ron"), &options, |_| Ok(())).unwrap();
     let s = summary_of(&out);
-    assert_eq!(s["status"], "completed");
-    assert!(s["minimiser"]["constraint_violation"].as_f64().unwrap() < 1e-9);
+    assert_eq!(s.status, RunStatus::Completed);
+    assert!(s.minimiser.as_ref().unwrap().constraint_violation < 1e-9);
     let energy = common::series_column(&out, "energy_total");
     assert!(
         energy.last().unwrap() < &(0.8 * energy[0]),
@@ -308,9 +312,9 @@ fn a_badly_shaped_start_relaxes_without_folding() {
         energy[0],
         energy.last().unwrap()
     );
-    assert!(s["remesh"]["events"].as_u64().unwrap() > 10);
+    assert!(s.remesh.events > 10);
     assert!(common::frame_is_finite(
-        &out.join(s["last_good_frame"].as_str().unwrap())
+        &out.join(s.last_good_frame.unwrap())
     ));
 }
 
@@ -374,10 +378,10 @@ fn interrupted_and_resumed(text: &str, cut_at: u32, preconditioned: bool) {
     std::fs::write(&path, text).unwrap();
     let scene = Scene::load(&path).unwrap();
     let whole = tmp.path().join("whole");
-    run_scene(&scene, &path, &common::quiet_options(&whole), |_| Ok(())).unwrap();
+    run_scene(&scene, &path, &RunOptions::quiet(&whole), |_| Ok(())).unwrap();
 
     let cut = tmp.path().join("cut");
-    let mut options = common::quiet_options(&cut);
+    let mut options = RunOptions::quiet(&cut);
     options.checkpoint = Some(CheckpointSettings {
         every: 100,
         scene_text: text.to_string(),
@@ -403,15 +407,15 @@ fn interrupted_and_resumed(text: &str, cut_at: u32, preconditioned: bool) {
         assert!(bytes == &b[file], "{} differs", file.display());
     }
     let summary = summary_of(&whole);
-    assert!(
-        summary["remesh"]["events"].as_u64().unwrap() > 0,
-        "{summary}"
-    );
+    assert!(summary.remesh.events > 0, "{:?}", summary.remesh);
     if preconditioned {
         // Every 30 iterations and after each restart.
-        let builds = summary["minimiser"]["factorisations"].as_u64().unwrap();
-        let restarts = summary["minimiser"]["restarts"].as_u64().unwrap();
-        assert!(restarts > 0 && builds > restarts, "{summary}");
+        let m = summary.minimiser.unwrap();
+        let (builds, restarts) = (m.factorisations, m.restarts);
+        assert!(
+            restarts > 0 && builds > restarts,
+            "{builds} builds, {restarts} restarts"
+        );
     }
 }
 
@@ -489,12 +493,12 @@ fn springs_pulling_a_constrained_vesicle_balance_at_equilibrium() {
     run_scene(
         &scene,
         Path::new("pulled.ron"),
-        &common::quiet_options(&out),
+        &RunOptions::quiet(&out),
         |_| Ok(()),
     )
     .unwrap();
     let s = summary_of(&out);
-    assert_eq!(s["minimiser"]["converged"], true, "{}", s["minimiser"]);
+    assert!(s.minimiser.as_ref().unwrap().converged, "{:?}", s.minimiser);
     let left = *common::series_column(&out, "force_left_x").last().unwrap();
     let right = *common::series_column(&out, "force_right_x").last().unwrap();
     assert!(left < -1e-3 && right > 1e-3, "{left}, {right}");
@@ -519,13 +523,13 @@ fn overdamped_dynamics_hold_the_constraints_exactly() {
     run_scene(
         &scene,
         Path::new("overdamped.ron"),
-        &common::quiet_options(&out),
+        &RunOptions::quiet(&out),
         |_| Ok(()),
     )
     .unwrap();
     let s = summary_of(&out);
-    assert!(s.get("minimiser").is_none());
-    let target = s["constraints"]["targets"]["volume"].as_f64().unwrap();
+    assert!(s.minimiser.is_none());
+    let target = s.constraints.unwrap().targets.volume.unwrap();
     let volumes = common::series_column(&out, "volume");
     // The first frame is the initial mesh; every later one holds the target.
     for v in &volumes[1..] {
@@ -573,7 +577,7 @@ fn a_minimiser_waits_at_rest_for_each_scheduled_change() {
         .replace("frames: 20)", "frames: 400)");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("stepped");
-    let options = common::quiet_options(&out);
+    let options = RunOptions::quiet(&out);
     run_scene(
         &scene_from(&stepped),
         Path::new("test.ron"),
@@ -582,8 +586,12 @@ fn a_minimiser_waits_at_rest_for_each_scheduled_change() {
     )
     .unwrap();
     let s = summary_of(&out);
-    assert_eq!(s["minimiser"]["stopped_by"], "force_residual", "{s}");
-    let iterations = s["iterations"].as_u64().unwrap();
+    assert_eq!(
+        s.minimiser.as_ref().unwrap().stopped_by,
+        "force_residual",
+        "{s:?}"
+    );
+    let iterations = s.iterations;
     // It went on past the last change (iteration 3000), not past the rest
     // that followed it.
     assert!((3001..4000).contains(&iterations), "{iterations}");
@@ -727,7 +735,7 @@ fn a_preconditioned_minimisation_holds_the_constraints_after_every_iteration() {
     run_scene(
         &scene,
         Path::new("held.ron"),
-        &common::quiet_options(&out),
+        &RunOptions::quiet(&out),
         |_| Ok(()),
     )
     .unwrap();
@@ -746,10 +754,7 @@ fn a_preconditioned_minimisation_holds_the_constraints_after_every_iteration() {
     }
     assert!(rows >= 40, "{rows} rows");
     let s = summary_of(&out);
-    assert!(
-        s["minimiser"]["factorisations"].as_u64().unwrap() >= 1,
-        "{s}"
-    );
+    assert!(s.minimiser.unwrap().factorisations >= 1);
 }
 
 /// The bundled fluid red blood cell with only its start and target changed
@@ -780,29 +785,17 @@ fn a_prolate_flow_converges_with_the_fluid_remeshing_defaults() {
     run_scene(
         &scene,
         Path::new("prolate.ron"),
-        &common::quiet_options(&out),
+        &RunOptions::quiet(&out),
         |_| Ok(()),
     )
     .unwrap();
     let s = summary_of(&out);
-    assert_eq!(
-        s["minimiser"]["stopped_by"], "force_residual",
-        "{}",
-        s["minimiser"]
-    );
-    assert_eq!(s["shape"]["class"], "prolate");
-    let r = &s["remesh"]["relax_iterations"];
-    let spent: f64 = [
-        "pre_success",
-        "pre_cancel",
-        "pre_failure",
-        "post",
-        "push_back",
-    ]
-    .iter()
-    .map(|k| r[k].as_f64().unwrap())
-    .sum();
-    let events = s["remesh"]["events"].as_f64().unwrap();
+    let m = s.minimiser.as_ref().unwrap();
+    assert_eq!(m.stopped_by, "force_residual", "{m:?}");
+    assert_eq!(s.shape.class, ShapeClass::Prolate);
+    let r = &s.remesh.relax_iterations;
+    let spent = (r.pre_success + r.pre_cancel + r.pre_failure + r.post + r.push_back) as f64;
+    let events = s.remesh.events as f64;
     assert!(events > 10.0, "{events} events: the flow must remesh");
     assert!(
         spent <= 300.0 * 4.0 * events,

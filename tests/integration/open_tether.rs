@@ -57,9 +57,8 @@ fn a_tether_pulled_from_a_patch_overshoots_then_settles_on_the_djp_plateau() {
     assert!((median / f0 - 1.0).abs() < 0.01, "plateau {median} vs {f0}");
     // At rest after the pull, 45 l̄ high: force −0.24 %, radius over the
     // tube's middle (z = 16-36 l̄) −0.06 %.
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["minimiser"]["stopped_by"], "force_residual");
+    let summary = crate::common::summary(&out);
+    assert_eq!(summary.minimiser.unwrap().stopped_by, "force_residual");
     let (f, r) = (*force.last().unwrap(), *radius.last().unwrap());
     assert!((f / f0 - 1.0).abs() < 0.01, "force {f} vs {f0}");
     assert!((r / r0 - 1.0).abs() < 0.02, "radius {r} vs {r0}");

@@ -406,14 +406,13 @@ fn main_with_runs_a_scene_declaring_a_plugin_and_rejects_unknown_ones() {
         "--quiet".as_ref(),
     ];
     assert_eq!(main_with_args(registry(), args), ExitCode::SUCCESS);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let t = summary["simulated_time"].as_f64().unwrap();
-    let energies: Vec<&str> = summary["energies"]
-        .as_array()
-        .unwrap()
+    let summary = crate::common::summary(&out);
+    let t = summary.simulated_time;
+    let energies: Vec<&str> = summary
+        .last
+        .energies
         .iter()
-        .map(|e| e["term"].as_str().unwrap())
+        .map(|e| e.term.as_str())
         .collect();
     assert_eq!(energies, ["bending", "uniform_field"]);
     let initial =
@@ -484,22 +483,16 @@ impl remembrane::engine::recorder::Recorder for Height {
 
 #[test]
 fn a_recorder_adds_a_column_and_point_data_and_frames_reuse_the_ticks_forces() {
-    use remembrane::workflow::run::{Progress, RunOptions, run_scene};
+    use remembrane::workflow::run::{RunOptions, run_scene};
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("field.ron");
     std::fs::write(&path, SCENE).unwrap();
     let scene = Scene::load(&path).unwrap();
     let out = dir.path().join("run");
     let options = RunOptions {
-        out: out.clone(),
-        overwrite: false,
-        seed: None,
         iterations: Some(100),
         frames: Some(10),
-        from: None,
-        progress: Progress::Quiet,
-        check_invariants: false,
-        checkpoint: None,
+        ..RunOptions::quiet(&out)
     };
     let calls = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     let counter = calls.clone();

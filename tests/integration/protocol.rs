@@ -4,6 +4,7 @@
 //! result.
 
 use crate::common;
+use remembrane::io::summary::RunStatus;
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -291,18 +292,18 @@ fn a_protocol_minimises_then_runs_dynamics_from_the_equilibrium() {
         cli(&[&"run", &protocol, &"--out", &out_s, &"--quiet"]),
         ExitCode::SUCCESS
     );
-    let summary = |phase: &str| -> serde_json::Value {
-        serde_json::from_slice(&bytes(out.join(phase).join("summary.json"))).unwrap()
-    };
-    let (relaxed, moved) = (summary("minimise"), summary("dynamics"));
-    assert_eq!(relaxed["minimiser"]["converged"], true);
+    let (relaxed, moved) = (
+        common::summary(&out.join("minimise")),
+        common::summary(&out.join("dynamics")),
+    );
+    assert!(relaxed.minimiser.as_ref().unwrap().converged);
     // The dynamics starts exactly where the minimiser ended.
     let first = |column: &str| common::series_column(&out.join("dynamics"), column)[0];
     let relaxed_bending = common::term_energy(&relaxed, "bending");
     assert!((first("energy_bending") / relaxed_bending - 1.0).abs() < 1e-12);
     assert!((first("reduced_volume") - 0.6).abs() < 1e-12);
-    assert_eq!(moved["status"], "completed");
-    assert_eq!(moved["iterations"], 300);
+    assert_eq!(moved.status, RunStatus::Completed);
+    assert_eq!(moved.iterations, 300);
 }
 
 #[test]

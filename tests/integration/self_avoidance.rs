@@ -7,6 +7,7 @@ use remembrane::energy::self_avoidance::{CellList, self_avoidance, self_avoidanc
 use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::scene::Scene;
+use remembrane::workflow::run::RunOptions;
 use std::path::Path;
 
 use crate::common;
@@ -61,9 +62,7 @@ fn deflate(self_avoidance: bool, dir: &Path) -> f64 {
     let scene = Scene::load(&path).unwrap();
     let out = dir.join(format!("run_{self_avoidance}"));
     let summary =
-        remembrane::workflow::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| {
-            Ok(())
-        });
+        remembrane::workflow::run::run_scene(&scene, &path, &RunOptions::quiet(&out), |_| Ok(()));
     assert!(summary.is_ok(), "{:?}", summary.err());
     common::closest_non_neighbours(&out)
 }

@@ -4,7 +4,7 @@
 use remembrane::io::state::SavedState;
 use remembrane::mesh::components::{ControlPoint, ControlPointIndex};
 use remembrane::scene::Scene;
-use remembrane::workflow::run::{Progress, RunOptions, run_scene};
+use remembrane::workflow::run::{RunOptions, run_scene};
 use std::path::{Path, PathBuf};
 
 use crate::common;
@@ -12,15 +12,11 @@ use common::series_column;
 
 fn options(out: &Path, iterations: u64, from: Option<PathBuf>) -> RunOptions {
     RunOptions {
-        out: out.to_path_buf(),
-        overwrite: false,
-        seed: None,
         iterations: Some(iterations),
         frames: Some(2),
         from,
-        progress: Progress::Quiet,
         check_invariants: true,
-        checkpoint: None,
+        ..RunOptions::quiet(out)
     }
 }
 

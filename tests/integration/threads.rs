@@ -11,6 +11,7 @@
 //! bit.
 
 use crate::common;
+use remembrane::workflow::run::RunOptions;
 
 use remembrane::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -65,7 +66,7 @@ fn run_on_1_2_and_3_threads(scene: &Scene, path: &Path, iterations: u64) -> Vec<
     let mut runs = Vec::new();
     for threads in [1, 2, 3] {
         let out = root.path().join(format!("threads_{threads}"));
-        let mut opts = common::quiet_options(&out);
+        let mut opts = RunOptions::quiet(&out);
         opts.iterations = Some(iterations);
         opts.frames = Some(2);
         let pool = rayon::ThreadPoolBuilder::new()

@@ -9,6 +9,8 @@
 //! a stronger adhesion. (The forces'
 //! finite-difference checks are in `energy/wall.rs` and `energy/adhesion.rs`.)
 
+use remembrane::io::summary::RunStatus;
+use remembrane::workflow::run::RunOptions;
 use std::path::Path;
 use std::process::ExitCode;
 
@@ -45,14 +47,11 @@ fn the_confined_vesicle_rests_on_its_wall_without_crossing_it() {
     assert!(volume[last] > volume[0] + 15.0, "{volume:?}");
     // At rest: the minimiser stopped on its force tolerance, so on every
     // vertex the wall's push balances the membrane's load.
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["status"], "completed");
-    assert_eq!(
-        summary["minimiser"]["stopped_by"], "force_residual",
-        "{summary}"
-    );
-    let frame = out.join(summary["last_good_frame"].as_str().unwrap());
+    let summary = crate::common::summary(&out);
+    assert_eq!(summary.status, RunStatus::Completed);
+    let m = summary.minimiser.as_ref().unwrap();
+    assert_eq!(m.stopped_by, "force_residual", "{m:?}");
+    let frame = out.join(summary.last_good_frame.unwrap());
     let text = std::fs::read_to_string(&frame).unwrap();
     assert!(
         text.contains("Name=\"wall_distance\""),
@@ -81,7 +80,7 @@ fn a_wall_through_the_initial_membrane_is_refused_before_anything_is_written() {
     .unwrap();
     let out = dir.path().join("out");
     let scene = remembrane::scene::Scene::load(&path).unwrap();
-    let options = common::quiet_options(&out);
+    let options = RunOptions::quiet(&out);
     let err =
         remembrane::workflow::run::run_scene(&scene, &path, &options, |_| Ok(())).unwrap_err();
     let msg = err.to_string();
@@ -123,10 +122,8 @@ fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
     .unwrap();
     let out = dir.join(format!("w{w}"));
     let summary =
-        remembrane::workflow::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| {
-            Ok(())
-        })
-        .unwrap();
+        remembrane::workflow::run::run_scene(&scene, &path, &RunOptions::quiet(&out), |_| Ok(()))
+            .unwrap();
     let m = summary.minimiser.expect("minimised");
     assert_eq!(m.stopped_by, "force_residual", "W = {w}");
     // summary.json compares the vesicle with the continuum adhered vesicle
@@ -194,10 +191,8 @@ fn confined_fluid_at(h: f64, dir: &Path) -> [f64; 5] {
     .unwrap();
     let out = dir.join(format!("h{h}"));
     let summary =
-        remembrane::workflow::run::run_scene(&scene, &path, &common::quiet_options(&out), |_| {
-            Ok(())
-        })
-        .unwrap();
+        remembrane::workflow::run::run_scene(&scene, &path, &RunOptions::quiet(&out), |_| Ok(()))
+            .unwrap();
     let m = summary.minimiser.expect("minimised");
     assert_eq!(m.stopped_by, "force_residual", "h = {h}");
     let min_distance = common::series_column(&out, "wall_min_distance");

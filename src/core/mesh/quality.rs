@@ -9,14 +9,19 @@ use std::collections::BTreeMap;
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct MeshQuality {
     /// Shortest edge (l̄).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub edge_min: f64,
     /// Mean edge length (l̄).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub edge_mean: f64,
     /// Longest edge (l̄).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub edge_max: f64,
     /// Sample standard deviation of edge lengths (l̄).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub edge_std: f64,
     /// Smallest interior angle of any face (degrees).
+    #[serde(deserialize_with = "crate::util::validate::number_or_nan")]
     pub min_angle_deg: f64,
     /// Number of vertices with each valence.
     #[serde(deserialize_with = "valence_keys")]

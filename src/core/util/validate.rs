@@ -1,4 +1,5 @@
-//! Field validators for scene deserialization. Used with
+//! Field validators for deserialization (scenes; and numbers a run summary
+//! may have written as `null`). Used with
 //! `#[serde(deserialize_with = ...)]`, they fail while the value is being
 //! parsed, so RON reports the exact line and column of the bad value.
 
@@ -102,4 +103,12 @@ pub fn checked<'de, D: Deserializer<'de>, T: Deserialize<'de> + Validate>(
     let v = T::deserialize(d)?;
     v.validate().map_err(D::Error::custom)?;
     Ok(v)
+}
+
+/// A number that may have been written as `null`: JSON has no NaN or
+/// infinity, so serde_json writes a non-finite f64 as `null` (a run that
+/// blew up reports its last energies, area and mesh quality so). Read back,
+/// `null` is NaN, so such a file reads whole instead of failing.
+pub fn number_or_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }

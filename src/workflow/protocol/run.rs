@@ -135,15 +135,14 @@ fn phase_run_options(
                 scene_text: scene.to_ron_string().unwrap_or_default(),
             });
     RunOptions {
-        out: out.to_path_buf(),
         overwrite: true,
-        seed: None,
         iterations: options.iterations,
         frames: options.frames,
         from,
         progress: options.progress,
         check_invariants: options.check_invariants,
         checkpoint,
+        ..RunOptions::quiet(out)
     }
 }
 

@@ -69,6 +69,25 @@ pub struct RunOptions {
     pub checkpoint: Option<CheckpointSettings>,
 }
 
+impl RunOptions {
+    /// A run into `out` with the scene's own settings, no progress output,
+    /// no invariant checks and no checkpoints: write the fields that differ
+    /// as `RunOptions { iterations: Some(n), ..RunOptions::quiet(out) }`.
+    pub fn quiet(out: impl Into<PathBuf>) -> Self {
+        Self {
+            out: out.into(),
+            overwrite: false,
+            seed: None,
+            iterations: None,
+            frames: None,
+            from: None,
+            progress: Progress::Quiet,
+            check_invariants: false,
+            checkpoint: None,
+        }
+    }
+}
+
 /// Checkpointing of a run (see [`crate::io::checkpoint`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CheckpointSettings {

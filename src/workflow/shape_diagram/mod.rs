@@ -41,7 +41,7 @@ use crate::analysis::axisymmetric::{self, Branch};
 use crate::io::summary::RunSummary;
 use crate::scene::setting::Setting;
 use crate::scene::{Scene, SceneError};
-use crate::workflow::run::{Progress, RunOptions, run_scene};
+use crate::workflow::run::{RunOptions, run_scene};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

@@ -275,15 +275,10 @@ fn run_walk(
             continue;
         }
         let run_options = RunOptions {
-            out: dir.clone(),
             overwrite: true,
-            seed: None,
             iterations: options.iterations,
-            frames: None,
             from: from.clone(),
-            progress: Progress::Quiet,
-            check_invariants: false,
-            checkpoint: None,
+            ..RunOptions::quiet(dir.clone())
         };
         match run_scene(scene, &w.scene_path, &run_options, |_| Ok(())) {
             Ok(summary) => {

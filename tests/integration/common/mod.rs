@@ -1,8 +1,8 @@
 //! Helpers shared by the integration tests.
 
 use glam::DVec3;
+use remembrane::io::summary::RunSummary;
 use remembrane::mesh::SurfaceMesh;
-use remembrane::workflow::run::{Progress, RunOptions};
 use std::path::Path;
 
 /// `path` in the repository (relative to its root).
@@ -13,22 +13,6 @@ pub fn repo(path: impl AsRef<Path>) -> std::path::PathBuf {
 /// The bundled scene `scenes/<name>`.
 pub fn scene(name: &str) -> std::path::PathBuf {
     repo("scenes").join(name)
-}
-
-/// Run options writing into `out`: the scene's iterations and frames, no
-/// progress output, no extra invariant checks.
-pub fn quiet_options(out: &Path) -> RunOptions {
-    RunOptions {
-        out: out.to_path_buf(),
-        overwrite: false,
-        seed: None,
-        iterations: None,
-        frames: None,
-        from: None,
-        progress: Progress::Quiet,
-        check_invariants: false,
-        checkpoint: None,
-    }
 }
 
 /// Runs the CLI in process, as `remembrane ARGS…` would from a shell,
@@ -112,15 +96,20 @@ pub fn closest_non_neighbours(out: &Path) -> f64 {
 }
 
 /// The energy of term `term` in a run's `summary.json` (Ē).
-pub fn term_energy(summary: &serde_json::Value, term: &str) -> f64 {
-    summary["energies"]
-        .as_array()
-        .unwrap()
+pub fn term_energy(summary: &RunSummary, term: &str) -> f64 {
+    summary
+        .last
+        .energies
         .iter()
-        .find(|e| e["term"] == term)
-        .unwrap_or_else(|| panic!("no term {term} in the summary"))["energy"]
-        .as_f64()
-        .unwrap()
+        .find(|e| e.term == term)
+        .unwrap_or_else(|| panic!("no term {term} in the summary"))
+        .energy
+}
+
+/// The typed `summary.json` of the run in `dir` (a renamed or missing field
+/// fails here, naming the file and the field).
+pub fn summary(dir: &Path) -> RunSummary {
+    RunSummary::read(dir).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The total lipid density Σρ of a membrane, summed in sorted order (the
