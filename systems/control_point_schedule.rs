@@ -193,19 +193,22 @@ impl System for ControlPointSchedule {
         Some(serde_json::json!({ "next_time": next }))
     }
 
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), remembrane_core::engine::error::StateError> {
         let next: Vec<Option<f64>> = state
             .get("next_time")
             .cloned()
             .map(serde_json::from_value)
-            .ok_or("no `next_time`")?
-            .map_err(|e| e.to_string())?;
+            .ok_or("no `next_time`")??;
         if next.len() != self.next_time.len() {
             return Err(format!(
                 "{} scheduled changes saved, the scene has {}",
                 next.len(),
                 self.next_time.len()
-            ));
+            )
+            .into());
         }
         self.next_time = next
             .into_iter()

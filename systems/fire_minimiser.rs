@@ -491,8 +491,11 @@ impl System for FireMinimiser {
         serde_json::to_value(&self.state).ok()
     }
 
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
-        self.state = serde_json::from_value(state).map_err(|e| e.to_string())?;
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), remembrane_core::engine::error::StateError> {
+        self.state = serde_json::from_value(state)?;
         if let Some(m) = &mut self.metric {
             m.sobolev.clear();
         }

@@ -181,7 +181,10 @@ impl Recorder for TubeRadius {
         Some(serde_json::json!({ "first": self.first.filter(|r| r.is_finite()) }))
     }
 
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         match state.get("first") {
             Some(serde_json::Value::Null) => self.first = None,
             Some(v) => self.first = Some(v.as_f64().ok_or("`first` is not a number")?),

@@ -554,7 +554,10 @@ impl ForceTerm for GrowingField {
     fn save_state(&self) -> Option<serde_json::Value> {
         Some(serde_json::json!(self.evaluations))
     }
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), remembrane::engine::error::StateError> {
         self.evaluations = state.as_u64().ok_or("expected a count")?;
         Ok(())
     }

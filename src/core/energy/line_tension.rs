@@ -149,10 +149,12 @@ impl ForceTerm for LineTensionForces {
         Some(serde_json::json!({ "tracked": tracked }))
     }
 
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         let tracked: Option<Vec<Vec<u64>>> =
-            serde_json::from_value(state.get("tracked").cloned().ok_or("no `tracked`")?)
-                .map_err(|e| e.to_string())?;
+            serde_json::from_value(state.get("tracked").cloned().ok_or("no `tracked`")?)?;
         self.tracked = match tracked {
             None => None,
             Some(t) if t.len() == self.loops.len() => Some(
@@ -169,7 +171,8 @@ impl ForceTerm for LineTensionForces {
                     "{} line-tension loops saved, the scene has {}",
                     t.len(),
                     self.loops.len()
-                ));
+                )
+                .into());
             }
         };
         self.edges_for = None;

@@ -1,9 +1,37 @@
 //! The engine's errors: a run that cannot continue ([`SimError`]), a plugin
 //! that cannot be added ([`BuildError`]), a schedule that cannot run
-//! ([`ScheduleError`]).
+//! ([`ScheduleError`]), a checkpointed state that does not fit
+//! ([`StateError`]).
 
 use crate::engine::resources::ResourceId;
 use crate::mesh::topology::TopologyError;
+
+/// Why `restore_state` could not give a system, force term or recorder
+/// its checkpointed state back.
+#[derive(Debug, thiserror::Error)]
+pub enum StateError {
+    /// It keeps no state, yet the checkpoint holds one for it.
+    #[error("it keeps no state")]
+    Stateless,
+    /// The saved value does not deserialize into its state.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// A field is missing or does not fit (the reason names the field).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<&str> for StateError {
+    fn from(reason: &str) -> Self {
+        StateError::Invalid(reason.to_string())
+    }
+}
+
+impl From<String> for StateError {
+    fn from(reason: String) -> Self {
+        StateError::Invalid(reason)
+    }
+}
 
 /// A run cannot continue.
 #[derive(Debug, thiserror::Error)]

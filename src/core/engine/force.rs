@@ -175,9 +175,12 @@ pub trait ForceTerm: Send {
         None
     }
     /// Takes back what `save_state` returned (on resuming a run).
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         let _ = state;
-        Err("this force term keeps no state".into())
+        Err(crate::engine::error::StateError::Stateless)
     }
 }
 
@@ -471,7 +474,10 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     fn save_state(&self) -> Option<serde_json::Value> {
         (**self).save_state()
     }
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         (**self).restore_state(state)
     }
 }

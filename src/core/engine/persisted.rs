@@ -127,7 +127,7 @@ pub fn save_named<'a>(
 pub fn restore_named<T>(
     parts: &mut [T],
     name: impl Fn(usize, &T) -> String,
-    mut restore: impl FnMut(&mut T, serde_json::Value) -> Result<(), String>,
+    mut restore: impl FnMut(&mut T, serde_json::Value) -> Result<(), crate::engine::error::StateError>,
     state: serde_json::Value,
 ) -> Result<(), String> {
     let serde_json::Value::Object(map) = state else {

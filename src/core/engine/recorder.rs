@@ -56,9 +56,12 @@ pub trait Recorder: Send + 'static {
         None
     }
     /// Takes back what `save_state` returned (on resuming a run).
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         let _ = state;
-        Err("this recorder keeps no state".into())
+        Err(crate::engine::error::StateError::Stateless)
     }
 }
 
@@ -96,7 +99,10 @@ impl<R: Recorder> System for RecorderSystem<R> {
         self.recorder.save_state()
     }
 
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         self.recorder.restore_state(state)
     }
 }

@@ -163,9 +163,12 @@ pub trait System: Send + 'static {
         None
     }
     /// Takes back what `save_state` returned (on resuming a run).
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         let _ = state;
-        Err("this system keeps no state".into())
+        Err(crate::engine::error::StateError::Stateless)
     }
 }
 
@@ -190,9 +193,12 @@ pub trait DynamicSystem: Send + 'static {
         None
     }
     /// Takes back what `save_state` returned (on resuming a run).
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         let _ = state;
-        Err("this system keeps no state".into())
+        Err(crate::engine::error::StateError::Stateless)
     }
 }
 
@@ -205,7 +211,10 @@ pub(crate) trait ErasedSystem: Send {
         Vec::new()
     }
     fn save_state(&self) -> Option<serde_json::Value>;
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String>;
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError>;
 }
 
 pub(crate) struct Typed<S>(pub S);
@@ -214,7 +223,10 @@ impl<S: System> ErasedSystem for Typed<S> {
     fn save_state(&self) -> Option<serde_json::Value> {
         self.0.save_state()
     }
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         self.0.restore_state(state)
     }
     fn name(&self) -> &str {
@@ -245,7 +257,10 @@ impl<S: DynamicSystem> ErasedSystem for Dynamic<S> {
     fn save_state(&self) -> Option<serde_json::Value> {
         self.0.save_state()
     }
-    fn restore_state(&mut self, state: serde_json::Value) -> Result<(), String> {
+    fn restore_state(
+        &mut self,
+        state: serde_json::Value,
+    ) -> Result<(), crate::engine::error::StateError> {
         self.0.restore_state(state)
     }
     fn name(&self) -> &str {
