@@ -178,17 +178,18 @@ impl Axial {
     /// constraints pair their gradients with the columns the direction
     /// keeps them along (the metric's W, or the gradients themselves
     /// without a metric) and the modes pair their reactions with
-    /// themselves (a projection orthogonal in the metric).
+    /// themselves (a projection orthogonal in the metric). `gradients`:
+    /// the constraint gradients at `positions`, when constraints are held.
     fn remove_modes(
         &mut self,
         positions: &[DVec3],
         topology: &remembrane_core::mesh::topology::Topology,
         mut metric: Option<&mut Metric>,
-        constraints: Option<(&Constraints, &Gradients)>,
+        gradients: Option<&Gradients>,
     ) {
         self.reactions(positions, topology, metric.as_deref_mut());
         let mut pairs: Vec<(&[DVec3], &[DVec3])> = Vec::with_capacity(4);
-        if let Some((_, g)) = constraints {
+        if let Some(g) = gradients {
             let rows = [&g.area_gradient, &g.volume_gradient];
             let columns: [&[DVec3]; 2] = match &metric {
                 Some(m) => m.sobolev.columns(),
@@ -426,9 +427,7 @@ impl System for FireMinimiser {
                 positions,
                 membrane.cached_topology(),
                 self.metric.as_mut(),
-                constraints
-                    .as_deref()
-                    .map(|c| (c, &ev.constraint_gradients)),
+                constraints.as_ref().map(|_| &ev.constraint_gradients),
             );
             direction = &axial.direction;
         }
