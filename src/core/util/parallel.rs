@@ -73,7 +73,23 @@ pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
 /// one-thread pool and below [`SPLIT_FACTOR`] tasks of [`grain`] elements).
 #[inline]
 pub fn splits(len: usize) -> bool {
-    len >= SPLIT_FACTOR * grain() && rayon::current_num_threads() > 1
+    len >= SPLIT_FACTOR * grain() && rayon::current_num_threads() > 1 && !SERIAL.get()
+}
+
+thread_local! {
+    /// Set while this thread runs a task of [`serially`].
+    static SERIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with every loop of this module on the calling thread (no
+/// loop [`splits`]): for a task that already runs beside others (the
+/// force terms, each on its own worker), where the loops' own splitting
+/// would only add the work of their parallel forms.
+pub fn serially<R>(f: impl FnOnce() -> R) -> R {
+    let before = SERIAL.replace(true);
+    let out = f();
+    SERIAL.set(before);
+    out
 }
 
 // Every helper hands the caller's closure a whole chunk (or the whole range
