@@ -5,7 +5,7 @@
 //! substrate and κ: [`crate::scene::Scene::adhesion_substrate`]).
 
 use crate::analysis::axisymmetric::contact_fit::{
-    ContactFitInput, compare_with_continuum, fit_contact_curvature,
+    ContactFitError, ContactFitInput, compare_with_continuum, fit_contact_curvature,
 };
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
@@ -46,9 +46,9 @@ pub fn measure(
     positions: &[[f64; 3]],
     area: f64,
     v: f64,
-) -> Result<AdhesionReport, String> {
+) -> Result<AdhesionReport, ContactFitError> {
     let crate::energy::wall::WallShape::Plane { point, normal } = adhesion.shape else {
-        return Err("the substrate is not a plane".into());
+        return Err(ContactFitError::NotAPlane);
     };
     let input = ContactFitInput {
         positions,

@@ -276,6 +276,30 @@ pub fn discrete_mode_stiffness(positions: &[DVec3], faces: &[[u32; 3]], l: usize
     sum / ms.len() as f64 / ((lf - 1.0) * (lf + 2.0) * lf * (lf + 1.0))
 }
 
+/// Why the spectrum could not be fitted.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FitError {
+    /// The range of l is not 2 ≤ l_min < l_max.
+    #[error("need 2 <= l_min < l_max (got {l_min}..={l_max})")]
+    Range {
+        /// Lowest l.
+        l_min: usize,
+        /// Highest l.
+        l_max: usize,
+    },
+    /// Fewer frames than blocks.
+    #[error("{frames} frames after the equilibration time, fewer than the {blocks} blocks")]
+    TooFewFrames {
+        /// Frames after the equilibration time.
+        frames: usize,
+        /// Blocks asked for.
+        blocks: usize,
+    },
+    /// The least-squares system is singular.
+    #[error("the fit is degenerate (zero or non-finite error bars?)")]
+    Degenerate,
+}
+
 /// Averages the per-frame powers (`frames`: (mean radius, power by l)) in
 /// `blocks` contiguous blocks and fits κ and σ over l_min..=l_max.
 pub fn fit(
@@ -284,7 +308,7 @@ pub fn fit(
     l_min: usize,
     l_max: usize,
     kbt: f64,
-) -> Result<Spectrum, String> {
+) -> Result<Spectrum, FitError> {
     fit_against(frames, blocks, l_min, l_max, kbt, &[])
 }
 
@@ -298,16 +322,16 @@ pub fn fit_against(
     l_max: usize,
     kbt: f64,
     stiffness: &[f64],
-) -> Result<Spectrum, String> {
+) -> Result<Spectrum, FitError> {
     if l_min < 2 || l_max < l_min + 1 {
-        return Err(format!("need 2 <= l_min < l_max (got {l_min}..={l_max})"));
+        return Err(FitError::Range { l_min, l_max });
     }
     let blocks = blocks.max(2);
     if frames.len() < blocks {
-        return Err(format!(
-            "{} frames after the equilibration time, fewer than the {blocks} blocks",
-            frames.len()
-        ));
+        return Err(FitError::TooFewFrames {
+            frames: frames.len(),
+            blocks,
+        });
     }
     let per_block = frames.len() / blocks;
     let used = &frames[..per_block * blocks];
@@ -345,7 +369,7 @@ pub fn fit_against(
     }
     let det = sxx * syy - sxy * sxy;
     if !(det.is_finite() && det > 0.0) {
-        return Err("the fit is degenerate (zero or non-finite error bars?)".into());
+        return Err(FitError::Degenerate);
     }
     let a = (syy * sxz - sxy * syz) / det;
     let b = (sxx * syz - sxy * sxz) / det;

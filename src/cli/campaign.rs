@@ -160,7 +160,7 @@ pub(super) fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
     }
     let shard = match shard.as_deref().map(parse_shard).transpose() {
         Ok(s) => s,
-        Err(e) => return fail(e),
+        Err(e) => return fail(e.to_string()),
     };
     let options = SweepOptions {
         out: out.clone(),

@@ -72,7 +72,7 @@ pub(super) fn spectrum_command(
         kappa_input,
         discrete,
     };
-    let s = crate::io::spectrum::analyse_run(dir, &options)?;
+    let s = crate::io::spectrum::analyse_run(dir, &options).map_err(|e| e.to_string())?;
     say!(
         "{} frames, R0 = {:.4} l̄, l = {}..={}: κ = {:.4} ± {:.4} Ē, σ = {:.4e} ± {:.1e} Ē/l̄², χ²/dof = {:.2}",
         s.frames,

@@ -206,11 +206,14 @@ impl Checkpoint {
             .resources()
             .get::<crate::engine::persisted::PersistedResources>()
         {
-            Ok(p) => p.restore(sim.resources(), &self.resources),
+            Ok(p) => p
+                .restore(sim.resources(), &self.resources)
+                .map_err(sim_error),
             Err(_) if self.resources.is_empty() => Ok(()),
-            Err(_) => Err("the checkpoint holds resources this scene does not persist".into()),
-        }
-        .map_err(sim_error)?;
+            Err(_) => Err(sim_error(
+                "the checkpoint holds resources this scene does not persist",
+            )),
+        }?;
         let clock = sim.clock();
         if clock.iteration != self.iteration {
             return Err(sim_error(format!(

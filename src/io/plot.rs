@@ -118,27 +118,36 @@ fn register_font() {
     });
 }
 
+/// Why a chart could not be drawn or encoded.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// Drawing on the canvas failed.
+    #[error("{0}")]
+    Drawing(String),
+    /// The PNG could not be encoded.
+    #[error(transparent)]
+    Png(#[from] png::EncodingError),
+}
+
 /// Renders `draw` on a white RGB canvas and returns the PNG bytes.
 fn render(
-    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>,
-) -> Result<Vec<u8>, String> {
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), PlotError>,
+) -> Result<Vec<u8>, PlotError> {
     register_font();
     let mut pixels = vec![255u8; (WIDTH * HEIGHT * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        root.fill(&WHITE).map_err(drawing_error)?;
         draw(&root)?;
-        root.present().map_err(|e| e.to_string())?;
+        root.present().map_err(drawing_error)?;
     }
     let mut out = Vec::new();
     let mut encoder = png::Encoder::new(&mut out, WIDTH, HEIGHT);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
-    writer
-        .write_image_data(&pixels)
-        .map_err(|e| e.to_string())?;
-    writer.finish().map_err(|e| e.to_string())?;
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(&pixels)?;
+    writer.finish()?;
     Ok(out)
 }
 
@@ -210,7 +219,7 @@ fn tick_label(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
-fn draw_chart(root: &DrawingArea<BitMapBackend<'_>, Shift>, spec: &Chart) -> Result<(), String> {
+fn draw_chart(root: &DrawingArea<BitMapBackend<'_>, Shift>, spec: &Chart) -> Result<(), PlotError> {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
     for s in &spec.series {
@@ -280,9 +289,9 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
         .collect()
 }
 
-/// A chart's drawing error as text.
-fn drawing_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> String {
-    e.to_string()
+/// A chart's drawing error.
+fn drawing_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
+    PlotError::Drawing(e.to_string())
 }
 
 /// The chart `draw_series` draws on, with x and y axes `X` and `Y`.
@@ -295,7 +304,7 @@ fn draw_series<X, Y>(
     spec: &Chart,
     x: X,
     y: Y,
-) -> Result<(), String>
+) -> Result<(), PlotError>
 where
     X: AsRangedCoord<Value = f64>,
     Y: AsRangedCoord<Value = f64>,
@@ -321,7 +330,7 @@ where
 }
 
 /// Draws the axes of `spec`'s chart: their labels, ticks and grid.
-fn draw_axes<X, Y>(chart: &mut Plot<'_, '_, X, Y>, spec: &Chart) -> Result<(), String>
+fn draw_axes<X, Y>(chart: &mut Plot<'_, '_, X, Y>, spec: &Chart) -> Result<(), PlotError>
 where
     X: Ranged<ValueType = f64> + ValueFormatter<f64>,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -356,7 +365,7 @@ fn draw_one_series<X, Y>(
     chart: &mut Plot<'_, '_, X, Y>,
     spec: &Chart,
     s: &Series,
-) -> Result<bool, String>
+) -> Result<bool, PlotError>
 where
     X: Ranged<ValueType = f64> + ValueFormatter<f64>,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -418,7 +427,7 @@ fn draw_error_bars<X, Y>(
     points: &[(usize, (f64, f64))],
     color: RGBColor,
     log_y: bool,
-) -> Result<(), String>
+) -> Result<(), PlotError>
 where
     X: Ranged<ValueType = f64> + ValueFormatter<f64>,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -446,7 +455,7 @@ where
 fn draw_legend<'a, 'b: 'a, X, Y>(
     chart: &mut Plot<'a, 'b, X, Y>,
     legend: Legend,
-) -> Result<(), String>
+) -> Result<(), PlotError>
 where
     X: Ranged<ValueType = f64> + ValueFormatter<f64>,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -469,7 +478,7 @@ where
 /// printed above it.
 pub fn bar_chart(panels: &[BarPanel]) -> Vec<u8> {
     render(|root| {
-        let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+        let err = drawing_error;
         let areas = root.split_evenly((1, panels.len().max(1)));
         for (area, panel) in areas.iter().zip(panels) {
             let n = panel.values.len().max(1);

@@ -4,11 +4,12 @@
 //! `spectrum_fit.json` and `spectrum.png` beside them.
 
 use crate::analysis::spectrum::{
-    Spectrum, discrete_mode_stiffness, fit_against, model_power, power_by_l, project,
+    FitError, Spectrum, discrete_mode_stiffness, fit_against, model_power, power_by_l, project,
 };
 use crate::io::plot::{Series, line_chart};
 use crate::io::summary::RunSummary;
 use glam::DVec3;
+use std::path::PathBuf;
 
 /// Options of `remembrane spectrum`.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,10 +32,48 @@ pub struct SpectrumOptions {
     pub discrete: bool,
 }
 
+/// Why a run's spectrum could not be analysed or written.
+#[derive(Debug, thiserror::Error)]
+pub enum SpectrumError {
+    /// The run's summary is unreadable.
+    #[error(transparent)]
+    Summary(#[from] crate::io::run_dir::RunDirError),
+    /// A frame file is unreadable or not a triangle mesh.
+    #[error("{}: cannot read frame: {reason}", path.display())]
+    Frame {
+        /// The frame file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The frames could not be fitted.
+    #[error("{}: {source}", dir.display())]
+    Fit {
+        /// The run directory.
+        dir: PathBuf,
+        /// Why.
+        source: FitError,
+    },
+    /// An output file could not be written.
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The fit could not be serialized.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+}
+
 /// Reads a frame file (VTK PolyData) as positions and triangles.
-pub fn read_frame(path: &std::path::Path) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), String> {
+pub fn read_frame(path: &std::path::Path) -> Result<(Vec<DVec3>, Vec<[u32; 3]>), SpectrumError> {
     use vtkio::model::{DataSet, VertexNumbers};
-    let fail = |e: &dyn std::fmt::Display| format!("{}: cannot read frame: {e}", path.display());
+    let fail = |e: &dyn std::fmt::Display| SpectrumError::Frame {
+        path: path.to_owned(),
+        reason: e.to_string(),
+    };
     let vtk = vtkio::Vtk::import(path).map_err(|e| fail(&e))?;
     let DataSet::PolyData { pieces, .. } = vtk.data else {
         return Err(fail(&"not PolyData"));
@@ -62,8 +101,11 @@ pub fn read_frame(path: &std::path::Path) -> Result<(Vec<DVec3>, Vec<[u32; 3]>),
 /// Analyses the frames of the run in `dir` (its `summary.json` lists them
 /// with their times) and writes `spectrum.csv`, `spectrum_fit.json` and
 /// `spectrum.png` there.
-pub fn analyse_run(dir: &std::path::Path, options: &SpectrumOptions) -> Result<Spectrum, String> {
-    let summary = RunSummary::read(dir).map_err(|e| e.to_string())?;
+pub fn analyse_run(
+    dir: &std::path::Path,
+    options: &SpectrumOptions,
+) -> Result<Spectrum, SpectrumError> {
+    let summary = RunSummary::read(dir)?;
     let mut powers = Vec::new();
     let mut last_mesh = None;
     for f in &summary.frames {
@@ -96,7 +138,10 @@ pub fn analyse_run(dir: &std::path::Path, options: &SpectrumOptions) -> Result<S
         options.kbt,
         &stiffness,
     )
-    .map_err(|e| format!("{}: {e}", dir.display()))?;
+    .map_err(|source| SpectrumError::Fit {
+        dir: dir.to_owned(),
+        source,
+    })?;
     write_outputs(dir, &spectrum, options)?;
     Ok(spectrum)
 }
@@ -105,7 +150,7 @@ fn write_outputs(
     dir: &std::path::Path,
     s: &Spectrum,
     options: &SpectrumOptions,
-) -> Result<(), String> {
+) -> Result<(), SpectrumError> {
     let r = s.mean_radius;
     let mut csv = String::from("l,power,power_error,fit,input_kappa\n");
     for l in s.l_min..=s.l_max {
@@ -122,11 +167,10 @@ fn write_outputs(
     }
     let write = |name: &str, bytes: &[u8]| {
         let path = dir.join(name);
-        crate::atomic_write(&path, bytes)
-            .map_err(|e| format!("{}: cannot write: {e}", path.display()))
+        crate::atomic_write(&path, bytes).map_err(|source| SpectrumError::Write { path, source })
     };
     write("spectrum.csv", csv.as_bytes())?;
-    let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
+    let json = serde_json::to_string_pretty(s)?;
     write("spectrum_fit.json", json.as_bytes())?;
     let ls: Vec<usize> = (s.l_min..=s.l_max).collect();
     let log = |v: f64| v.log10();

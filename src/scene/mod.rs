@@ -362,6 +362,21 @@ pub enum SceneError {
     },
 }
 
+/// Why a scene has no continuum adhered vesicle
+/// ([`Scene::adhesion_substrate`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum NoSubstrate {
+    /// Its resolution is not an edge length.
+    #[error("needs `resolution: EdgeLength(h)` (a ladder's rungs have one)")]
+    NoEdgeLength,
+    /// It has no bending term.
+    #[error("no bending term")]
+    NoBending,
+    /// It has no (single) plane adhesion term.
+    #[error("no plane adhesion term")]
+    NoPlaneAdhesion,
+}
+
 fn field_prefix(field: &Option<String>) -> String {
     match field.as_deref() {
         Some(f) if !f.is_empty() && f != "." && f != "?" => format!("field `{f}`: "),
@@ -510,18 +525,18 @@ impl Scene {
     /// `resolution: EdgeLength(h)`).
     pub fn adhesion_substrate(
         &self,
-    ) -> Result<(crate::energy::adhesion::AdhesionParams, f64), String> {
+    ) -> Result<(crate::energy::adhesion::AdhesionParams, f64), NoSubstrate> {
         let h = match self.resolution {
             resolution::Resolution::EdgeLength(h) => h,
             resolution::Resolution::FromMesh | resolution::Resolution::Ladder { .. } => {
-                return Err("needs `resolution: EdgeLength(h)` (a ladder's rungs have one)".into());
+                return Err(NoSubstrate::NoEdgeLength);
             }
         };
-        let kappa = self.bending_kappa().ok_or("no bending term")?;
+        let kappa = self.bending_kappa().ok_or(NoSubstrate::NoBending)?;
         let adhesion = self
             .at_resolution(h)
             .adhesion_plane()
-            .ok_or("no plane adhesion term")?;
+            .ok_or(NoSubstrate::NoPlaneAdhesion)?;
         Ok((adhesion, kappa))
     }
 

@@ -32,7 +32,11 @@ impl Scene {
         };
         for (i, term) in self.energy.iter().enumerate() {
             if let Err(reason) = term.open_mesh_support() {
-                return Err(refuse(format!("energy[{i}]"), term.kind(), &reason));
+                return Err(refuse(
+                    format!("energy[{i}]"),
+                    term.kind(),
+                    &reason.to_string(),
+                ));
             }
         }
         if let Some(c) = &self.constraints {

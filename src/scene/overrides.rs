@@ -42,7 +42,7 @@ pub fn set_parameters(
     for (path, value) in changes {
         let mut node = &mut tree;
         for segment in path.split('.') {
-            node = step(node, segment).map_err(|r| invalid(path, r))?;
+            node = step(node, segment).map_err(|r| invalid(path, r.to_string()))?;
         }
         *node = value.clone();
     }
@@ -63,16 +63,39 @@ pub fn set_parameters(
     Ok(changed)
 }
 
+/// Why a segment of a parameter path names nothing.
+#[derive(Debug, thiserror::Error)]
+enum StepError {
+    /// An object without that key.
+    #[error("no field or variant `{segment}` here (has: {known})")]
+    NoField { segment: String, known: String },
+    /// An index past the list's end.
+    #[error("index {index} is past the list's {len} elements")]
+    PastEnd { index: usize, len: usize },
+    /// A list without an element of that variant.
+    #[error("the list has no `{0}` element")]
+    NoElement(String),
+    /// A list with several elements of that variant.
+    #[error("the list has {count} `{segment}` elements; use an index")]
+    Ambiguous { segment: String, count: usize },
+    /// Inside `null`.
+    #[error("`{0}` is inside a value that is not set; set the whole value instead")]
+    Unset(String),
+    /// Inside a number, string or boolean.
+    #[error("`{0}` is inside a plain value")]
+    Plain(String),
+}
+
 /// The child of `node` that `segment` names.
-fn step<'a>(node: &'a mut Value, segment: &str) -> Result<&'a mut Value, String> {
+fn step<'a>(node: &'a mut Value, segment: &str) -> Result<&'a mut Value, StepError> {
     match node {
         Value::Object(map) => {
             if !map.contains_key(segment) {
                 let known: Vec<&str> = map.keys().map(String::as_str).collect();
-                return Err(format!(
-                    "no field or variant `{segment}` here (has: {})",
-                    known.join(", ")
-                ));
+                return Err(StepError::NoField {
+                    segment: segment.to_string(),
+                    known: known.join(", "),
+                });
             }
             Ok(map.get_mut(segment).expect("checked"))
         }
@@ -81,7 +104,7 @@ fn step<'a>(node: &'a mut Value, segment: &str) -> Result<&'a mut Value, String>
                 let len = items.len();
                 return items
                     .get_mut(index)
-                    .ok_or_else(|| format!("index {index} is past the list's {len} elements"));
+                    .ok_or(StepError::PastEnd { index, len });
             }
             let tagged = |v: &Value| v.as_object().is_some_and(|o| o.contains_key(segment));
             match items.iter().filter(|v| tagged(v)).count() {
@@ -89,16 +112,15 @@ fn step<'a>(node: &'a mut Value, segment: &str) -> Result<&'a mut Value, String>
                     .iter_mut()
                     .find_map(|v| v.as_object_mut().and_then(|o| o.get_mut(segment)))
                     .expect("counted")),
-                0 => Err(format!("the list has no `{segment}` element")),
-                n => Err(format!(
-                    "the list has {n} `{segment}` elements; use an index"
-                )),
+                0 => Err(StepError::NoElement(segment.to_string())),
+                n => Err(StepError::Ambiguous {
+                    segment: segment.to_string(),
+                    count: n,
+                }),
             }
         }
-        Value::Null => Err(format!(
-            "`{segment}` is inside a value that is not set; set the whole value instead"
-        )),
-        _ => Err(format!("`{segment}` is inside a plain value")),
+        Value::Null => Err(StepError::Unset(segment.to_string())),
+        _ => Err(StepError::Plain(segment.to_string())),
     }
 }
 

@@ -328,7 +328,7 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
             }
             let held = c
                 .held()
-                .map_err(|r| invalid(format!("[{i}].direction"), r))?;
+                .map_err(|r| invalid(format!("[{i}].direction"), r.to_string()))?;
             if let Some(held) = held {
                 let t = membrane.cached_topology();
                 pinned

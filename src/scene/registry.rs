@@ -202,8 +202,18 @@ pub(crate) fn with_active<T>(registry: &PluginRegistry, parse: impl FnOnce() -> 
     result
 }
 
+/// A plugin name that is not in the registry.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown plugin \"{name}\" (registered: {registered})")]
+pub struct UnknownPlugin {
+    /// The name looked up.
+    pub name: String,
+    /// The registered names of its kind (comma separated, or "none").
+    pub registered: String,
+}
+
 /// Looks `name` up in the active registry; the error lists what exists.
-pub(crate) fn resolve(kind: PluginKind, name: &str) -> Result<Arc<PluginEntry>, String> {
+pub(crate) fn resolve(kind: PluginKind, name: &str) -> Result<Arc<PluginEntry>, UnknownPlugin> {
     ACTIVE.with(|a| {
         let active = a.borrow();
         let fallback;
@@ -216,12 +226,15 @@ pub(crate) fn resolve(kind: PluginKind, name: &str) -> Result<Arc<PluginEntry>, 
         };
         registry.get(kind, name).ok_or_else(|| {
             let names = registry.names(kind);
-            let list = if names.is_empty() {
+            let registered = if names.is_empty() {
                 "none".to_string()
             } else {
                 names.join(", ")
             };
-            format!("unknown plugin \"{name}\" (registered: {list})")
+            UnknownPlugin {
+                name: name.to_string(),
+                registered,
+            }
         })
     })
 }

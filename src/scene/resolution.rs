@@ -83,6 +83,12 @@ impl Resolution {
     }
 }
 
+/// A scene whose resolution is a ladder was given where it runs once
+/// ([`Scene::refuse_ladder`]); the reason, without the field.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("field `resolution`: {0}")]
+pub struct LadderRefused(pub String);
+
 /// h = 1/2^rung of a ladder's rung (rung 0 is the scene's own mesh).
 pub fn ladder_edge_length(rung: u32) -> f64 {
     0.5f64.powi(rung as i32)
@@ -98,9 +104,9 @@ impl Scene {
     /// sequence of runs, one per rung, which `remembrane run` runs, where
     /// `what` (a protocol's phase, a sweep's job, ...) runs the scene once.
     /// The reason names the field.
-    pub fn refuse_ladder(&self, what: &str) -> Result<(), String> {
+    pub fn refuse_ladder(&self, what: &str) -> Result<(), LadderRefused> {
         self.ladder_reason(what)
-            .map_or(Ok(()), |r| Err(format!("field `resolution`: {r}")))
+            .map_or(Ok(()), |r| Err(LadderRefused(r)))
     }
 
     /// Why `what` cannot run this scene (a ladder), without the field.

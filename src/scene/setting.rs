@@ -6,6 +6,29 @@ use crate::params::{BlockedRegion, DiffusionRate};
 use crate::scene::{EnergyTerm, Scene};
 use serde::{Deserialize, Serialize};
 
+/// Why a [`Setting`] does not fit a scene.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SettingError {
+    /// The setting needs diffusion, which the scene does not declare.
+    #[error("the scene declares no diffusion")]
+    NoDiffusion,
+    /// The setting needs a term the scene does not declare.
+    #[error("the scene declares no {0} term")]
+    NoTerm(&'static str),
+    /// A reduced volume without exact constraints holding the area.
+    #[error("a reduced volume needs exact constraints holding the area")]
+    NoAreaConstraint,
+    /// The value is out of range (the reason says which and why).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for SettingError {
+    fn from(reason: String) -> Self {
+        SettingError::Invalid(reason)
+    }
+}
+
 /// A change to a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Setting {
@@ -37,31 +60,22 @@ pub enum Setting {
 
 impl Setting {
     /// Applies the setting; the error says why it does not fit the scene.
-    pub fn apply(&self, scene: &mut Scene) -> Result<(), String> {
-        let no_term = |t: &str| format!("the scene declares no {t} term");
+    pub fn apply(&self, scene: &mut Scene) -> Result<(), SettingError> {
+        let no_term = SettingError::NoTerm;
         match self {
             Setting::DiffusionRate(k) => {
-                let d = scene
-                    .diffusion
-                    .as_mut()
-                    .ok_or("the scene declares no diffusion")?;
+                let d = scene.diffusion.as_mut().ok_or(SettingError::NoDiffusion)?;
                 if !(k.is_finite() && *k > 0.0 && *k <= 1.0) {
-                    return Err(format!("k_d must be in (0, 1] (got {k})"));
+                    return Err(format!("k_d must be in (0, 1] (got {k})").into());
                 }
                 d.rate = DiffusionRate::Finite(*k);
             }
             Setting::DiffusionInstant => {
-                let d = scene
-                    .diffusion
-                    .as_mut()
-                    .ok_or("the scene declares no diffusion")?;
+                let d = scene.diffusion.as_mut().ok_or(SettingError::NoDiffusion)?;
                 d.rate = DiffusionRate::Instant;
             }
             Setting::Barrier(regions) => {
-                let d = scene
-                    .diffusion
-                    .as_mut()
-                    .ok_or("the scene declares no diffusion")?;
+                let d = scene.diffusion.as_mut().ok_or(SettingError::NoDiffusion)?;
                 d.barrier = regions.clone();
             }
             Setting::LocalTensionTarget(a) => {
@@ -96,9 +110,9 @@ impl Setting {
                     .constraints
                     .as_mut()
                     .filter(|c| c.area.is_some())
-                    .ok_or("a reduced volume needs exact constraints holding the area")?;
+                    .ok_or(SettingError::NoAreaConstraint)?;
                 if !(v.is_finite() && *v > 0.0 && *v <= 1.0) {
-                    return Err(format!("a reduced volume must be in (0, 1] (got {v})"));
+                    return Err(format!("a reduced volume must be in (0, 1] (got {v})").into());
                 }
                 c.volume = Some(crate::params::VolumeConstraint::Reduced(*v));
             }
@@ -106,7 +120,7 @@ impl Setting {
             Setting::Duration(t) => scene.dynamics.duration = Some(*t),
             Setting::EdgeLength(h) => {
                 if !(h.is_finite() && *h > 0.0) {
-                    return Err(format!("an edge length must be positive (got {h})"));
+                    return Err(format!("an edge length must be positive (got {h})").into());
                 }
                 scene.resolution = crate::scene::resolution::Resolution::EdgeLength(*h);
             }
@@ -139,6 +153,26 @@ impl Setting {
             Setting::DiffusionInstant => Some(f64::INFINITY),
             Setting::Iterations(n) => Some(*n as f64),
             Setting::Barrier(_) => None,
+        }
+    }
+}
+
+/// A field of a sweep, protocol, diagram or study file that is invalid.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("field `{field}`: {reason}")]
+pub struct FieldError {
+    /// The field's dotted path.
+    pub field: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl FieldError {
+    /// Field `field` is invalid for `reason`.
+    pub fn new(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        FieldError {
+            field: field.into(),
+            reason: reason.into(),
         }
     }
 }

@@ -43,8 +43,9 @@ impl Scene {
         self.validate_constraints(path)?;
         self.validate_model(path)?;
         for (i, c) in self.boundary.iter().enumerate() {
-            c.held()
-                .map_err(|reason| invalid(&format!("boundary[{i}].direction"), reason))?;
+            c.held().map_err(|reason| {
+                invalid(&format!("boundary[{i}].direction"), reason.to_string())
+            })?;
         }
         if let crate::scene::resolution::Resolution::Ladder { refinements } = self.resolution {
             let most = crate::scene::resolution::MAX_LADDER_REFINEMENTS;

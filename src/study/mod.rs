@@ -451,7 +451,7 @@ fn run_wave(
                 Ok(s) => Ok(s.wall_time_s),
                 // Kept as a result: the report lists it as `blew_up`.
                 Err(_) if blew_up(&dir) => Ok(t.elapsed().as_secs_f64()),
-                Err(e) => Err(e.to_string()),
+                Err(e) => Err(e.to_string().into()),
             }
         },
     )

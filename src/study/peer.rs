@@ -45,17 +45,59 @@ pub struct PeerOutput {
     pub notes: String,
 }
 
+/// Why a case has no peer version, or why a peer gave no result.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PeerError {
+    /// The case has no peer version (the reason says why).
+    #[error("{0}")]
+    NoVersion(&'static str),
+    /// The peer's command is empty.
+    #[error("the peer's command is empty")]
+    EmptyCommand,
+    /// The peer's program could not be started.
+    #[error("cannot start `{program}`: {reason}")]
+    Start {
+        /// The program.
+        program: String,
+        /// The I/O error.
+        reason: String,
+    },
+    /// The case could not be written to the peer.
+    #[error("cannot write the case to `{program}`: {reason}")]
+    WriteCase {
+        /// The program.
+        program: String,
+        /// The I/O error.
+        reason: String,
+    },
+    /// The peer could not be waited for.
+    #[error("{0}")]
+    Wait(String),
+    /// The peer failed.
+    #[error("exit {code}: {last}")]
+    Exit {
+        /// Its exit code (-1 when killed by a signal).
+        code: i32,
+        /// The last non-empty line of its stderr.
+        last: String,
+    },
+    /// The peer's output is not the expected JSON.
+    #[error("its output is not the expected JSON: {0}")]
+    Output(String),
+}
+
 /// The JSON a peer reads for a case, or why the case has no peer version
 /// (time-step problems, relative targets, other membranes).
 pub fn peer_spec(
     reference: Reference,
     scene: &Scene,
     out: &Path,
-) -> Result<serde_json::Value, String> {
-    let kappa = scene.bending_kappa().ok_or("no Bending term")?;
+) -> Result<serde_json::Value, PeerError> {
+    let none = PeerError::NoVersion;
+    let kappa = scene.bending_kappa().ok_or(none("no Bending term"))?;
     let level = match scene.membrane {
         MembraneSource::Icosphere { level, .. } | MembraneSource::Ellipsoid { level, .. } => level,
-        _ => return Err("the membrane is not an icosphere or ellipsoid".into()),
+        _ => return Err(none("the membrane is not an icosphere or ellipsoid")),
     };
     match reference {
         Reference::SphereBending => Ok(serde_json::json!({
@@ -70,17 +112,19 @@ pub fn peer_spec(
                 "problem": "spheroid", "level": level, "kappa": kappa,
                 "semi_axes": [a, b, c], "jitter": jitter, "seed": scene.seed,
             })),
-            _ => Err("the membrane is not an ellipsoid".into()),
+            _ => Err(none("the membrane is not an ellipsoid")),
         },
         Reference::Axisymmetric => {
             if !matches!(scene.membrane, MembraneSource::Icosphere { .. }) {
-                return Err("the peer's deflation starts from a sphere; this rung does not".into());
+                return Err(none(
+                    "the peer's deflation starts from a sphere; this rung does not",
+                ));
             }
             if scene.dynamics.duration.is_some() {
                 // The peer takes its own steps for the scene's iterations.
-                return Err(
-                    "the peer runs the scene's iterations; this rung sets a duration".into(),
-                );
+                return Err(none(
+                    "the peer runs the scene's iterations; this rung sets a duration",
+                ));
             }
             let penalty = |volume: bool| {
                 scene.energy.iter().find_map(|t| match t {
@@ -92,7 +136,9 @@ pub fn peer_spec(
             let (Some((kv, Target::Absolute(vt))), Some((ka, Target::Absolute(at)))) =
                 (penalty(true), penalty(false))
             else {
-                return Err("the peer needs Volume and Area terms with Absolute targets".into());
+                return Err(none(
+                    "the peer needs Volume and Area terms with Absolute targets",
+                ));
             };
             Ok(serde_json::json!({
                 "problem": "rbc", "level": level, "kappa": kappa,
@@ -101,9 +147,9 @@ pub fn peer_spec(
                 "out": std::path::absolute(out).unwrap_or_else(|_| out.to_owned()),
             }))
         }
-        Reference::FinestRung(_) => Err("a time-step problem has no peer version".into()),
-        Reference::Tether => Err("the tether problem has no peer version".into()),
-        Reference::Adhesion => Err("the adhesion problem has no peer version".into()),
+        Reference::FinestRung(_) => Err(none("a time-step problem has no peer version")),
+        Reference::Tether => Err(none("the tether problem has no peer version")),
+        Reference::Adhesion => Err(none("the adhesion problem has no peer version")),
     }
 }
 
@@ -126,7 +172,7 @@ pub struct PeerRun {
     /// Its rung.
     pub rung: usize,
     /// The peer's output, or why there is none.
-    pub result: Result<PeerOutput, String>,
+    pub result: Result<PeerOutput, PeerError>,
 }
 
 /// Where a peer case's result lives, relative to the study's output.
@@ -205,11 +251,8 @@ pub fn run_peers(
 }
 
 /// Runs the peer's command on one case.
-fn run_peer(peer: &Peer, base: &Path, spec: &serde_json::Value) -> Result<PeerOutput, String> {
-    let (program, args) = peer
-        .command
-        .split_first()
-        .ok_or("the peer's command is empty")?;
+fn run_peer(peer: &Peer, base: &Path, spec: &serde_json::Value) -> Result<PeerOutput, PeerError> {
+    let (program, args) = peer.command.split_first().ok_or(PeerError::EmptyCommand)?;
     let resolve = |a: &String| {
         let p = base.join(a);
         if p.is_file() {
@@ -224,7 +267,10 @@ fn run_peer(peer: &Peer, base: &Path, spec: &serde_json::Value) -> Result<PeerOu
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|e| format!("cannot start `{program}`: {e}"))?;
+        .map_err(|e| PeerError::Start {
+            program: program.clone(),
+            reason: e.to_string(),
+        })?;
     if let Some(mut stdin) = child.stdin.take() {
         // A peer that exits before reading (e.g. not installed) closes the
         // pipe: its exit status and stderr below say why.
@@ -232,12 +278,17 @@ fn run_peer(peer: &Peer, base: &Path, spec: &serde_json::Value) -> Result<PeerOu
             Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
                 let _ = child.kill();
                 let _ = child.wait();
-                return Err(format!("cannot write the case to `{program}`: {e}"));
+                return Err(PeerError::WriteCase {
+                    program: program.clone(),
+                    reason: e.to_string(),
+                });
             }
             _ => {}
         }
     }
-    let output = child.wait_with_output().map_err(|e| e.to_string())?;
+    let output = child
+        .wait_with_output()
+        .map_err(|e| PeerError::Wait(e.to_string()))?;
     if !output.status.success() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         let last = stderr
@@ -245,11 +296,10 @@ fn run_peer(peer: &Peer, base: &Path, spec: &serde_json::Value) -> Result<PeerOu
             .rev()
             .find(|l| !l.trim().is_empty())
             .unwrap_or("");
-        return Err(format!(
-            "exit {}: {last}",
-            output.status.code().unwrap_or(-1)
-        ));
+        return Err(PeerError::Exit {
+            code: output.status.code().unwrap_or(-1),
+            last: last.to_string(),
+        });
     }
-    serde_json::from_slice(&output.stdout)
-        .map_err(|e| format!("its output is not the expected JSON: {e}"))
+    serde_json::from_slice(&output.stdout).map_err(|e| PeerError::Output(e.to_string()))
 }

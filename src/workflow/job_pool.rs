@@ -8,6 +8,29 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
+/// Why a job failed.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The job's rayon pool could not be started.
+    #[error("cannot start the thread pool: {0}")]
+    ThreadPool(#[from] rayon::ThreadPoolBuildError),
+    /// The job itself failed (its error, as the user reads it).
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl From<String> for JobError {
+    fn from(reason: String) -> Self {
+        JobError::Failed(reason)
+    }
+}
+
+impl From<&str> for JobError {
+    fn from(reason: &str) -> Self {
+        JobError::Failed(reason.to_string())
+    }
+}
+
 /// Runs `work` for every job, `workers` at a time, in order of the list.
 /// Job `k` runs on a rayon pool of `threads(k)` threads; `work` returns the
 /// job's wall time (s) or why it failed. Unless `quiet`, each finished job
@@ -22,7 +45,7 @@ pub fn run_jobs(
     cancel: &(dyn Fn() -> bool + Sync),
     name: &(dyn Fn(usize) -> PathBuf + Sync),
     threads: &(dyn Fn(usize) -> usize + Sync),
-    work: &(dyn Fn(usize) -> Result<f64, String> + Sync),
+    work: &(dyn Fn(usize) -> Result<f64, JobError> + Sync),
 ) -> (usize, Vec<(PathBuf, String)>) {
     let next = AtomicUsize::new(0);
     let results = Mutex::new(Vec::new());
@@ -38,7 +61,7 @@ pub fn run_jobs(
                 .build()
             {
                 Ok(pool) => pool.install(|| work(k)),
-                Err(e) => Err(format!("cannot start the thread pool: {e}")),
+                Err(e) => Err(JobError::ThreadPool(e)),
             };
             let job = name(k);
             if !quiet {
@@ -59,13 +82,13 @@ pub fn run_jobs(
     let completed = results.iter().filter(|r| r.1.is_ok()).count();
     let mut failed: Vec<(PathBuf, String)> = results
         .into_iter()
-        .filter_map(|(job, r)| r.err().map(|e| (job, e)))
+        .filter_map(|(job, r)| r.err().map(|e| (job, e.to_string())))
         .collect();
     failed.sort();
     (completed, failed)
 }
 
-fn report(k: usize, count: usize, job: &Path, result: &Result<f64, String>, started: Instant) {
+fn report(k: usize, count: usize, job: &Path, result: &Result<f64, JobError>, started: Instant) {
     match result {
         Ok(wall) => eprintln!(
             "[{}/{count}] {}: done in {wall:.2} s ({:.0} s elapsed)",

@@ -298,11 +298,11 @@ pub fn check_phases(
         let mut scene = Scene::load(&scene_path)?;
         for (k, s) in p.set.iter().enumerate() {
             s.apply(&mut scene)
-                .map_err(|r| err(i, &format!("set[{k}]"), r))?;
+                .map_err(|r| err(i, &format!("set[{k}]"), r.to_string()))?;
         }
         scene
             .refuse_ladder("a protocol's phase")
-            .map_err(|r| err(i, "scene", r))?;
+            .map_err(|r| err(i, "scene", r.to_string()))?;
         if let Some(n) = p.iterations {
             scene.dynamics.iterations = n;
         }

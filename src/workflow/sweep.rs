@@ -127,6 +127,39 @@ pub enum SweepError {
         /// Its error.
         reason: String,
     },
+    /// A run names a condition the sweep does not declare.
+    #[error("unknown condition `{0}`")]
+    UnknownCondition(String),
+    /// A run names a value a grid axis does not have.
+    #[error("axis `{axis}` has no value {label}")]
+    UnknownValue {
+        /// The axis.
+        axis: String,
+        /// The value's label.
+        label: String,
+    },
+    /// A setting does not fit the scene.
+    #[error(transparent)]
+    Setting(#[from] crate::scene::setting::SettingError),
+}
+
+/// A `--shard I/N` argument that is not one.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ShardError {
+    /// Not of the form `I/N`.
+    #[error("--shard must be I/N, e.g. 0/4 (got `{0}`)")]
+    Form(String),
+    /// `I` or `N` is not a number.
+    #[error("--shard: `{0}` is not a number")]
+    NotANumber(String),
+    /// Not 0 ≤ I < N.
+    #[error("--shard I/N needs 0 ≤ I < N (got {i}/{n})")]
+    OutOfRange {
+        /// The shard.
+        i: usize,
+        /// The shard count.
+        n: usize,
+    },
 }
 
 /// A protocol-checking error as a sweep error.
@@ -329,13 +362,13 @@ impl Sweep {
         out: &Path,
         base: &Scene,
         run: &RunSpec,
-    ) -> Result<(Scene, Option<PathBuf>), String> {
+    ) -> Result<(Scene, Option<PathBuf>), SweepError> {
         let mut scene = base.clone();
         let conditions = self.conditions();
         let c = conditions
             .iter()
             .find(|c| c.name == run.condition)
-            .ok_or_else(|| format!("unknown condition `{}`", run.condition))?;
+            .ok_or_else(|| SweepError::UnknownCondition(run.condition.clone()))?;
         for s in &c.set {
             s.apply(&mut scene)?;
         }
@@ -344,7 +377,10 @@ impl Sweep {
                 .values
                 .iter()
                 .find(|v| &v.label() == label)
-                .ok_or_else(|| format!("axis `{}` has no value {label}", axis.name))?;
+                .ok_or_else(|| SweepError::UnknownValue {
+                    axis: axis.name.clone(),
+                    label: label.clone(),
+                })?;
             value.apply(&mut scene)?;
         }
         scene.seed = run.seed;
@@ -363,20 +399,20 @@ pub fn phases_dir(out: &Path) -> PathBuf {
 }
 
 /// Parses `I/N` (0 ≤ I < N).
-pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+pub fn parse_shard(s: &str) -> Result<(usize, usize), ShardError> {
     let (i, n) = s
         .split_once('/')
-        .ok_or_else(|| format!("--shard must be I/N, e.g. 0/4 (got `{s}`)"))?;
+        .ok_or_else(|| ShardError::Form(s.to_string()))?;
     let i: usize = i
         .trim()
         .parse()
-        .map_err(|_| format!("--shard: `{i}` is not a number"))?;
+        .map_err(|_| ShardError::NotANumber(i.to_string()))?;
     let n: usize = n
         .trim()
         .parse()
-        .map_err(|_| format!("--shard: `{n}` is not a number"))?;
+        .map_err(|_| ShardError::NotANumber(n.to_string()))?;
     if n == 0 || i >= n {
-        return Err(format!("--shard I/N needs 0 ≤ I < N (got {i}/{n})"));
+        return Err(ShardError::OutOfRange { i, n });
     }
     Ok((i, n))
 }
@@ -559,7 +595,9 @@ pub fn run_sweep_with(
         &|_| 1,
         &|k| {
             let run = todo[k];
-            let (scene, from) = sweep.scene_for(sweep_path, out, &base, run)?;
+            let (scene, from) = sweep
+                .scene_for(sweep_path, out, &base, run)
+                .map_err(|e| e.to_string())?;
             let opts = crate::workflow::run::RunOptions {
                 overwrite: true,
                 iterations: options.iterations,
@@ -571,7 +609,7 @@ pub fn run_sweep_with(
                 .map_err(|e| e.to_string())?;
             crate::workflow::run::drive_run(&mut prepared, &scene_path, &opts, started, cancel)
                 .map(|s| s.wall_time_s)
-                .map_err(|e| e.to_string())
+                .map_err(|e| e.to_string().into())
         },
     );
     (report.completed, report.failed) = results;

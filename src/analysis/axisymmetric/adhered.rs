@@ -113,8 +113,8 @@ pub fn solve_adhered(w: f64, v: f64, segments: usize) -> Result<AdheredShape, So
     // prolongation.
     let coarse = segments.min(COARSE_SEGMENTS);
     let mut w_now = w.max(STRONG_ADHESION);
-    let mut solution =
-        newton(problem(w_now), truncated_sphere(v, coarse)).map_err(|e| fail(w_now, e))?;
+    let mut solution = newton(problem(w_now), truncated_sphere(v, coarse))
+        .map_err(|e| fail(w_now, e.to_string()))?;
     let mut step = 0.25 * w_now;
     while w_now > w {
         let w_next = (w_now - step).max(w);
@@ -127,7 +127,7 @@ pub fn solve_adhered(w: f64, v: f64, segments: usize) -> Result<AdheredShape, So
             Err(e) => {
                 step *= 0.5;
                 if step < 1e-3 {
-                    return Err(fail(w_next, e));
+                    return Err(fail(w_next, e.to_string()));
                 }
             }
         }
@@ -135,7 +135,8 @@ pub fn solve_adhered(w: f64, v: f64, segments: usize) -> Result<AdheredShape, So
     let mut n = coarse;
     while n < segments {
         n = (2 * n).min(segments);
-        solution = newton(problem(w), prolong(&solution.x, n)).map_err(|e| fail(w, e))?;
+        solution =
+            newton(problem(w), prolong(&solution.x, n)).map_err(|e| fail(w, e.to_string()))?;
     }
     if !is_strict_minimum(problem(w), &solution) {
         return Err(fail(

@@ -126,16 +126,75 @@ pub struct ContinuumComparison {
     pub continuum_contact_area: f64,
 }
 
+/// Why a simulated adhered vesicle could not be compared with, or fitted
+/// by, the continuum adhered vesicle.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ContactFitError {
+    /// The substrate is not a plane.
+    #[error("the substrate is not a plane")]
+    NotAPlane,
+    /// The continuum vesicle at the simulated W could not be solved.
+    #[error("continuum vesicle at W: {0}")]
+    Continuum(SolveError),
+    /// The continuum vesicle at a scanned W' could not be solved.
+    #[error("continuum vesicle at W' = {ratio} W: {source}")]
+    ContinuumAt {
+        /// W'/W.
+        ratio: f64,
+        /// Why.
+        source: SolveError,
+    },
+    /// No vertex lies within the substrate's range.
+    #[error("no vertex lies on the substrate")]
+    NoBoundVertex,
+    /// Too few vertices near the contact line to fit.
+    #[error(
+        "fewer than {min} vertices above the range near the contact line (tilt at most {tilt} rad)"
+    )]
+    TooFewVertices {
+        /// The fewest vertices a fit takes.
+        min: usize,
+        /// The largest tilt of a fitted vertex (rad).
+        tilt: f64,
+    },
+    /// The residual has no minimum near the scanned W'/W.
+    #[error(
+        "the fit's residual has no minimum near W'/W = {centre:.2}: the free profile is \
+         {rms:.1e} l (rms) from the nearest continuum vesicle, too far for the fit to resolve"
+    )]
+    NoMinimum {
+        /// The coarse scan's best W'/W.
+        centre: f64,
+        /// The rms distance to the nearest continuum vesicle (l̄).
+        rms: f64,
+    },
+    /// The best continuum vesicle leaves too few vertices to fit.
+    #[error("the best continuum vesicle leaves too few vertices to fit")]
+    BestTooFew,
+    /// The best W'/W lies beyond the scanned range.
+    #[error("the best continuum vesicle lies beyond W'/W = {ratio:.2} (scanned {lo}-{hi})")]
+    BeyondScan {
+        /// The best W'/W scanned.
+        ratio: f64,
+        /// The scan's lower limit.
+        lo: f64,
+        /// The scan's upper limit.
+        hi: f64,
+    },
+}
+
 /// Compares `input` with the continuum vesicle at its own W.
-pub fn compare_with_continuum(input: &ContactFitInput<'_>) -> Result<ContinuumComparison, String> {
+pub fn compare_with_continuum(
+    input: &ContactFitInput<'_>,
+) -> Result<ContinuumComparison, ContactFitError> {
     let frame = Frame::new(input);
     let heights: Vec<f64> = input.positions.iter().map(|x| frame.height(x)).collect();
     let bound = bound_height(&heights, input.range)?;
     let top = heights.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let r0 = (input.area / (4.0 * PI)).sqrt();
     let w = input.strength * r0 * r0 / input.kappa;
-    let continuum = solve_adhered(w, input.reduced_volume, FIT_SEGMENTS)
-        .map_err(|e| format!("continuum vesicle at W: {e}"))?;
+    let continuum =
+        solve_adhered(w, input.reduced_volume, FIT_SEGMENTS).map_err(ContactFitError::Continuum)?;
     Ok(ContinuumComparison {
         height: top - bound,
         continuum_height: continuum.height * r0,
@@ -145,14 +204,14 @@ pub fn compare_with_continuum(input: &ContactFitInput<'_>) -> Result<ContinuumCo
 
 /// The bound membrane's height: the median height of the vertices below
 /// half the range.
-fn bound_height(heights: &[f64], range: f64) -> Result<f64, String> {
+fn bound_height(heights: &[f64], range: f64) -> Result<f64, ContactFitError> {
     let mut bound: Vec<f64> = heights
         .iter()
         .copied()
         .filter(|&z| z < 0.5 * range)
         .collect();
     if bound.is_empty() {
-        return Err("no vertex lies on the substrate".into());
+        return Err(ContactFitError::NoBoundVertex);
     }
     bound.sort_by(f64::total_cmp);
     Ok(bound[bound.len() / 2])
@@ -328,7 +387,7 @@ fn linear_fit(samples: &[Sample], profile: &LowerProfile, shift: f64) -> Option<
 }
 
 /// Measures the contact curvature of `input` (see the module header).
-pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, String> {
+pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, ContactFitError> {
     let r0 = (input.area / (4.0 * PI)).sqrt();
     let w = input.strength * r0 * r0 / input.kappa;
     let frame = Frame::new(input);
@@ -344,17 +403,15 @@ pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, 
             (r, z - bound_height, theta)
         })
         .collect();
-    let solve = |f: f64| -> Result<AdheredShape, String> {
+    let solve = |f: f64| -> Result<AdheredShape, ContactFitError> {
         solve_adhered(f * w, input.reduced_volume, FIT_SEGMENTS)
-            .map_err(|e: SolveError| format!("continuum vesicle at W' = {f} W: {e}"))
+            .map_err(|source: SolveError| ContactFitError::ContinuumAt { ratio: f, source })
     };
-    let score = |f: f64| -> Result<(f64, usize, f64), String> {
+    let score = |f: f64| -> Result<(f64, usize, f64), ContactFitError> {
         let shape = solve(f)?;
-        residual(&samples, &LowerProfile::new(&shape, r0)).ok_or_else(|| {
-            format!(
-                "fewer than {MIN_VERTICES} vertices above the range near the contact line \
-                 (tilt at most {MAX_TILT} rad)"
-            )
+        residual(&samples, &LowerProfile::new(&shape, r0)).ok_or(ContactFitError::TooFewVertices {
+            min: MIN_VERTICES,
+            tilt: MAX_TILT,
         })
     };
     let centre = coarse_minimum(|f| Ok(score(f)?.0))?;
@@ -366,16 +423,15 @@ pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, 
     let (c2, c1, _) = parabola(&fine, &fine_scores.iter().map(|s| s.0).collect::<Vec<_>>());
     if c2 <= 0.0 {
         let (s_best, n, _) = fine_scores[2];
-        return Err(format!(
-            "the fit's residual has no minimum near W'/W = {centre:.2}: the free profile is \
-             {:.1e} l (rms) from the nearest continuum vesicle, too far for the fit to resolve",
-            (s_best / n as f64).sqrt()
-        ));
+        return Err(ContactFitError::NoMinimum {
+            centre,
+            rms: (s_best / n as f64).sqrt(),
+        });
     }
     let f_best = -c1 / (2.0 * c2);
     let best_shape = solve(f_best)?;
     let (s_min, n, shift) = residual(&samples, &LowerProfile::new(&best_shape, r0))
-        .ok_or("the best continuum vesicle leaves too few vertices to fit")?;
+        .ok_or(ContactFitError::BestTooFew)?;
     let params = 1 + 4 * MODES;
     let sigma2 = s_min / (n - params) as f64;
     let df = (sigma2 / c2).sqrt();
@@ -398,7 +454,9 @@ pub fn fit_contact_curvature(input: &ContactFitInput<'_>) -> Result<ContactFit, 
 /// by factors of 1.15 while its best point is at an end, within
 /// [`SCAN_LIMITS`]): the vertex of the parabola through the best point and
 /// its neighbours.
-fn coarse_minimum(mut score: impl FnMut(f64) -> Result<f64, String>) -> Result<f64, String> {
+fn coarse_minimum(
+    mut score: impl FnMut(f64) -> Result<f64, ContactFitError>,
+) -> Result<f64, ContactFitError> {
     // A shell far from the fluid limit can sit well outside 0.6-1.6.
     let mut coarse: Vec<f64> = (0..=10).map(|k| 0.6 + 0.1 * k as f64).collect();
     let mut scores = Vec::new();
@@ -419,10 +477,11 @@ fn coarse_minimum(mut score: impl FnMut(f64) -> Result<f64, String>) -> Result<f
         match next {
             None => break best,
             Some(f) if !(SCAN_LIMITS.0..=SCAN_LIMITS.1).contains(&f) => {
-                return Err(format!(
-                    "the best continuum vesicle lies beyond W'/W = {:.2} (scanned {}-{})",
-                    coarse[best], SCAN_LIMITS.0, SCAN_LIMITS.1
-                ));
+                return Err(ContactFitError::BeyondScan {
+                    ratio: coarse[best],
+                    lo: SCAN_LIMITS.0,
+                    hi: SCAN_LIMITS.1,
+                });
             }
             Some(f) => {
                 let value = score(f)?;

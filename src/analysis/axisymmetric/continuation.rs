@@ -68,7 +68,7 @@ impl Walker {
                 // The stomatocyte branch folds back at its upper end into an
                 // unstable twin; a step must not jump onto it.
                 if branch == Branch::Stomatocyte && !is_strict_minimum(problem, &sol) {
-                    Err("converged to a point that is not a constrained minimum".into())
+                    Err(NewtonError::NotMinimum)
                 } else {
                     Ok(sol)
                 }
@@ -83,7 +83,7 @@ impl Walker {
                 Err(e) => {
                     self.step *= 0.5;
                     if self.step < MIN_CONTINUATION_STEP {
-                        return Err(fail(v_next, e));
+                        return Err(fail(v_next, e.to_string()));
                     }
                 }
             }
@@ -118,7 +118,8 @@ pub(super) fn continuation(target: f64, n: usize, branch: Branch) -> Result<Solu
             (reduced_volume_of(&ev), x)
         }
     };
-    let solution = newton(Problem::closed(Some(v_start)), start).map_err(|e| fail(v_start, e))?;
+    let solution =
+        newton(Problem::closed(Some(v_start)), start).map_err(|e| fail(v_start, e.to_string()))?;
     let mut walker = Walker::new(v_start, solution);
     walker.advance(target, branch)?;
     Ok(walker.solution)

@@ -332,15 +332,58 @@ pub(super) struct Solution {
     pub(super) iterations: usize,
 }
 
+/// Why the Newton iteration stopped without a solution.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub(super) enum NewtonError {
+    /// A midpoint of the start point has r ≤ 0.
+    #[error("start point has a midpoint with r <= 0")]
+    StartRadius,
+    /// The KKT system cannot be evaluated at the start point.
+    #[error("invalid start point")]
+    InvalidStart,
+    /// The finite-difference Hessian left the valid domain.
+    #[error("finite-difference Hessian left the valid domain")]
+    HessianDomain,
+    /// The KKT matrix is singular.
+    #[error("singular KKT matrix")]
+    SingularKkt,
+    /// The Newton step is not finite.
+    #[error("non-finite Newton step")]
+    NonFiniteStep,
+    /// The backtracking line search found no decrease.
+    #[error("line search failed at iteration {iteration} (KKT residual {residual:.3e})")]
+    LineSearch {
+        /// The Newton iteration.
+        iteration: usize,
+        /// The merit (KKT residual) there.
+        residual: f64,
+    },
+    /// No convergence within the iteration limit.
+    #[error(
+        "no convergence in {iterations} Newton iterations (|grad| {grad:.3e}, |c| {constraints:.3e})"
+    )]
+    NoConvergence {
+        /// The iteration limit.
+        iterations: usize,
+        /// The largest gradient component at the end.
+        grad: f64,
+        /// The largest constraint violation at the end.
+        constraints: f64,
+    },
+    /// The stationary point is not a constrained minimum.
+    #[error("converged to a point that is not a constrained minimum")]
+    NotMinimum,
+}
+
 /// Newton/SQP with backtracking on the KKT-residual norm.
-pub(super) fn newton(problem: Problem, x0: Vec<f64>) -> Result<Solution, String> {
+pub(super) fn newton(problem: Problem, x0: Vec<f64>) -> Result<Solution, NewtonError> {
     let dim = x0.len();
     let m = problem.constraint_count();
     let mut x = x0;
     let mut lambda = problem
         .least_squares_multipliers(&x)
-        .ok_or("start point has a midpoint with r <= 0")?;
-    let mut current = problem.kkt(&x, &lambda).ok_or("invalid start point")?;
+        .ok_or(NewtonError::StartRadius)?;
+    let mut current = problem.kkt(&x, &lambda).ok_or(NewtonError::InvalidStart)?;
     // Once within TOLERANCE, one more (polishing) step is taken unless the
     // residual is already at the rounding level, so that the reported
     // quantities carry no solver error at the level of the error bars.
@@ -357,7 +400,7 @@ pub(super) fn newton(problem: Problem, x0: Vec<f64>) -> Result<Solution, String>
         polishing = residual <= TOLERANCE;
         let hess = problem
             .hessian(&x, &lambda)
-            .ok_or("finite-difference Hessian left the valid domain")?;
+            .ok_or(NewtonError::HessianDomain)?;
         let size = dim + m;
         let mut kkt = DMatrix::<f64>::zeros(size, size);
         kkt.view_mut((0, 0), (dim, dim)).copy_from(&hess);
@@ -372,12 +415,12 @@ pub(super) fn newton(problem: Problem, x0: Vec<f64>) -> Result<Solution, String>
         for i in 0..dim {
             rhs[i] = -current.grad[i];
         }
-        let step = kkt.lu().solve(&rhs).ok_or("singular KKT matrix")?;
+        let step = kkt.lu().solve(&rhs).ok_or(NewtonError::SingularKkt)?;
         let p: Vec<f64> = step.rows(0, dim).iter().copied().collect();
         let dl: Vec<f64> = step.rows(dim, m).iter().copied().collect();
         let pmax = max_abs(&p);
         if !pmax.is_finite() {
-            return Err("non-finite Newton step".into());
+            return Err(NewtonError::NonFiniteStep);
         }
         let mut alpha = if pmax > MAX_STEP {
             MAX_STEP / pmax
@@ -406,17 +449,18 @@ pub(super) fn newton(problem: Problem, x0: Vec<f64>) -> Result<Solution, String>
                 });
             }
             if alpha < 1e-10 {
-                return Err(format!(
-                    "line search failed at iteration {iteration} (KKT residual {m0:.3e})"
-                ));
+                return Err(NewtonError::LineSearch {
+                    iteration,
+                    residual: m0,
+                });
             }
         }
     }
-    Err(format!(
-        "no convergence in {MAX_NEWTON_ITERATIONS} Newton iterations (|grad| {:.3e}, |c| {:.3e})",
-        max_abs(&current.grad),
-        max_abs(&current.constraints)
-    ))
+    Err(NewtonError::NoConvergence {
+        iterations: MAX_NEWTON_ITERATIONS,
+        grad: max_abs(&current.grad),
+        constraints: max_abs(&current.constraints),
+    })
 }
 
 // ---------------------------------------------------------------------------

@@ -195,7 +195,7 @@ pub fn plugin(params: AdhesionParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for AdhesionParams {
     /// Correct on open meshes: a sum over faces of their area times a contact weight: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

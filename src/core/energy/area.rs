@@ -103,7 +103,7 @@ pub fn plugin(params: AreaParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for AreaParams {
     /// Correct on open meshes: a sum over faces of their area: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

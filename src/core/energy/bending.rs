@@ -626,7 +626,7 @@ impl crate::energy::builtin::BuiltinTerm for BendingParams {
     /// Both forms are correct on open meshes: boundary vertices carry no
     /// bending energy of their own (see the module docs and
     /// [`crate::energy::bending_dihedral`]).
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

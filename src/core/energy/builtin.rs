@@ -19,6 +19,40 @@ pub struct TermContext {
     pub remesh_mode: RemeshMode,
 }
 
+/// Why a term is refused on an open mesh (one with boundary loops), as a
+/// clause for the user.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum OpenMeshError {
+    /// The term has not said it is correct on open meshes (the default of
+    /// [`BuiltinTerm::open_mesh_support`]).
+    #[error("it has not been made boundary-aware")]
+    NotBoundaryAware,
+    /// A plugin term: plugins do not declare it.
+    #[error("plugin terms do not declare whether they are correct on open meshes")]
+    PluginTerm,
+    /// The volume penalty without a closing plane.
+    #[error(
+        "an open mesh encloses no volume: declare a closing plane, \
+         `closing: Plane(point: (x, y, z), normal: (nx, ny, nz))`"
+    )]
+    NoClosingPlane,
+    /// Another reason, as a clause for the user.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<&str> for OpenMeshError {
+    fn from(reason: &str) -> Self {
+        OpenMeshError::Invalid(reason.to_string())
+    }
+}
+
+impl From<String> for OpenMeshError {
+    fn from(reason: String) -> Self {
+        OpenMeshError::Invalid(reason)
+    }
+}
+
 /// A built-in term's parameters as a scene declares them.
 pub trait BuiltinTerm {
     /// Adds the term (its resources, systems and force term) to `builder`.
@@ -37,8 +71,8 @@ pub trait BuiltinTerm {
     /// `Ok`, or why not, as a clause for the user. Default: refused, so a
     /// new term runs on open meshes only once it says it is correct there
     /// (and its finite-difference test covers an open patch).
-    fn open_mesh_support(&self) -> Result<(), String> {
-        Err("it has not been made boundary-aware".into())
+    fn open_mesh_support(&self) -> Result<(), OpenMeshError> {
+        Err(OpenMeshError::NotBoundaryAware)
     }
 }
 
@@ -80,12 +114,10 @@ macro_rules! builtin_terms {
             /// Whether the term is correct on an open mesh: `Ok`, or why
             /// not ([`BuiltinTerm::open_mesh_support`](crate::energy::builtin::BuiltinTerm::open_mesh_support)).
             /// A plugin term is refused: plugins do not declare it.
-            pub fn open_mesh_support(&self) -> Result<(), String> {
+            pub fn open_mesh_support(&self) -> Result<(), $crate::energy::builtin::OpenMeshError> {
                 match self {
                     $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::open_mesh_support(p), )*
-                    EnergyTerm::Custom(_) => Err(
-                        "plugin terms do not declare whether they are correct on open meshes".into(),
-                    ),
+                    EnergyTerm::Custom(_) => Err($crate::energy::builtin::OpenMeshError::PluginTerm),
                 }
             }
 

@@ -103,7 +103,7 @@ pub fn plugin(params: LocalTensionParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for LocalTensionParams {
     /// Correct on open meshes: a sum over vertices of their mixed areas, made of their faces' shares: a boundary vertex's is the share of its fan.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

@@ -178,7 +178,7 @@ pub fn plugin(params: crate::params::SelfAvoidanceParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for SelfAvoidanceParams {
     /// Correct on open meshes: pairs of vertices that are not ring neighbours: a boundary vertex's ring is its fan.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

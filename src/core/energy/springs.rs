@@ -365,7 +365,7 @@ pub fn plugin(coupling: SpringCoupling) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for SpringParams {
     /// Correct on open meshes: a control point's nearest vertex and its ring (a boundary vertex's is its fan), or vertices by distance.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

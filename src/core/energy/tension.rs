@@ -102,7 +102,7 @@ pub fn plugin(params: crate::params::TensionParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for TensionParams {
     /// Correct on open meshes: σ times a sum over faces of their area: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

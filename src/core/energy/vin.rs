@@ -459,9 +459,10 @@ fn needs_split(y: &[f64], a: usize, b: usize, p: &VinParams, l_at: impl Fn(usize
 }
 
 impl crate::util::validate::Validate for VinParams {
-    fn validate(&self) -> Result<(), String> {
-        self.check()
-            .map_err(|(field, reason)| format!("`{field}` {reason}"))
+    fn validate(&self) -> Result<(), crate::util::validate::ValidationError> {
+        self.check().map_err(
+            |(field, reason)| crate::util::validate::ValidationError::Field { field, reason },
+        )
     }
 }
 
@@ -700,7 +701,7 @@ pub fn plugin(params: VinParams, exerts_force: bool) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for VinParams {
     /// Correct on open meshes: one potential per edge: a boundary edge is an edge.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 

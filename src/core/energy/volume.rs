@@ -55,7 +55,7 @@ pub enum VolumeClosing {
 
 impl VolumeClosing {
     /// The plane as (point, unit normal), or why it is invalid.
-    pub fn plane(&self) -> Result<(DVec3, DVec3), String> {
+    pub fn plane(&self) -> Result<(DVec3, DVec3), crate::util::validate::ValidationError> {
         let VolumeClosing::Plane { point, normal } = *self;
         let p = DVec3::new(point.0, point.1, point.2);
         let n = DVec3::new(normal.0, normal.1, normal.2);
@@ -173,7 +173,9 @@ pub fn plugin(params: VolumeParams) -> impl Plugin {
             b.add_force_term(VolumeForces::new(params.k, target))?;
             return Ok(());
         };
-        let (point, normal) = closing.plane().map_err(|r| invalid("closing", r))?;
+        let (point, normal) = closing
+            .plane()
+            .map_err(|r| invalid("closing", r.to_string()))?;
         let membrane = b
             .resource_mut::<crate::mesh::membrane::Membrane>()
             .ok_or_else(|| invalid("", "no membrane".into()))?;
@@ -204,12 +206,10 @@ pub fn plugin(params: VolumeParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for VolumeParams {
     /// Correct on open meshes with a closing plane; refused without one.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         match self.closing {
             Some(_) => Ok(()),
-            None => Err("an open mesh encloses no volume: declare a closing plane, \
-                 `closing: Plane(point: (x, y, z), normal: (nx, ny, nz))`"
-                .into()),
+            None => Err(crate::energy::builtin::OpenMeshError::NoClosingPlane),
         }
     }
 

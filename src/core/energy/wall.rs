@@ -127,7 +127,7 @@ impl WallShape {
 }
 
 impl crate::util::validate::Validate for WallShape {
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), crate::util::validate::ValidationError> {
         let finite = |v: (f64, f64, f64)| v.0.is_finite() && v.1.is_finite() && v.2.is_finite();
         let (points, direction, radius) = match *self {
             WallShape::Plane { point, normal } => (point, Some(normal), None),
@@ -150,9 +150,7 @@ impl crate::util::validate::Validate for WallShape {
         if let Some(r) = radius
             && !(r.is_finite() && r > 0.0)
         {
-            return Err(format!(
-                "the wall's radius must be a finite number > 0, not {r}"
-            ));
+            return Err(format!("the wall's radius must be a finite number > 0, not {r}").into());
         }
         Ok(())
     }
@@ -344,7 +342,7 @@ pub fn plugin(params: WallParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for WallParams {
     /// Correct on open meshes: one repulsion per vertex: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), String> {
+    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
         Ok(())
     }
 
@@ -486,11 +484,22 @@ mod tests {
             point: (0.0, 0.0, 0.0),
             normal: (0.0, 0.0, 0.0),
         };
-        assert!(flat.validate().unwrap_err().contains("normal or axis"));
+        assert!(
+            flat.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("normal or axis")
+        );
         let sphere = WallShape::SphereInside {
             center: (0.0, 0.0, 0.0),
             radius: -1.0,
         };
-        assert!(sphere.validate().unwrap_err().contains("radius"));
+        assert!(
+            sphere
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("radius")
+        );
     }
 }

@@ -300,8 +300,8 @@ impl ForceBuffers {
     /// a map from term name to state, `null` when no term keeps one.
     pub(crate) fn save_term_states(
         resources: &crate::engine::resources::Resources,
-    ) -> Result<serde_json::Value, String> {
-        let buffers = resources.get::<Self>().map_err(|e| e.to_string())?;
+    ) -> Result<serde_json::Value, crate::engine::persisted::PersistError> {
+        let buffers = resources.get::<Self>()?;
         let states = buffers
             .objects
             .0
@@ -315,15 +315,15 @@ impl ForceBuffers {
     pub(crate) fn restore_term_states(
         resources: &crate::engine::resources::Resources,
         state: serde_json::Value,
-    ) -> Result<(), String> {
-        let mut buffers = resources.get_mut::<Self>().map_err(|e| e.to_string())?;
+    ) -> Result<(), crate::engine::persisted::PersistError> {
+        let mut buffers = resources.get_mut::<Self>()?;
         crate::engine::persisted::restore_named(
             &mut buffers.objects.0,
             |_, t| t.name().to_string(),
             |t, v| t.restore_state(v),
             state,
         )
-        .map_err(|e| format!("force term {e}"))
+        .map_err(|e| crate::engine::persisted::PersistError::ForceTerm(Box::new(e)))
     }
 
     /// The registered terms, in evaluation order.

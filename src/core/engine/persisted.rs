@@ -9,13 +9,80 @@
 //! with [`crate::engine::simulation::SimBuilder::persist_resource`]; a user's plugin
 //! does the same for its own stateful resources.
 
-use crate::engine::resources::{Resource, Resources};
+use crate::engine::error::StateError;
+use crate::engine::resources::{FetchError, Resource, Resources};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 
-type Save = fn(&Resources) -> Result<serde_json::Value, String>;
-type Restore = fn(&Resources, serde_json::Value) -> Result<(), String>;
+/// Why a run's persisted state (its resources, its force terms' and its
+/// systems' states) could not be saved into a checkpoint or restored from
+/// one.
+#[derive(Debug, thiserror::Error)]
+pub enum PersistError {
+    /// A persisted resource could not be fetched.
+    #[error(transparent)]
+    Fetch(#[from] FetchError),
+    /// A value does not serialize, or a saved value does not deserialize.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// A persisted resource's value could not be saved or restored.
+    #[error("resource `{name}`: {source}")]
+    Resource {
+        /// The resource's type name.
+        name: &'static str,
+        /// What went wrong.
+        source: Box<PersistError>,
+    },
+    /// An optional part's state could not be saved or restored.
+    #[error("`{name}`: {source}")]
+    Optional {
+        /// The part's name (e.g. "force terms").
+        name: &'static str,
+        /// What went wrong.
+        source: Box<PersistError>,
+    },
+    /// A persisted resource is not in the checkpoint.
+    #[error("resource `{0}` is not in the checkpoint")]
+    MissingResource(&'static str),
+    /// The checkpoint holds a resource the scene does not persist.
+    #[error("resource `{0}` is in the checkpoint but not in the scene")]
+    UnknownResource(String),
+    /// The named states are not a map.
+    #[error("expected a map of named states")]
+    NotAMap,
+    /// A named state is for a part the scene does not have.
+    #[error("`{0}` is not part of this scene")]
+    UnknownPart(String),
+    /// A named part could not take its state back.
+    #[error("`{name}`: {source}")]
+    Part {
+        /// The part's name.
+        name: String,
+        /// Why.
+        source: StateError,
+    },
+    /// The force terms' states could not be restored.
+    #[error("force term {0}")]
+    ForceTerm(Box<PersistError>),
+    /// A system could not take its state back.
+    #[error("system `{name}`: {source}")]
+    System {
+        /// The system.
+        name: String,
+        /// Why.
+        source: StateError,
+    },
+    /// A system keeps state, but the checkpoint holds none for it.
+    #[error("system `{0}` keeps state, but the checkpoint holds none for it")]
+    MissingSystemState(String),
+    /// The checkpoint holds the state of a system the scene does not have.
+    #[error("the checkpoint holds the state of system `{0}`, which this scene does not have")]
+    UnknownSystem(String),
+}
+
+type Save = fn(&Resources) -> Result<serde_json::Value, PersistError>;
+type Restore = fn(&Resources, serde_json::Value) -> Result<(), PersistError>;
 
 /// The persisted resources, by name.
 #[derive(Default)]
@@ -26,17 +93,17 @@ pub struct PersistedResources {
     optional: Vec<(&'static str, Save, Restore)>,
 }
 
-fn save<T: Resource + Serialize>(r: &Resources) -> Result<serde_json::Value, String> {
-    let value = r.get::<T>().map_err(|e| e.to_string())?;
-    serde_json::to_value(&*value).map_err(|e| e.to_string())
+fn save<T: Resource + Serialize>(r: &Resources) -> Result<serde_json::Value, PersistError> {
+    let value = r.get::<T>()?;
+    Ok(serde_json::to_value(&*value)?)
 }
 
 fn restore<T: Resource + DeserializeOwned>(
     r: &Resources,
     value: serde_json::Value,
-) -> Result<(), String> {
-    let new: T = serde_json::from_value(value).map_err(|e| e.to_string())?;
-    *r.get_mut::<T>().map_err(|e| e.to_string())? = new;
+) -> Result<(), PersistError> {
+    let new: T = serde_json::from_value(value)?;
+    *r.get_mut::<T>()? = new;
     Ok(())
 }
 
@@ -63,14 +130,20 @@ impl PersistedResources {
     pub fn save(
         &self,
         resources: &Resources,
-    ) -> Result<BTreeMap<String, serde_json::Value>, String> {
+    ) -> Result<BTreeMap<String, serde_json::Value>, PersistError> {
         let mut saved = BTreeMap::new();
         for (name, save, _) in &self.entries {
-            let value = save(resources).map_err(|e| format!("resource `{name}`: {e}"))?;
+            let value = save(resources).map_err(|e| PersistError::Resource {
+                name,
+                source: Box::new(e),
+            })?;
             saved.insert(name.to_string(), value);
         }
         for (name, save, _) in &self.optional {
-            let value = save(resources).map_err(|e| format!("`{name}`: {e}"))?;
+            let value = save(resources).map_err(|e| PersistError::Optional {
+                name,
+                source: Box::new(e),
+            })?;
             if !value.is_null() {
                 saved.insert(name.to_string(), value);
             }
@@ -84,16 +157,22 @@ impl PersistedResources {
         &self,
         resources: &Resources,
         saved: &BTreeMap<String, serde_json::Value>,
-    ) -> Result<(), String> {
+    ) -> Result<(), PersistError> {
         for (name, _, restore) in &self.entries {
             let value = saved
                 .get(*name)
-                .ok_or_else(|| format!("resource `{name}` is not in the checkpoint"))?;
-            restore(resources, value.clone()).map_err(|e| format!("resource `{name}`: {e}"))?;
+                .ok_or(PersistError::MissingResource(name))?;
+            restore(resources, value.clone()).map_err(|e| PersistError::Resource {
+                name,
+                source: Box::new(e),
+            })?;
         }
         for (name, _, restore) in &self.optional {
             if let Some(value) = saved.get(*name) {
-                restore(resources, value.clone()).map_err(|e| format!("`{name}`: {e}"))?;
+                restore(resources, value.clone()).map_err(|e| PersistError::Optional {
+                    name,
+                    source: Box::new(e),
+                })?;
             }
         }
         if let Some(extra) = saved.keys().find(|k| {
@@ -102,9 +181,7 @@ impl PersistedResources {
                 .chain(&self.optional)
                 .all(|(n, ..)| n != k)
         }) {
-            return Err(format!(
-                "resource `{extra}` is in the checkpoint but not in the scene"
-            ));
+            return Err(PersistError::UnknownResource(extra.clone()));
         }
         Ok(())
     }
@@ -127,11 +204,11 @@ pub fn save_named<'a>(
 pub fn restore_named<T>(
     parts: &mut [T],
     name: impl Fn(usize, &T) -> String,
-    mut restore: impl FnMut(&mut T, serde_json::Value) -> Result<(), crate::engine::error::StateError>,
+    mut restore: impl FnMut(&mut T, serde_json::Value) -> Result<(), StateError>,
     state: serde_json::Value,
-) -> Result<(), String> {
+) -> Result<(), PersistError> {
     let serde_json::Value::Object(map) = state else {
-        return Err("expected a map of named states".into());
+        return Err(PersistError::NotAMap);
     };
     for (key, value) in map {
         let part = parts
@@ -139,8 +216,8 @@ pub fn restore_named<T>(
             .enumerate()
             .find(|(i, p)| name(*i, p) == key)
             .map(|(_, p)| p)
-            .ok_or_else(|| format!("`{key}` is not part of this scene"))?;
-        restore(part, value).map_err(|e| format!("`{key}`: {e}"))?;
+            .ok_or_else(|| PersistError::UnknownPart(key.clone()))?;
+        restore(part, value).map_err(|source| PersistError::Part { name: key, source })?;
     }
     Ok(())
 }

@@ -555,18 +555,17 @@ impl Schedule {
     pub fn restore_states(
         &mut self,
         saved: &std::collections::BTreeMap<String, serde_json::Value>,
-    ) -> Result<(), String> {
+    ) -> Result<(), crate::engine::persisted::PersistError> {
+        use crate::engine::persisted::PersistError;
         for e in &mut self.entries {
             let name = e.system.name().to_string();
             match saved.get(&name) {
                 Some(state) => e
                     .system
                     .restore_state(state.clone())
-                    .map_err(|err| format!("system `{name}`: {err}"))?,
+                    .map_err(|source| PersistError::System { name, source })?,
                 None if e.system.save_state().is_some() => {
-                    return Err(format!(
-                        "system `{name}` keeps state, but the checkpoint holds none for it"
-                    ));
+                    return Err(PersistError::MissingSystemState(name));
                 }
                 None => {}
             }
@@ -575,9 +574,7 @@ impl Schedule {
             .keys()
             .find(|k| self.entries.iter().all(|e| e.system.name() != k.as_str()))
         {
-            return Err(format!(
-                "the checkpoint holds the state of system `{unknown}`, which this scene does not have"
-            ));
+            return Err(PersistError::UnknownSystem(unknown.clone()));
         }
         Ok(())
     }

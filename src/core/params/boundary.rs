@@ -60,7 +60,7 @@ impl BoundaryCondition {
 
     /// The directions in which the condition holds the loop's vertices
     /// (`None` for a free loop), or why the declaration is invalid.
-    pub fn held(&self) -> Result<Option<HeldDirections>, String> {
+    pub fn held(&self) -> Result<Option<HeldDirections>, crate::util::validate::ValidationError> {
         match *self {
             BoundaryCondition::Pinned { .. } => Ok(Some(HeldDirections::All)),
             BoundaryCondition::Roller { direction, .. } => {
@@ -69,7 +69,8 @@ impl BoundaryCondition {
                 if !n.is_finite() || n == 0.0 {
                     return Err(format!(
                         "the roller's direction must be a finite, non-zero vector, not {direction:?}"
-                    ));
+                    )
+                    .into());
                 }
                 Ok(Some(HeldDirections::Along(d / n)))
             }

@@ -261,16 +261,16 @@ pub(super) enum VolumeConstraintSpec {
 }
 
 impl TryFrom<VolumeConstraintSpec> for VolumeConstraint {
-    type Error = String;
-    fn try_from(spec: VolumeConstraintSpec) -> Result<Self, String> {
+    type Error = crate::util::validate::ValidationError;
+    fn try_from(spec: VolumeConstraintSpec) -> Result<Self, Self::Error> {
         match spec {
             VolumeConstraintSpec::Absolute(v) | VolumeConstraintSpec::OfInitial(v)
                 if !(v.is_finite() && v > 0.0) =>
             {
-                Err(format!("target must be a finite number > 0 (got {v})"))
+                Err(format!("target must be a finite number > 0 (got {v})").into())
             }
             VolumeConstraintSpec::Reduced(v) if !(v > 0.0 && v <= 1.0) => {
-                Err(format!("a reduced volume must be in (0, 1] (got {v})"))
+                Err(format!("a reduced volume must be in (0, 1] (got {v})").into())
             }
             VolumeConstraintSpec::Absolute(v) => Ok(VolumeConstraint::Absolute(v)),
             VolumeConstraintSpec::OfInitial(v) => Ok(VolumeConstraint::OfInitial(v)),

@@ -42,8 +42,8 @@ enum TargetSpec {
 }
 
 impl TryFrom<TargetSpec> for Target {
-    type Error = String;
-    fn try_from(spec: TargetSpec) -> Result<Self, String> {
+    type Error = crate::util::validate::ValidationError;
+    fn try_from(spec: TargetSpec) -> Result<Self, Self::Error> {
         let (t, v) = match spec {
             TargetSpec::Absolute(v) => (Target::Absolute(v), v),
             TargetSpec::OfInitial(v) => (Target::OfInitial(v), v),
@@ -51,7 +51,7 @@ impl TryFrom<TargetSpec> for Target {
         if v.is_finite() && v > 0.0 {
             Ok(t)
         } else {
-            Err(format!("target must be a finite number > 0 (got {v})"))
+            Err(format!("target must be a finite number > 0 (got {v})").into())
         }
     }
 }

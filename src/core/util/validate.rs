@@ -89,10 +89,39 @@ pub fn optional_positive<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>,
     }
 }
 
+/// Why a parsed value is invalid: a field out of its range, or a
+/// combination of fields that does not fit (the reason names the field).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ValidationError {
+    /// A field's value is out of its range.
+    #[error("`{field}` {reason}")]
+    Field {
+        /// The field.
+        field: &'static str,
+        /// What is wrong with its value.
+        reason: String,
+    },
+    /// The value is inconsistent (the reason names the field).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<&str> for ValidationError {
+    fn from(reason: &str) -> Self {
+        ValidationError::Invalid(reason.to_string())
+    }
+}
+
+impl From<String> for ValidationError {
+    fn from(reason: String) -> Self {
+        ValidationError::Invalid(reason)
+    }
+}
+
 /// A value with cross-field constraints checked after it is parsed.
 pub trait Validate {
-    /// `Err(reason)` if the value is inconsistent.
-    fn validate(&self) -> Result<(), String>;
+    /// `Err(why)` if the value is inconsistent.
+    fn validate(&self) -> Result<(), ValidationError>;
 }
 
 /// Deserializes a `T` and validates it, so a bad combination is reported at

@@ -6,7 +6,7 @@ use crate::study::Problem;
 use std::path::PathBuf;
 
 /// A case with its run directory and its run's data, or why it has none.
-type CaseRun<'a> = (&'a Case, PathBuf, Result<RunData, String>);
+type CaseRun<'a> = (&'a Case, PathBuf, Result<RunData, MeasureError>);
 
 /// Measures every case (finished ones; others are reported with their
 /// status) against its problem's reference.
@@ -68,7 +68,7 @@ fn read_case_runs<'a>(study: &Study, mine: &[&'a Case], out: &Path) -> Vec<CaseR
         let run = if crate::study::is_done(study, case, out) {
             read_run(&dir)
         } else {
-            Err("not run with these settings".to_string())
+            Err(MeasureError::NotRun)
         };
         runs.push((*case, dir.clone(), run));
     }
@@ -77,7 +77,7 @@ fn read_case_runs<'a>(study: &Study, mine: &[&'a Case], out: &Path) -> Vec<CaseR
 
 /// A case's resolution: its rung's h, else the problem's rule (NaN for a
 /// case without data).
-fn case_h(problem: &Problem, case: &Case, run: &Result<RunData, String>) -> f64 {
+fn case_h(problem: &Problem, case: &Case, run: &Result<RunData, MeasureError>) -> f64 {
     problem.rungs[case.rung].h.unwrap_or_else(|| match run {
         Ok(d) => match problem.resolution {
             Resolution::Vertices => 1.0 / d.vertices.sqrt(),
@@ -164,7 +164,7 @@ fn case_measurements(
     dir: &Path,
     d: &RunData,
     finest: Option<(usize, f64)>,
-) -> Result<(Vec<Measurement>, String), String> {
+) -> Result<(Vec<Measurement>, String), MeasureError> {
     let mut measurements = Vec::new();
     let mut note = String::new();
     match problem.reference {

@@ -3,6 +3,37 @@
 
 use super::*;
 
+/// Why a case could not be read or measured against its reference.
+#[derive(Debug, thiserror::Error)]
+pub enum MeasureError {
+    /// The case was run with other settings than the study's.
+    #[error("not run with these settings")]
+    NotRun,
+    /// The run directory's summary or series is unreadable.
+    #[error(transparent)]
+    Run(#[from] crate::io::run_dir::RunDirError),
+    /// The final mesh is unreadable.
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::io::MeshIoError),
+    /// The axisymmetric reference could not be solved.
+    #[error("reference at v = {v}: {source}")]
+    Reference {
+        /// The reduced volume.
+        v: f64,
+        /// Why.
+        source: crate::analysis::axisymmetric::SolveError,
+    },
+    /// The scene has no continuum adhered vesicle.
+    #[error(transparent)]
+    Substrate(#[from] crate::scene::NoSubstrate),
+    /// The adhered vesicle could not be measured.
+    #[error(transparent)]
+    Adhesion(#[from] crate::analysis::axisymmetric::contact_fit::ContactFitError),
+    /// A peer's result cannot be measured (the reason says why).
+    #[error("{0}")]
+    Peer(&'static str),
+}
+
 /// A run directory's outputs needed here.
 pub(super) struct RunData {
     pub(super) summary: crate::io::summary::RunSummary,
@@ -14,10 +45,10 @@ pub(super) struct RunData {
     pub(super) initial_bending: f64,
 }
 
-pub(super) fn read_run(dir: &Path) -> Result<RunData, String> {
-    let summary = crate::io::summary::RunSummary::read(dir).map_err(|e| e.to_string())?;
-    let series = crate::io::run_dir::Series::read(dir).map_err(|e| e.to_string())?;
-    let vertices = series.first("vertices").map_err(|e| e.to_string())?;
+pub(super) fn read_run(dir: &Path) -> Result<RunData, MeasureError> {
+    let summary = crate::io::summary::RunSummary::read(dir)?;
+    let series = crate::io::run_dir::Series::read(dir)?;
+    let vertices = series.first("vertices")?;
     let initial_bending = series.first("energy_bending").unwrap_or(f64::NAN);
     let rows = series
         .rows
@@ -77,11 +108,11 @@ pub(super) fn axisymmetric_measurements(
     area: f64,
     v: f64,
     kappa: f64,
-) -> Result<(Vec<Measurement>, String), String> {
+) -> Result<(Vec<Measurement>, String), MeasureError> {
     let r0 = (area / (4.0 * PI)).sqrt();
     let exact = crate::analysis::axisymmetric::converged(v)
-        .map_err(|e| format!("reference at v = {v}: {e}"))?;
-    let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
+        .map_err(|source| MeasureError::Reference { v, source })?;
+    let mesh = crate::mesh::io::read_mesh(mesh_path)?;
     let t = crate::analysis::shape::axial_thickness(&mesh.positions, &mesh.faces);
     let class = crate::analysis::shape::shape_metrics(&mesh.positions, &mesh.faces).class;
     let value = |x: crate::analysis::axisymmetric::Extrapolated| Value {
@@ -176,18 +207,22 @@ pub(super) fn peer_measurements(
     reference: Reference,
     case: &Case,
     output: &PeerOutput,
-) -> Result<(Vec<Measurement>, String), String> {
+) -> Result<(Vec<Measurement>, String), MeasureError> {
     let kappa = case.scene.bending_kappa().unwrap_or(f64::NAN);
     match reference {
         Reference::SphereBending | Reference::SpheroidBending => {
-            let exact = static_reference(reference, case).ok_or("not an ellipsoid")?;
+            let exact =
+                static_reference(reference, case).ok_or(MeasureError::Peer("not an ellipsoid"))?;
             Ok((
                 vec![measure("E_b", output.energy_bending, exact)],
                 String::new(),
             ))
         }
         Reference::Axisymmetric => {
-            let mesh = output.mesh.as_ref().ok_or("the peer wrote no final mesh")?;
+            let mesh = output
+                .mesh
+                .as_ref()
+                .ok_or(MeasureError::Peer("the peer wrote no final mesh"))?;
             axisymmetric_measurements(
                 mesh,
                 output.energy_bending,
@@ -196,9 +231,13 @@ pub(super) fn peer_measurements(
                 kappa,
             )
         }
-        Reference::FinestRung(_) => Err("a time-step problem has no peer version".into()),
-        Reference::Tether => Err("the tether problem has no peer version".into()),
-        Reference::Adhesion => Err("the adhesion problem has no peer version".into()),
+        Reference::FinestRung(_) => Err(MeasureError::Peer(
+            "a time-step problem has no peer version",
+        )),
+        Reference::Tether => Err(MeasureError::Peer("the tether problem has no peer version")),
+        Reference::Adhesion => Err(MeasureError::Peer(
+            "the adhesion problem has no peer version",
+        )),
     }
 }
 
@@ -276,12 +315,12 @@ pub(super) fn adhesion_measurements(
     scene: &crate::scene::Scene,
     mesh_path: &Path,
     summary: &crate::io::summary::RunSummary,
-) -> Result<(Vec<Measurement>, String), String> {
+) -> Result<(Vec<Measurement>, String), MeasureError> {
     let v = summary.last.reduced_volume.unwrap_or(f64::NAN);
     let r = match &summary.adhesion {
         Some(r) => r.clone(),
         None => {
-            let mesh = crate::mesh::io::read_mesh(mesh_path).map_err(|e| e.to_string())?;
+            let mesh = crate::mesh::io::read_mesh(mesh_path)?;
             let positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
             let (substrate, kappa) = scene.adhesion_substrate()?;
             crate::analysis::adhesion::measure(

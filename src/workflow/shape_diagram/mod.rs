@@ -39,7 +39,7 @@
 
 use crate::analysis::axisymmetric::{self, Branch};
 use crate::io::summary::RunSummary;
-use crate::scene::setting::Setting;
+use crate::scene::setting::{FieldError, Setting};
 use crate::scene::{Scene, SceneError};
 use crate::workflow::run::{RunOptions, run_scene};
 use serde::{Deserialize, Serialize};
@@ -213,7 +213,7 @@ impl ShapeDiagram {
                     e.span.start.line, e.span.start.col, e.code
                 ))
             })?;
-        diagram.check_fields().map_err(err)?;
+        diagram.check_fields().map_err(|e| err(e.to_string()))?;
         let walks = diagram.walks(path)?;
         Ok(LoadedDiagram {
             path: path.to_owned(),
@@ -225,13 +225,13 @@ impl ShapeDiagram {
     /// Checks the fields by themselves: the reduced volumes, at least one
     /// branch and one mesh, plain and unique names, and branches naming
     /// only declared meshes.
-    fn check_fields(&self) -> Result<(), String> {
+    fn check_fields(&self) -> Result<(), FieldError> {
         check_volumes("reduced_volumes", &self.reduced_volumes)?;
         if self.branches.is_empty() {
-            return Err("field `branches`: give at least one".into());
+            return Err(FieldError::new("branches", "give at least one"));
         }
         if self.meshes.is_empty() {
-            return Err("field `meshes`: give at least one".into());
+            return Err(FieldError::new("meshes", "give at least one"));
         }
         for (field, names) in [
             (
@@ -242,12 +242,16 @@ impl ShapeDiagram {
         ] {
             for (i, n) in names.iter().enumerate() {
                 if !crate::scene::setting::valid_name(n) {
-                    return Err(format!(
-                        "field `{field}[{i}]`: `{n}` must be a plain directory name"
+                    return Err(FieldError::new(
+                        format!("{field}[{i}]"),
+                        format!("`{n}` must be a plain directory name"),
                     ));
                 }
                 if names[..i].contains(n) {
-                    return Err(format!("field `{field}[{i}]`: `{n}` is used twice"));
+                    return Err(FieldError::new(
+                        format!("{field}[{i}]"),
+                        format!("`{n}` is used twice"),
+                    ));
                 }
             }
         }
@@ -257,8 +261,9 @@ impl ShapeDiagram {
                     .iter()
                     .find(|l| !self.meshes.iter().any(|m| &&m.label == l))
             {
-                return Err(format!(
-                    "field `branches[{i}].meshes`: no mesh `{l}` in field `meshes`"
+                return Err(FieldError::new(
+                    format!("branches[{i}].meshes"),
+                    format!("no mesh `{l}` in field `meshes`"),
                 ));
             }
         }
@@ -321,7 +326,8 @@ impl ShapeDiagram {
             .reduced_volumes
             .as_deref()
             .unwrap_or(&self.reduced_volumes);
-        check_volumes(&format!("branches[{i}].reduced_volumes"), volumes).map_err(err)?;
+        check_volumes(&format!("branches[{i}].reduced_volumes"), volumes)
+            .map_err(|e| err(e.to_string()))?;
         let scene_path = base.join(&branch.scene);
         let scene = Scene::load(&scene_path)?;
         let changes = changes_for(&mesh.set, &scene);
@@ -377,16 +383,17 @@ fn file_error(path: &Path, reason: String) -> DiagramError {
 }
 
 /// Checks the reduced volumes of `field`: at least one, each in (0, 1).
-fn check_volumes(field: &str, vs: &[f64]) -> Result<(), String> {
+fn check_volumes(field: &str, vs: &[f64]) -> Result<(), FieldError> {
     if vs.is_empty() {
-        return Err(format!("field `{field}`: give at least one"));
+        return Err(FieldError::new(field, "give at least one"));
     }
     match vs
         .iter()
         .find(|v| !(v.is_finite() && **v > 0.0 && **v < 1.0))
     {
-        Some(v) => Err(format!(
-            "field `{field}`: a reduced volume must be in (0, 1) (got {v})"
+        Some(v) => Err(FieldError::new(
+            field,
+            format!("a reduced volume must be in (0, 1) (got {v})"),
         )),
         None => Ok(()),
     }
