@@ -25,9 +25,16 @@ fn term_label(t: &EnergyTerm) -> String {
 }
 
 impl Scene {
-    /// Whether the scene declares a term of `kind`.
-    fn has_term(&self, kind: &str) -> bool {
-        self.energy.iter().any(|t| t.kind() == kind)
+    /// The first term (its index and kind) whose needs satisfy `pred`.
+    fn term_needing(
+        &self,
+        pred: impl Fn(&crate::energy::builtin::TermNeeds) -> bool,
+    ) -> Option<(usize, &'static str)> {
+        self.energy
+            .iter()
+            .enumerate()
+            .find(|(_, t)| pred(&t.needs()))
+            .map(|(i, t)| (i, t.kind()))
     }
 
     /// Every check, in order; the first that fails is the error.
@@ -230,7 +237,6 @@ impl Scene {
     /// The energy list: not empty, no term twice, what each term needs, and the flips' edge range.
     fn validate_energy_terms(&self, path: &Path) -> Result<(), SceneError> {
         let invalid = |field: &str, reason: String| invalid_field(path, field, reason);
-        let has = |kind| self.has_term(kind);
         let label = term_label;
         if self.energy.is_empty() {
             return Err(invalid("energy", "declares no energy term".into()));
@@ -246,10 +252,12 @@ impl Scene {
                 ));
             }
         }
-        if has("LocalTension") && !self.lipid_density {
+        if let Some((_, kind)) = self.term_needing(|n| n.lipid_density)
+            && !self.lipid_density
+        {
             return Err(invalid(
                 "lipid_density",
-                "the LocalTension term needs `lipid_density: true`".into(),
+                format!("the {kind} term needs `lipid_density: true`"),
             ));
         }
         if let Some(flips) = self.edge_flips {
@@ -267,14 +275,16 @@ impl Scene {
     /// Control points, their names and schedule, the springs that use them, and the tube probes.
     fn validate_control_points(&self, path: &Path) -> Result<(), SceneError> {
         let invalid = |field: &str, reason: String| invalid_field(path, field, reason);
-        let has = |kind| self.has_term(kind);
-        if has("Springs") && self.control_points.is_empty() {
+        let user = self.term_needing(|n| n.control_points);
+        if let Some((_, kind)) = user
+            && self.control_points.is_empty()
+        {
             return Err(invalid(
                 "control_points",
-                "the Springs term needs at least one control point".into(),
+                format!("the {kind} term needs at least one control point"),
             ));
         }
-        if !has("Springs") && !self.control_points.is_empty() {
+        if user.is_none() && !self.control_points.is_empty() {
             return Err(invalid(
                 "control_points",
                 format!(
@@ -417,8 +427,9 @@ impl Scene {
     /// Remeshing: V_in's barriers trigger it, and its lengths are ordered.
     fn validate_remesh(&self, path: &Path) -> Result<(), SceneError> {
         let invalid = |field: &str, reason: String| invalid_field(path, field, reason);
-        let has = |kind| self.has_term(kind);
-        if self.remesh.mode != crate::params::RemeshMode::Off && !has("Vin") {
+        if self.remesh.mode != crate::params::RemeshMode::Off
+            && self.term_needing(|n| n.triggers_remeshing).is_none()
+        {
             return Err(invalid(
                 "remesh.mode",
                 "remeshing needs the Vin term (its barriers trigger it)".into(),
@@ -562,15 +573,15 @@ impl Scene {
                 ),
             ));
         }
-        if let Some(i) = self.energy.iter().position(|t| t.kind() == "LocalTension") {
-            return Err(invalid(
-                &format!("energy[{i}]"),
-                "LocalTension reads the lipid density carried by the vertices, and in the fluid \
-                 model vertices slide within the membrane, so that density is no longer a field \
-                 of the lipids (it would need remapping). Use Tension(sigma) or the `area` \
-                 constraint, or the paper's model"
-                    .into(),
-            ));
+        for (i, term) in self.energy.iter().enumerate() {
+            if let Some((field, reason)) = term.needs().not_in_fluid_model {
+                let at = if field.is_empty() {
+                    format!("energy[{i}]")
+                } else {
+                    format!("energy[{i}].{field}")
+                };
+                return Err(invalid(&at, reason));
+            }
         }
         if self.lipid_density || self.diffusion.is_some() {
             let field = if self.diffusion.is_some() {
@@ -585,21 +596,6 @@ impl Scene {
                  paper's model"
                     .into(),
             ));
-        }
-        for (i, term) in self.energy.iter().enumerate() {
-            if let EnergyTerm::Springs(p) = term
-                && !matches!(p.coupling, crate::params::SpringCoupling::Gaussian { .. })
-            {
-                return Err(invalid(
-                    &format!("energy[{i}].coupling"),
-                    format!(
-                        "{:?} ties a control point to the nearest vertex's 1-ring, which slides \
-                         away in the fluid model; use `coupling: Gaussian(radius: a)` (a smooth \
-                         patch of physical radius a ≈ 1-1.5 l̄, pulled along the surface normal)",
-                        p.coupling
-                    ),
-                ));
-            }
         }
         if self.edge_flips.is_some() {
             return Err(invalid(
@@ -632,17 +628,22 @@ impl Scene {
                 "a reduced volume is held at the area constraint's target: give `area` too".into(),
             ));
         }
-        for (held, kind, field) in [
-            (c.area.is_some(), "Area", "constraints.area"),
-            (c.volume.is_some(), "Volume", "constraints.volume"),
+        use crate::energy::builtin::GlobalQuantity;
+        for (held, quantity, field) in [
+            (c.area.is_some(), GlobalQuantity::Area, "constraints.area"),
+            (
+                c.volume.is_some(),
+                GlobalQuantity::Volume,
+                "constraints.volume",
+            ),
         ] {
-            if let Some(i) = self.energy.iter().position(|t| t.kind() == kind)
+            if let Some((i, kind)) = self.term_needing(|n| n.penalises == Some(quantity))
                 && held
             {
                 return Err(invalid(
                     field,
                     format!(
-                        "energy[{i}] is a {kind} penalty on the quantity this constraint holds                          exactly: keep one of the two"
+                        "energy[{i}] ({kind}) penalises the quantity this constraint holds exactly: keep one of the two"
                     ),
                 ));
             }

@@ -237,6 +237,47 @@ fn inconsistent_scenes_name_the_field() {
             ),
             "control_points[1].name",
         ),
+        // What the terms declare they need (BuiltinTerm::needs), checked
+        // without naming them.
+        (
+            GOOD.replace("name: \"t\",", "name: \"t\", remesh: (mode: FreeEnergy),"),
+            "remesh.mode",
+        ),
+        (
+            GOOD.replace(
+                "Bending(kappa: 1.0),",
+                "Bending(), Area(k: 1.0, target: OfInitial(1.0)),",
+            )
+            .replace("name: \"t\",", "name: \"t\", constraints: (area: OfInitial(1.0)),"),
+            "constraints.area",
+        ),
+        (
+            GOOD.replace(
+                "Bending(kappa: 1.0),",
+                "Bending(), Volume(k: 1.0, target: OfInitial(1.0)),",
+            )
+            .replace(
+                "name: \"t\",",
+                "name: \"t\", constraints: (area: OfInitial(1.0), volume: OfInitial(1.0)),",
+            ),
+            "constraints.volume",
+        ),
+        (
+            GOOD.replace(
+                "Bending(kappa: 1.0),",
+                "LocalTension(target_area: OfInitial(1.0)), Vin(), Bending(),",
+            )
+            .replace("name: \"t\",", "name: \"t\", lipid_density: true, model: Fluid(),"),
+            "energy[0]",
+        ),
+        (
+            GOOD.replace("Bending(kappa: 1.0),", "Springs(), Vin(), Bending(),")
+                .replace(
+                    "name: \"t\",",
+                    "name: \"t\", model: Fluid(), control_points: [(position: (0.0, 0.0, 9.0))],",
+                ),
+            "energy[0].coupling",
+        ),
     ];
     for (text, field) in cases {
         let (_, msg) = error_of(&text);
@@ -244,6 +285,8 @@ fn inconsistent_scenes_name_the_field() {
             msg.contains(&format!("field `{field}`")),
             "expected field `{field}` in: {msg}"
         );
+        // A message's lines joined without their indentation.
+        assert!(!msg.contains("  "), "a run of spaces in: {msg}");
     }
 }
 

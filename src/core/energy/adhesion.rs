@@ -28,7 +28,6 @@
 //! [`Wall`]: super::wall
 
 use crate::energy::wall::WallShape;
-use crate::engine::error::BuildError;
 use crate::engine::force::{ForceContext, ForceTerm};
 use crate::engine::recorder::{FrameData, Recorder};
 use crate::engine::resources::Res;
@@ -195,17 +194,10 @@ pub fn plugin(params: AdhesionParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for AdhesionParams {
     /// Correct on open meshes: a sum over faces of their area times a contact weight: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), BuildError> {
-        builder.add_plugin(plugin(self.clone()))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(self.clone())
     }
 
     /// The range ρ is written for h = 1 and scales with the mesh (× h), so

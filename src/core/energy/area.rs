@@ -103,16 +103,17 @@ pub fn plugin(params: AreaParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for AreaParams {
     /// Correct on open meshes: a sum over faces of their area: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
+    const CORRECT_ON_OPEN_MESHES: bool = true;
+
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(*self)
     }
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(*self))?;
-        Ok(())
+    /// A penalty on the area.
+    fn needs(&self) -> crate::energy::builtin::TermNeeds {
+        crate::energy::builtin::TermNeeds {
+            penalises: Some(crate::energy::builtin::GlobalQuantity::Area),
+            ..Default::default()
+        }
     }
 }

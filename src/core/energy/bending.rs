@@ -626,16 +626,9 @@ impl crate::energy::builtin::BuiltinTerm for BendingParams {
     /// Both forms are correct on open meshes: boundary vertices carry no
     /// bending energy of their own (see the module docs and
     /// [`crate::energy::bending_dihedral`]).
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(*self))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(*self)
     }
 }

@@ -8,7 +8,7 @@
 //! `energy/mod.rs` (its `mod` line and its entry).
 
 use crate::engine::error::BuildError;
-use crate::engine::simulation::SimBuilder;
+use crate::engine::simulation::{Plugin, SimBuilder};
 use crate::params::RemeshMode;
 
 /// What a term's plugin may need to know about the rest of the scene.
@@ -53,10 +53,57 @@ impl From<String> for OpenMeshError {
     }
 }
 
-/// A built-in term's parameters as a scene declares them.
+/// What a built-in term needs from the rest of the scene, and what it
+/// cannot run with. The scene's validation reads these declarations (and
+/// names the field at fault); it does not know the terms by name.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TermNeeds {
+    /// It reads the lipid density carried by the vertices
+    /// (`lipid_density: true`).
+    pub lipid_density: bool,
+    /// It acts through the scene's control points: it needs at least one,
+    /// and control points need a term that uses them.
+    pub control_points: bool,
+    /// Its barriers trigger remeshing (V_in's): remeshing needs such a term.
+    pub triggers_remeshing: bool,
+    /// The global quantity it penalises, which an exact constraint on the
+    /// same quantity would hold twice.
+    pub penalises: Option<GlobalQuantity>,
+    /// Why it cannot run in the fluid model, if it cannot: the field of the
+    /// term at fault (empty: the term itself) and the reason.
+    pub not_in_fluid_model: Option<(&'static str, String)>,
+}
+
+/// A global quantity of the membrane that a penalty or a constraint holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GlobalQuantity {
+    /// The total area.
+    Area,
+    /// The enclosed volume.
+    Volume,
+}
+
+/// A built-in term's parameters as a scene declares them. A term writes
+/// its [`plugin`](BuiltinTerm::plugin) and, where it holds, that it is
+/// correct on open meshes ([`CORRECT_ON_OPEN_MESHES`](BuiltinTerm::CORRECT_ON_OPEN_MESHES));
+/// the rest has defaults.
 pub trait BuiltinTerm {
-    /// Adds the term (its resources, systems and force term) to `builder`.
-    fn add_to(&self, builder: &mut SimBuilder, context: &TermContext) -> Result<(), BuildError>;
+    /// Whether the term is correct on an open mesh (one with boundary
+    /// loops: boundary edges have one face, boundary vertices an open fan).
+    /// Default: no, so a new term runs on open meshes only once it says it
+    /// is correct there (and its finite-difference test covers an open
+    /// patch, `tests/integration/open_fd.rs`).
+    const CORRECT_ON_OPEN_MESHES: bool = false;
+
+    /// The term's plugin (its force term and whatever else it inserts:
+    /// resources, systems, recorders) in a scene described by `context`.
+    fn plugin(&self, context: TermContext) -> impl Plugin;
+
+    /// Adds the term's [`plugin`](BuiltinTerm::plugin) to `builder`.
+    fn add_to(&self, builder: &mut SimBuilder, context: &TermContext) -> Result<(), BuildError> {
+        builder.add_plugin(self.plugin(*context))?;
+        Ok(())
+    }
 
     /// Rescales every length in the parameters to a mesh whose edge length
     /// is `h` times the scene's (see `Scene::at_resolution`): lengths are
@@ -66,13 +113,23 @@ pub trait BuiltinTerm {
         let _ = h;
     }
 
-    /// Whether the term is correct on an open mesh (one with boundary
-    /// loops: boundary edges have one face, boundary vertices an open fan):
-    /// `Ok`, or why not, as a clause for the user. Default: refused, so a
-    /// new term runs on open meshes only once it says it is correct there
-    /// (and its finite-difference test covers an open patch).
+    /// What the term needs from the rest of the scene ([`TermNeeds`]).
+    /// Default: nothing.
+    fn needs(&self) -> TermNeeds {
+        TermNeeds::default()
+    }
+
+    /// Whether the term is correct on an open mesh: `Ok`, or why not, as a
+    /// clause for the user. Default: as
+    /// [`CORRECT_ON_OPEN_MESHES`](BuiltinTerm::CORRECT_ON_OPEN_MESHES)
+    /// says; a term correct under a condition (the volume, with a closing
+    /// plane) says which.
     fn open_mesh_support(&self) -> Result<(), OpenMeshError> {
-        Err(OpenMeshError::NotBoundaryAware)
+        if Self::CORRECT_ON_OPEN_MESHES {
+            Ok(())
+        } else {
+            Err(OpenMeshError::NotBoundaryAware)
+        }
     }
 }
 
@@ -118,6 +175,16 @@ macro_rules! builtin_terms {
                 match self {
                     $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::open_mesh_support(p), )*
                     EnergyTerm::Custom(_) => Err($crate::energy::builtin::OpenMeshError::PluginTerm),
+                }
+            }
+
+            /// What the term needs from the rest of the scene
+            /// ([`BuiltinTerm::needs`](crate::energy::builtin::BuiltinTerm::needs));
+            /// a plugin term declares nothing.
+            pub fn needs(&self) -> $crate::energy::builtin::TermNeeds {
+                match self {
+                    $( EnergyTerm::$variant(p) => $crate::energy::builtin::BuiltinTerm::needs(p), )*
+                    EnergyTerm::Custom(_) => Default::default(),
                 }
             }
 

@@ -103,16 +103,25 @@ pub fn plugin(params: LocalTensionParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for LocalTensionParams {
     /// Correct on open meshes: a sum over vertices of their mixed areas, made of their faces' shares: a boundary vertex's is the share of its fan.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
+    const CORRECT_ON_OPEN_MESHES: bool = true;
+
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(*self)
     }
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(*self))?;
-        Ok(())
+    /// It reads the lipid density, which the fluid model cannot carry.
+    fn needs(&self) -> crate::energy::builtin::TermNeeds {
+        crate::energy::builtin::TermNeeds {
+            lipid_density: true,
+            not_in_fluid_model: Some((
+                "",
+                "LocalTension reads the lipid density carried by the vertices, and in the fluid \
+                 model vertices slide within the membrane, so that density is no longer a field \
+                 of the lipids (it would need remapping). Use Tension(sigma) or the `area` \
+                 constraint, or the paper's model"
+                    .into(),
+            )),
+            ..Default::default()
+        }
     }
 }

@@ -178,17 +178,10 @@ pub fn plugin(params: crate::params::SelfAvoidanceParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for SelfAvoidanceParams {
     /// Correct on open meshes: pairs of vertices that are not ring neighbours: a boundary vertex's ring is its fan.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(*self))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(*self)
     }
 
     fn at_resolution(&mut self, h: f64) {

@@ -365,22 +365,38 @@ pub fn plugin(coupling: SpringCoupling) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for SpringParams {
     /// Correct on open meshes: a control point's nearest vertex and its ring (a boundary vertex's is its fan), or vertices by distance.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(self.coupling))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(self.coupling)
     }
 
     fn at_resolution(&mut self, h: f64) {
         if let SpringCoupling::Gaussian { radius } = &mut self.coupling {
             *radius *= h;
+        }
+    }
+
+    /// It pulls through the control points; a 1-ring coupling cannot run
+    /// in the fluid model.
+    fn needs(&self) -> crate::energy::builtin::TermNeeds {
+        crate::energy::builtin::TermNeeds {
+            control_points: true,
+            not_in_fluid_model: (!matches!(self.coupling, SpringCoupling::Gaussian { .. })).then(
+                || {
+                    (
+                        "coupling",
+                        format!(
+                            "{:?} ties a control point to the nearest vertex's 1-ring, which \
+                             slides away in the fluid model; use `coupling: Gaussian(radius: a)` \
+                             (a smooth patch of physical radius a ≈ 1-1.5 l̄, pulled along the \
+                             surface normal)",
+                            self.coupling
+                        ),
+                    )
+                },
+            ),
+            ..Default::default()
         }
     }
 }

@@ -102,16 +102,9 @@ pub fn plugin(params: crate::params::TensionParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for TensionParams {
     /// Correct on open meshes: σ times a sum over faces of their area: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(*self))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(*self)
     }
 }

@@ -701,20 +701,15 @@ pub fn plugin(params: VinParams, exerts_force: bool) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for VinParams {
     /// Correct on open meshes: one potential per edge: a boundary edge is an edge.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
     /// V_in exerts its force except in the geometric remeshing baseline,
     /// where it sets Δt and drives the local relaxation only.
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        let exerts_force = context.remesh_mode != crate::params::RemeshMode::Geometric;
-        builder.add_plugin(plugin(*self, exerts_force))?;
-        Ok(())
+    fn plugin(&self, context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(
+            *self,
+            context.remesh_mode != crate::params::RemeshMode::Geometric,
+        )
     }
 
     fn at_resolution(&mut self, h: f64) {
@@ -726,6 +721,14 @@ impl crate::energy::builtin::BuiltinTerm for VinParams {
         self.near_steepness = (self.near_steepness.0 / h, self.near_steepness.1 / h);
         self.far_steepness = (self.far_steepness.0 / h, self.far_steepness.1 / h);
         self.wall_steepness /= h;
+    }
+
+    /// Its barriers trigger remeshing.
+    fn needs(&self) -> crate::energy::builtin::TermNeeds {
+        crate::energy::builtin::TermNeeds {
+            triggers_remeshing: true,
+            ..Default::default()
+        }
     }
 }
 

@@ -213,12 +213,15 @@ impl crate::energy::builtin::BuiltinTerm for VolumeParams {
         }
     }
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), crate::engine::error::BuildError> {
-        builder.add_plugin(plugin(*self))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(*self)
+    }
+
+    /// A penalty on the enclosed volume.
+    fn needs(&self) -> crate::energy::builtin::TermNeeds {
+        crate::energy::builtin::TermNeeds {
+            penalises: Some(crate::energy::builtin::GlobalQuantity::Volume),
+            ..Default::default()
+        }
     }
 }

@@ -342,17 +342,10 @@ pub fn plugin(params: WallParams) -> impl Plugin {
 
 impl crate::energy::builtin::BuiltinTerm for WallParams {
     /// Correct on open meshes: one repulsion per vertex: nothing in it assumes a closed surface.
-    fn open_mesh_support(&self) -> Result<(), crate::energy::builtin::OpenMeshError> {
-        Ok(())
-    }
+    const CORRECT_ON_OPEN_MESHES: bool = true;
 
-    fn add_to(
-        &self,
-        builder: &mut SimBuilder,
-        _context: &crate::energy::builtin::TermContext,
-    ) -> Result<(), BuildError> {
-        builder.add_plugin(plugin(self.clone()))?;
-        Ok(())
+    fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
+        plugin(self.clone())
     }
 
     /// The range is a mesh-scale length (× h); the wall's surface is a
