@@ -2,15 +2,57 @@
 
 use super::*;
 
-/// The options of `remembrane sweep`.
+/// The arguments of `remembrane sweep`.
+#[derive(clap::Args)]
 pub(super) struct SweepArgs {
+    /// Sweep file (RON), e.g. sweeps/tether.ron.
+    pub(super) sweep: PathBuf,
+    /// Output directory (default out/<sweep name>).
+    #[arg(long)]
     pub(super) out: Option<PathBuf>,
+    /// Runs at once (default: number of cores).
+    #[arg(long)]
     pub(super) jobs: Option<usize>,
+    /// Run only the runs with index ≡ I (mod N), e.g. 3/8.
+    #[arg(long, value_name = "I/N")]
     pub(super) shard: Option<String>,
+    /// Override every run's iterations (quick trials).
+    #[arg(long)]
     pub(super) iterations: Option<u64>,
+    /// Print an sbatch job-array script for this sweep instead of running.
+    #[arg(long)]
     pub(super) emit_slurm: bool,
+    /// Array tasks of the emitted script (default: one per run).
+    #[arg(long)]
     pub(super) tasks: Option<usize>,
+    /// Run only the sweep's shared phases (the first job of a campaign).
+    #[arg(long)]
     pub(super) phases_only: bool,
+    /// No per-run progress lines.
+    #[arg(long)]
+    pub(super) quiet: bool,
+}
+
+/// The arguments of `remembrane study`.
+#[derive(clap::Args)]
+pub(super) struct StudyArgs {
+    /// Study file (RON), e.g. scenes/studies/accuracy.ron.
+    pub(super) study: PathBuf,
+    /// Output directory (default out/<study name>).
+    #[arg(long)]
+    pub(super) out: Option<PathBuf>,
+    /// Cases at once (default 1: wall times are comparable only when
+    /// cases do not share the cores).
+    #[arg(long, default_value_t = 1)]
+    pub(super) jobs: usize,
+    /// Only the rungs each problem lists in `quick` (the CI ladder).
+    #[arg(long)]
+    pub(super) quick: bool,
+    /// Do not run the study's peer engines.
+    #[arg(long)]
+    pub(super) no_peers: bool,
+    /// No per-case progress lines.
+    #[arg(long)]
     pub(super) quiet: bool,
 }
 
@@ -18,14 +60,16 @@ pub(super) struct SweepArgs {
 /// reports all of them. Exit 2 for a bad study file, 1 if a case failed to
 /// run (a run that blew up is a result, not a failure) or the report could
 /// not be written.
-pub(super) fn study_command(
-    path: &Path,
-    out: Option<PathBuf>,
-    jobs: usize,
-    quick: bool,
-    no_peers: bool,
-    quiet: bool,
-) -> ExitCode {
+pub(super) fn study_command(args: StudyArgs) -> ExitCode {
+    let StudyArgs {
+        study: path,
+        out,
+        jobs,
+        quick,
+        no_peers,
+        quiet,
+    } = args;
+    let path = path.as_path();
     use crate::study::{Study, StudyOptions, run_cases, selected};
     let (study, cases) = match Study::load(path) {
         Ok(s) => s,
@@ -78,10 +122,47 @@ pub(super) fn study_command(
     }
 }
 
+/// The arguments of `remembrane diagram`.
+#[derive(clap::Args)]
+pub(super) struct DiagramArgs {
+    /// Shape-diagram file (RON), e.g. scenes/minimise/shape_diagram.ron.
+    pub(super) diagram: PathBuf,
+    /// Output directory (default out/<diagram name>).
+    #[arg(long)]
+    pub(super) out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub(super) overwrite: bool,
+    /// Walk only these meshes (labels, comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub(super) meshes: Option<Vec<String>>,
+    /// Override every point's iteration cap (quick trials).
+    #[arg(long)]
+    pub(super) iterations: Option<u64>,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long)]
+    pub(super) threads: Option<usize>,
+    /// No per-point lines and no table.
+    #[arg(long)]
+    pub(super) quiet: bool,
+}
+
 /// `remembrane diagram FILE` (and `remembrane run FILE` on a shape
 /// diagram): exit 2 for a bad file, 1 if a point did not complete (the
 /// outputs then stay in OUT.incomplete).
-pub(super) fn diagram_command(
+pub(super) fn diagram_command(args: DiagramArgs) -> ExitCode {
+    let options = crate::workflow::shape_diagram::DiagramOptions {
+        overwrite: args.overwrite,
+        meshes: args.meshes,
+        iterations: args.iterations,
+        progress: !args.quiet,
+    };
+    run_diagram_file(&args.diagram, args.out, options, args.threads)
+}
+
+/// A shape diagram's walk with its options, from `remembrane diagram` or
+/// `remembrane run`.
+pub(super) fn run_diagram_file(
     path: &Path,
     out: Option<PathBuf>,
     options: crate::workflow::shape_diagram::DiagramOptions,
@@ -115,10 +196,11 @@ pub(super) fn diagram_command(
     }
 }
 
-pub(super) fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
+pub(super) fn sweep_command(args: SweepArgs) -> ExitCode {
     use crate::workflow::slurm::{slurm_campaign_script, slurm_script};
     use crate::workflow::sweep::{Sweep, SweepError, SweepOptions, parse_shard, run_sweep};
     let SweepArgs {
+        sweep,
         out,
         jobs,
         shard,
@@ -128,6 +210,7 @@ pub(super) fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
         phases_only,
         quiet,
     } = args;
+    let sweep_path = sweep.as_path();
     let fail = |message: String| {
         eprintln!("error: {message}");
         ExitCode::from(2)
@@ -208,13 +291,34 @@ pub(super) fn sweep_command(sweep_path: &Path, args: SweepArgs) -> ExitCode {
     }
 }
 
-pub(super) fn collect_command(
-    dir: &Path,
-    x: String,
-    y: String,
-    frames: usize,
-    partial: bool,
-) -> ExitCode {
+/// The arguments of `remembrane collect`.
+#[derive(clap::Args)]
+pub(super) struct CollectArgs {
+    /// Sweep output directory (with sweep.json).
+    pub(super) dir: PathBuf,
+    /// Column on the x axis.
+    #[arg(long, default_value = "radius_left_norm")]
+    pub(super) x: String,
+    /// Column on the y axis.
+    #[arg(long, default_value = "radius_right_norm")]
+    pub(super) y: String,
+    /// Rows of each series.csv used (from the first).
+    #[arg(long, default_value_t = 31)]
+    pub(super) frames: usize,
+    /// Succeed even if some runs have no results yet.
+    #[arg(long)]
+    pub(super) partial: bool,
+}
+
+pub(super) fn collect_command(args: CollectArgs) -> ExitCode {
+    let CollectArgs {
+        dir,
+        x,
+        y,
+        frames,
+        partial,
+    } = args;
+    let dir = dir.as_path();
     use crate::workflow::collect::{CollectOptions, collect};
     let options = CollectOptions {
         x,

@@ -4,15 +4,42 @@
 
 use super::*;
 
-pub(super) fn compare_command(
-    first: &Path,
-    second: &Path,
-    iterations: Option<u64>,
-    out: Option<PathBuf>,
-    overwrite: bool,
-    seed: Option<u64>,
-    quiet: bool,
-) -> ExitCode {
+/// The arguments of `remembrane compare`.
+#[derive(clap::Args)]
+pub(super) struct CompareArgs {
+    /// First scene (e.g. scenes/vesicle_fusion.ron).
+    pub(super) first: PathBuf,
+    /// Second scene (e.g. scenes/fusion_geometric.ron).
+    pub(super) second: PathBuf,
+    /// Iterations for both runs (overrides the scenes').
+    #[arg(long)]
+    pub(super) iterations: Option<u64>,
+    /// Output directory (default out/compare-<first>-<second>); each run
+    /// goes into a subfolder named after its scene.
+    #[arg(long)]
+    pub(super) out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub(super) overwrite: bool,
+    /// Seed for both runs (overrides the scenes').
+    #[arg(long)]
+    pub(super) seed: Option<u64>,
+    /// No progress output.
+    #[arg(long)]
+    pub(super) quiet: bool,
+}
+
+pub(super) fn compare_command(args: CompareArgs) -> ExitCode {
+    let CompareArgs {
+        first,
+        second,
+        iterations,
+        out,
+        overwrite,
+        seed,
+        quiet,
+    } = args;
+    let (first, second) = (first.as_path(), second.as_path());
     use crate::workflow::compare::{ComparisonRow, chart_png, csv, table};
     use crate::workflow::run::{Progress, RunOptions, run_scene};
     let mut scenes = Vec::new();

@@ -28,15 +28,49 @@ pub(super) fn check_protocol(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-pub(super) fn spectrum_command(
-    dir: &Path,
-    equilibration: f64,
-    (l_min, l_max): (usize, usize),
-    blocks: usize,
-    kbt: Option<f64>,
-    kappa: Option<f64>,
-    discrete: bool,
-) -> Result<(), String> {
+/// The arguments of `remembrane spectrum`.
+#[derive(clap::Args)]
+pub(super) struct SpectrumArgs {
+    /// Run directory (with summary.json and frames/).
+    pub(super) dir: PathBuf,
+    /// Frames before this simulated time are discarded (s).
+    #[arg(long, default_value_t = 0.0)]
+    pub(super) equilibration: f64,
+    /// Lowest l fitted.
+    #[arg(long, default_value_t = 2)]
+    pub(super) l_min: usize,
+    /// Highest l fitted.
+    #[arg(long, default_value_t = 12)]
+    pub(super) l_max: usize,
+    /// Blocks of consecutive frames for the error bars.
+    #[arg(long, default_value_t = 10)]
+    pub(super) blocks: usize,
+    /// k_BT (Ē; default: the run's scene's temperature).
+    #[arg(long)]
+    pub(super) kbt: Option<f64>,
+    /// Input κ to draw (Ē; default: the run's scene's Bending kappa).
+    #[arg(long)]
+    pub(super) kappa: Option<f64>,
+    /// Fit against the discrete bending energy's own stiffness against
+    /// each mode (measured on the last frame's mesh) instead of the
+    /// continuum's: the cotangent energy is softer for modes a few edges
+    /// long, which a continuum fit reads as a lower κ.
+    #[arg(long)]
+    pub(super) discrete: bool,
+}
+
+pub(super) fn spectrum_command(args: SpectrumArgs) -> Result<(), String> {
+    let SpectrumArgs {
+        dir,
+        equilibration,
+        l_min,
+        l_max,
+        blocks,
+        kbt,
+        kappa,
+        discrete,
+    } = args;
+    let dir = dir.as_path();
     if !dir.join("summary.json").is_file() {
         return Err(format!(
             "{}: no summary.json: not a run directory",
@@ -89,6 +123,13 @@ pub(super) fn spectrum_command(
         say!("input κ = {k} Ē: fitted/input = {:.3}", s.kappa / k);
     }
     Ok(())
+}
+
+/// The arguments of `remembrane check`.
+#[derive(clap::Args)]
+pub(super) struct CheckArgs {
+    /// Scene file (RON).
+    pub(super) scene: PathBuf,
 }
 
 pub(super) fn check(path: &Path) -> Result<(), String> {
@@ -236,7 +277,26 @@ fn say_constraints_and_dynamics(
     }
 }
 
-pub(super) fn energy(path: &Path, json: bool, forces: Option<&Path>) -> Result<(), String> {
+/// The arguments of `remembrane energy`.
+#[derive(clap::Args)]
+pub(super) struct EnergyArgs {
+    /// Scene file (RON).
+    pub(super) scene: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub(super) json: bool,
+    /// Also write per-vertex forces (each term and the total) as CSV.
+    #[arg(long, value_name = "FILE.csv")]
+    pub(super) forces: Option<PathBuf>,
+}
+
+pub(super) fn energy(args: EnergyArgs) -> Result<(), String> {
+    let EnergyArgs {
+        scene: path,
+        json,
+        forces,
+    } = args;
+    let (path, forces) = (path.as_path(), forces.as_deref());
     let (scene, mut sim) = load(path)?;
     sim.evaluate_forces().map_err(|e| e.to_string())?;
     let report = EnergyReport::new(&crate::workflow::run::run_name(&scene, path), &sim);

@@ -3,6 +3,15 @@
 
 use super::*;
 
+/// The arguments of `remembrane run`.
+#[derive(clap::Args)]
+pub(super) struct RunCommandArgs {
+    /// Scene file (RON); default: the bundled red_blood_cell.ron.
+    pub(super) scene: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) args: RunArgs,
+}
+
 /// Options of `remembrane run`.
 #[derive(clap::Args)]
 pub(super) struct RunArgs {
@@ -83,7 +92,7 @@ pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode 
             iterations: args.iterations,
             progress: !args.quiet,
         };
-        return diagram_command(p, args.out, options, args.threads);
+        return run_diagram_file(p, args.out, options, args.threads);
     }
     let path = scene_path.map_or_else(|| PathBuf::from(BUNDLED_SCENE_NAME), Path::to_path_buf);
     let text = match scene_path {
