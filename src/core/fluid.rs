@@ -96,7 +96,7 @@ pub fn remove_net_force(forces: &mut [DVec3]) {
 /// and on a helically ordered tube the tangential V_in forces of a
 /// compressed lattice sum to a torque that spun the tube about its axis
 /// without end (the n = 13 tether started at 0.8 r0: the largest force
-/// stuck near 1e-3 Ē/l̄ while the energy crept up, session 22). Sums are
+/// stuck near 1e-3 Ē/l̄ while the energy crept up, commit 65cd623 (2026-12-04)). Sums are
 /// sequential (the same bits on any thread count).
 pub fn remove_net_force_and_torque(forces: &mut [DVec3], positions: &[DVec3]) {
     remove_net_force(forces);

@@ -22,7 +22,7 @@
 //! positions (control points, probes, the mesh generators' sizes) and times
 //! do not change, nor does FIRE's largest time step: scaled by h it slowed
 //! the h = 1/2 RBC from 5309 iterations to no convergence in 20 000
-//! (benches/RESULTS.md, session 17). With h = 1 nothing changes: every existing scene builds
+//! (benches/RESULTS.md, commit faad1a5 (2026-12-03)). With h = 1 nothing changes: every existing scene builds
 //! exactly as before.
 //!
 //! With `preconditioner: Sobolev(...)` the projection's largest correction

@@ -137,7 +137,7 @@ fn the_contact_curvature_is_within_5_percent_of_the_contact_condition() {
         };
         let error = |q: &str| measurement(q)["error"].as_f64().unwrap();
         // Measured +3.2 % and -1.7 %; heights +0.7 and +0.5 %; contact
-        // areas +1.6 and +0.1 % (benches/RESULTS.md, session 28).
+        // areas +1.6 and +0.1 % (benches/RESULTS.md, commit 24910fc (2026-12-05)).
         assert!(error("c_contact") < 0.05, "{name}: {fine}");
         assert!(error("height") < 0.02, "{name}: {fine}");
         assert!(error("A_contact") < 0.05, "{name}: {fine}");

@@ -278,7 +278,7 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
     // The shape diagram's prolate at 2562 vertices (h = 1/2) deflated from
     // its spheroid (v = 0.958) to v = 0.9 stretches the fluid mesh along
     // its axis; with the paper's pre-relaxed events 647 split relaxations
-    // failed in the first 90 iterations (benches/RESULTS.md, session 18).
+    // failed in the first 90 iterations (benches/RESULTS.md, commit dc9a61c (2026-12-03)).
     // Direct edits (with the scene's maintenance flips): every event
     // succeeds or is impossible (valence), none relaxes first, and no
     // abnormal edge is left.
@@ -619,7 +619,7 @@ fn fluid_tether_pulls_along_the_normals_and_reports_what_it_delivers() {
 /// 1.25 r0 and 1.5 r0, against Derényi-Jülicher-Prost: radius within 1 %,
 /// force within 3 % (5 % at n = 10), medians over the second half of the
 /// frames, and the tip force's coefficient of variation there below 2 %.
-/// Measured (session 22): radius -0.96..+0.89 % (the starts leave the tube
+/// Measured (commit 65cd623 (2026-12-04)): radius -0.96..+0.89 % (the starts leave the tube
 /// 228-349 vertices at n = 10, 1192-2051 at n = 25, and the coarser mesh
 /// reads wider), force -0.51..+0.53 %, CV ≤ 0.25 %.
 #[test]

@@ -199,7 +199,7 @@ fn run_is_the_front_door_for_a_diagram() {
 /// at v = 0.65 (`membrane: Axisymmetric(...)`, a surface of revolution in
 /// rings), the walk stays a stomatocyte as the neck narrows, and reads low
 /// by the cotangent energy's O(h²) at 632-668 vertices (measured −1.59 %,
-/// −1.58 %; benches/RESULTS.md session 20).
+/// −1.58 %; benches/RESULTS.md commit eefae4d (2026-12-04)).
 #[test]
 fn the_stomatocyte_branch_walks_down_from_the_continuums_cup() {
     let dir = tempfile::tempdir().unwrap();

@@ -11,7 +11,7 @@
 //! Against the cotangent form ([`crate::energy::bending`]) on the same
 //! meshes of the axisymmetric solver's shapes (about 640 vertices, vertices
 //! on the continuum surface), it reads within 0.3 % of the continuum where
-//! the cotangent form reads 1-2.4 % low (benches/RESULTS.md, session 21).
+//! the cotangent form reads 1-2.4 % low (benches/RESULTS.md, commit d749cee (2026-12-04)).
 //! The signed h_i also carries the sign of the curvature without a normal.
 //!
 //! The force is the analytic gradient: an edge pass measures ℓ_e and θ_e,

@@ -86,7 +86,7 @@ const GAUSSIAN_CUTOFF_WEIGHT: f64 = 0.011_108_996_538_242_306;
 /// zero there (g ≥ 0: e is convex in r²). Without the tangent the gradient
 /// jumped by 3 e_c/a at the cut-off: a vertex hovering there flipped its
 /// force by 0.07 Ē/l̄ from step to step and held FIRE in a cycle at its
-/// smallest step (the n = 10 tether started at 0.8 r0, session 22).
+/// smallest step (the n = 10 tether started at 0.8 r0, commit 65cd623 (2026-12-04)).
 #[inline]
 fn gaussian_weight(r2: f64, inv_a2: f64) -> (f64, f64) {
     let e = (-0.5 * r2 * inv_a2).exp();
