@@ -32,13 +32,13 @@
 //! step is halved and FIRE restarts from rest. Below a millionth of the
 //! first step the run stops with [`SimError::MinimiserStuck`].
 
-use crate::control_point_schedule::ScheduledChangesAhead;
 use crate::edge_flips::FlipStats;
 use crate::langevin_integration::check_step;
 use crate::maintenance_flips::MaintenanceFlipStats;
 use crate::pin_forces::PinnedVertices;
 use glam::DVec3;
 use remembrane_core::constraint::{Constraints, Gradients, ProjectionDirections};
+use remembrane_core::engine::core_resources::ScheduledChangesAhead;
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;

@@ -61,7 +61,7 @@ pub struct Scene {
     pub control_points: Vec<ControlPointSpec>,
     /// Scheduled changes of control points (by declaration index).
     #[serde(default)]
-    pub control_point_schedule: Vec<crate::systems::control_point_schedule::ScheduledChange>,
+    pub control_point_schedule: Vec<crate::params::schedule::ScheduledChange>,
     /// Tubes (tethers, filopodia) whose radius is measured at every frame
     /// (`radius_<name>` and `radius_<name>_norm` in series.csv).
     #[serde(default)]

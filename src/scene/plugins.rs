@@ -17,6 +17,7 @@
 //! | [`boundary_conditions`] | `PinnedVertices` | `pin_forces` (Forces), `pin_positions` (Integrate); the `line_tension` term (Forces) |
 //! | [`crate::io::output::frame_output`] (added last) | `OpenOutput` | `frames` (Output) |
 
+use crate::engine::core_resources::ScheduledChangesAhead;
 use crate::engine::force::{FaceGeometry, ForceBuffers};
 use crate::engine::schedule::Stage;
 use crate::engine::simulation::{
@@ -25,12 +26,11 @@ use crate::engine::simulation::{
 use crate::mesh::ValenceRange;
 use crate::mesh::components::ControlPoint;
 use crate::mesh::membrane::Membrane;
+use crate::params::schedule::ScheduledChange;
 use crate::params::{DiffusionParams, DynamicsParams, RemeshParams};
 use crate::remesh::RemeshStats;
 use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
-use crate::systems::control_point_schedule::{
-    ControlPointSchedule, ScheduledChange, ScheduledChangesAhead,
-};
+use crate::systems::control_point_schedule::ControlPointSchedule;
 use crate::systems::remesh::{Remesh, RemeshTriggered};
 use crate::timestep::TimeStepChoice;
 

@@ -321,7 +321,7 @@ impl Scene {
             }
         }
         for (i, c) in self.control_point_schedule.iter().enumerate() {
-            use crate::systems::control_point_schedule::{Change, When};
+            use crate::params::schedule::{Change, When};
             let field = |f: &str| format!("control_point_schedule[{i}].{f}");
             if let Some(&p) = c
                 .points
@@ -487,12 +487,11 @@ impl Scene {
                 ));
             }
         }
-        if let Some(i) = self.control_point_schedule.iter().position(|c| {
-            matches!(
-                c.when,
-                crate::systems::control_point_schedule::When::EveryTime { .. }
-            )
-        }) {
+        if let Some(i) = self
+            .control_point_schedule
+            .iter()
+            .position(|c| matches!(c.when, crate::params::schedule::When::EveryTime { .. }))
+        {
             return Err(invalid(
                 &format!("control_point_schedule[{i}].when"),
                 "a minimisation has no physical time: schedule by iterations (`Every`)".into(),

@@ -1,6 +1,7 @@
 //! The resources every simulation has (inserted by SimBuilder::new and the
 //! core plugin): initial quantities, the clock, the dense mirrors of the
-//! world, the seed and the invariant-check switch.
+//! world, the seed, the invariant-check switch and whether scheduled
+//! control-point changes are still to come.
 
 use glam::DVec3;
 
@@ -57,3 +58,9 @@ impl Default for CheckInvariants {
 /// convergence criterion holds; the run driver reads it after every tick.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct StopRequest(pub Option<String>);
+
+/// Whether a scheduled change of the control points is still to come after
+/// the current iteration (written each tick by the `control_point_schedule` system;
+/// absent without a schedule).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScheduledChangesAhead(pub bool);

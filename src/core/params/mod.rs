@@ -13,6 +13,7 @@ pub mod dynamics;
 pub mod energy;
 pub mod model;
 pub mod remesh;
+pub mod schedule;
 
 pub use boundary::*;
 pub use diffusion::*;
