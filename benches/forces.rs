@@ -243,7 +243,7 @@ fn rbc_all_forces(c: &mut Criterion) {
 
 fn constraints(c: &mut Criterion) {
     use remembrane::constraint::{
-        ConstraintTargets, Gradients, ProjectionScratch, project, remove_reactions,
+        ConstraintTargets, Directions, Gradients, ProjectionScratch, project, remove_reactions,
     };
     use remembrane::minimise::Fire;
     let mut g = configure(c, "constraints");
@@ -278,7 +278,14 @@ fn constraints(c: &mut Criterion) {
             let mut p = pos.clone();
             b.iter(|| {
                 p.copy_from_slice(&pos);
-                black_box(project(&mut p, &topology, near, 0.02, 4, &mut scratch))
+                black_box(project(
+                    &mut p,
+                    &topology,
+                    near,
+                    0.02,
+                    Directions::Smoothed(4),
+                    &mut scratch,
+                ))
             })
         });
         let params = Default::default();

@@ -12,7 +12,7 @@
 //! naming the vertex.
 
 use remembrane_core::constraint::{
-    Constraints, ProjectionDirections, ProjectionScratch, project, project_along,
+    Constraints, Directions, ProjectionDirections, ProjectionScratch, project,
 };
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
@@ -50,27 +50,21 @@ impl System for ConstraintProjection {
         }
         let topology = membrane.cached_topology();
         let (targets, cap) = (constraints.targets, constraints.max_correction);
-        let done = match given
+        let directions = match given
             .as_deref()
             .filter(|d| !d.0[0].is_empty() || !d.0[1].is_empty())
         {
-            Some(ProjectionDirections([a, v])) => project_along(
-                &mut positions.0,
-                topology,
-                targets,
-                cap,
-                [a, v],
-                &mut self.scratch,
-            ),
-            None => project(
-                &mut positions.0,
-                topology,
-                targets,
-                cap,
-                constraints.smoothing,
-                &mut self.scratch,
-            ),
+            Some(ProjectionDirections([a, v])) => Directions::Given([a, v]),
+            None => Directions::Smoothed(constraints.smoothing),
         };
+        let done = project(
+            &mut positions.0,
+            topology,
+            targets,
+            cap,
+            directions,
+            &mut self.scratch,
+        );
         if done.steps == 0 {
             return Ok(());
         }

@@ -345,62 +345,18 @@ fn nonzero(x: f64) -> f64 {
     if x == 0.0 { f64::MIN_POSITIVE } else { x }
 }
 
-/// Moves `positions` onto A = A_t, V = V_t by Newton steps
-/// Δx = c_A d_A + c_V d_V with c solving ∇C·Δx = −C (the response ∇C·d
-/// measured at the first step and after every two chord steps). The directions d are
-/// ∇A and ∇V averaged `smoothing` times over closed 1-rings: the exact
-/// gradients carry the discrete curvature's vertex-to-vertex noise, and a
-/// large correction along them (a target approached from afar) wrinkles
-/// the mesh; smoothed directions reach the same targets (the steps solve
-/// with the exact gradients) without the noise. No step moves a vertex by
-/// more than `max_correction` (l̄): a target farther away is approached by
-/// one scaled step per call. Between steps only A and V are measured.
-pub fn project(
-    positions: &mut [DVec3],
-    topology: &crate::mesh::topology::Topology,
-    t: ConstraintTargets,
-    max_correction: f64,
-    smoothing: u32,
-    scratch: &mut ProjectionScratch,
-) -> Projection {
-    project_with(
-        positions,
-        topology,
-        t,
-        max_correction,
-        Directions::Smoothed(smoothing),
-        scratch,
-    )
-}
-
-/// [`project`] along given directions (a preconditioned minimiser's
-/// W = P⁻¹∇C, smooth by construction) instead of smoothed gradients. A
-/// direction of another length than `positions` falls back to the exact
-/// gradient.
-pub fn project_along(
-    positions: &mut [DVec3],
-    topology: &crate::mesh::topology::Topology,
-    t: ConstraintTargets,
-    max_correction: f64,
-    directions: [&[DVec3]; 2],
-    scratch: &mut ProjectionScratch,
-) -> Projection {
-    project_with(
-        positions,
-        topology,
-        t,
-        max_correction,
-        Directions::Given(directions),
-        scratch,
-    )
-}
-
 /// Where the projection's directions come from.
-#[derive(Clone, Copy)]
-enum Directions<'a> {
-    /// ∇A and ∇V averaged this many times over 1-rings.
+#[derive(Clone, Copy, Debug)]
+pub enum Directions<'a> {
+    /// ∇A and ∇V averaged this many times over closed 1-rings: the exact
+    /// gradients carry the discrete curvature's vertex-to-vertex noise, and
+    /// a large correction along them (a target approached from afar)
+    /// wrinkles the mesh; smoothed directions reach the same targets (the
+    /// steps solve with the exact gradients) without the noise.
     Smoothed(u32),
-    /// Given by the caller.
+    /// Given by the caller (a preconditioned minimiser's W = P⁻¹∇C, smooth
+    /// by construction); a direction of another length than the positions
+    /// falls back to the exact gradient.
     Given([&'a [DVec3]; 2]),
 }
 
@@ -410,7 +366,13 @@ enum Directions<'a> {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ProjectionDirections(pub [Vec<DVec3>; 2]);
 
-fn project_with(
+/// Moves `positions` onto A = A_t, V = V_t by Newton steps
+/// Δx = c_A d_A + c_V d_V with c solving ∇C·Δx = −C (the response ∇C·d
+/// measured at the first step and after every two chord steps), along the
+/// `directions` d ([`Directions`]). No step moves a vertex by more than
+/// `max_correction` (l̄): a target farther away is approached by one scaled
+/// step per call. Between steps only A and V are measured.
+pub fn project(
     positions: &mut [DVec3],
     topology: &crate::mesh::topology::Topology,
     t: ConstraintTargets,

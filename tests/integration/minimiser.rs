@@ -11,7 +11,7 @@ use remembrane::workflow::run::RunOptions;
 
 use glam::DVec3;
 use remembrane::constraint::{
-    ConstraintTargets, Gradients, ProjectionScratch, project, remove_reactions,
+    ConstraintTargets, Directions, Gradients, ProjectionScratch, project, remove_reactions,
 };
 use remembrane::minimise::Fire;
 use remembrane::params::MinimiserParams;
@@ -97,7 +97,14 @@ fn the_projection_reaches_both_targets_and_approaches_far_ones_in_bounded_steps(
             volume: Some(volume * 0.998),
         };
         let mut p = mesh.positions.clone();
-        let done = project(&mut p, &topology, near, 1.0, smoothing, &mut scratch);
+        let done = project(
+            &mut p,
+            &topology,
+            near,
+            1.0,
+            Directions::Smoothed(smoothing),
+            &mut scratch,
+        );
         assert!(!done.limited && done.steps <= 8, "{done:?}");
         g.measure(&p, &mesh.faces);
         assert!((g.area / near.area.unwrap() - 1.0).abs() < 1e-12);
@@ -108,7 +115,14 @@ fn the_projection_reaches_both_targets_and_approaches_far_ones_in_bounded_steps(
             volume: Some(g.volume * 0.8),
         };
         let before = p.clone();
-        let done = project(&mut p, &topology, far, 0.01, smoothing, &mut scratch);
+        let done = project(
+            &mut p,
+            &topology,
+            far,
+            0.01,
+            Directions::Smoothed(smoothing),
+            &mut scratch,
+        );
         assert!(done.limited);
         let moved = p
             .iter()
