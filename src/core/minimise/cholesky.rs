@@ -611,6 +611,7 @@ fn run_groups(parts: &mut [Part], body: &(impl Fn(usize, &mut Part) + Sync)) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::util::parallel::pool;
     use faer::sparse::{SparseColMat, Triplet};
 
     /// The 5-point Laplacian of a w × w grid plus a small shift (lower
@@ -634,13 +635,6 @@ mod tests {
             }
         }
         SparseColMat::try_new_from_triplets(w * w, w * w, &t).unwrap()
-    }
-
-    fn pool(threads: usize) -> rayon::ThreadPool {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
     }
 
     #[test]

@@ -477,16 +477,19 @@ pub fn gather<const K: usize, T: Copy + Sync, O: Send>(
     });
 }
 
+/// A rayon pool of `threads` threads, for the tests that run a kernel on
+/// 1, 2 and 3 threads.
+#[cfg(test)]
+pub(crate) fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn pool(threads: usize) -> rayon::ThreadPool {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-    }
 
     #[test]
     fn accumulate_adds_in_item_order_for_any_thread_count() {
