@@ -86,10 +86,16 @@ thread_local! {
 /// force terms, each on its own worker), where the loops' own splitting
 /// would only add the work of their parallel forms.
 pub fn serially<R>(f: impl FnOnce() -> R) -> R {
-    let before = SERIAL.replace(true);
-    let out = f();
-    SERIAL.set(before);
-    out
+    /// Puts the flag back however `f` ends (a panic caught further up, as
+    /// the Python bindings do, must not leave a worker serial).
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            SERIAL.set(self.0);
+        }
+    }
+    let _restore = Restore(SERIAL.replace(true));
+    f()
 }
 
 // Every helper hands the caller's closure a whole chunk (or the whole range
