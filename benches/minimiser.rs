@@ -57,10 +57,10 @@ fn sobolev(c: &mut Criterion) {
             })
             .collect();
         let mut metric = SobolevMetric::default();
-        metric.build(&x, &topology, SCALES).unwrap();
+        metric.build(&x, &topology, SCALES, &[]).unwrap();
         let mut g = configure(c, "sobolev_factorise");
         g.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
-            b.iter(|| metric.build(black_box(&x), &topology, SCALES).unwrap())
+            b.iter(|| metric.build(black_box(&x), &topology, SCALES, &[]).unwrap())
         });
         g.finish();
         let mut g = configure(c, "sobolev_direction");

@@ -39,10 +39,11 @@ use crate::pin_forces::PinnedVertices;
 use glam::DVec3;
 use remembrane_core::constraint::{Constraints, Gradients, ProjectionDirections};
 use remembrane_core::engine::core_resources::ScheduledChangesAhead;
-use remembrane_core::engine::force::ForceBuffers;
+use remembrane_core::engine::force::{ForceBuffers, ForceContext};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
+use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::minimise::axial;
 use remembrane_core::minimise::sobolev::{MetricScales, SobolevMetric};
@@ -223,6 +224,8 @@ struct Metric {
     settings: SobolevParams,
     sobolev: SobolevMetric,
     direction: Vec<DVec3>,
+    /// The force terms' normal stiffness at the last build (Ē/l̄²).
+    stiffness: Vec<f64>,
 }
 
 /// What carries from one iteration to the next (checkpointed).
@@ -256,6 +259,7 @@ impl FireMinimiser {
                 settings,
                 sobolev: SobolevMetric::default(),
                 direction: Vec::new(),
+                stiffness: Vec::new(),
             }),
         };
         let mut params = params;
@@ -388,18 +392,47 @@ impl System for FireMinimiser {
                 status.factorisations += 1;
             }
             let mut restrict = |d: &mut [DVec3]| release_held(pinned.as_deref(), d);
-            if !metric.sobolev.is_built() {
-                let scales = MetricScales {
-                    normal: metric.settings.normal_scale.unwrap_or(1.0),
-                    tangential: metric.settings.tangential_scale,
+            let scales = MetricScales {
+                normal: metric.settings.normal_scale.unwrap_or(1.0),
+                tangential: metric.settings.tangential_scale,
+            };
+            let build_error = |source| SimError::Preconditioner {
+                iteration: clock.iteration + 1,
+                source,
+            };
+            // The stiff terms' normal stiffness at `at`, into `out`.
+            let stiffness = |at: &[DVec3], out: &mut Vec<f64>| {
+                let ctx = ForceContext {
+                    world: &membrane.world,
+                    topology,
+                    positions: at,
+                    lipid: &[],
+                    face_geometry: &[],
+                    inputs: TermInputs::none(),
                 };
+                buffers.normal_stiffness(&ctx, out);
+            };
+            if !metric.sobolev.is_built() {
+                stiffness(&s.metric_positions, &mut metric.stiffness);
                 metric
                     .sobolev
-                    .build(&s.metric_positions, topology, scales)
-                    .map_err(|source| SimError::Preconditioner {
-                        iteration: clock.iteration + 1,
-                        source,
-                    })?;
+                    .build(&s.metric_positions, topology, scales, &metric.stiffness)
+                    .map_err(build_error)?;
+            }
+            if !rebuild {
+                // A vertex that came within a stiff term's range since the
+                // build: build again here (a resumed run has just rebuilt
+                // the factor it was saved with, and decides the same).
+                stiffness(positions, &mut metric.stiffness);
+                if metric.sobolev.underestimates(&metric.stiffness) {
+                    s.metric_positions.clone_from(positions);
+                    s.since_build = 0;
+                    status.factorisations += 1;
+                    metric
+                        .sobolev
+                        .build(&s.metric_positions, topology, scales, &metric.stiffness)
+                        .map_err(build_error)?;
+                }
             }
             s.since_build += 1;
             let held = constraints

@@ -427,8 +427,12 @@ fn run_wave(
             let t = std::time::Instant::now();
             let mut scene = case.scene.clone();
             if let Some((from, refine)) = &case.start {
+                // Absolute: a scene resolves a relative state path against
+                // its own folder, not the working directory `--out` is
+                // relative to.
+                let path = options.out.join(from).join("state.json");
                 scene.membrane = crate::scene::MembraneSource::State {
-                    path: options.out.join(from).join("state.json"),
+                    path: std::path::absolute(&path).unwrap_or(path),
                     refine: *refine,
                 };
             }

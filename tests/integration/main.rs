@@ -2,7 +2,7 @@
 //! (they were one binary each; one crate builds and links once, and the
 //! test harness runs every module's tests side by side on every core).
 //! `cargo test --test integration <module>::` runs one file's tests, e.g.
-//! `cargo test --release --test integration adhesion:: -- --ignored`.
+//! `cargo test --release --test integration fuzz:: -- --ignored`.
 
 mod common;
 

@@ -88,6 +88,14 @@ fn contact(d: f64, range: f64) -> (f64, f64) {
     )
 }
 
+/// φ″(d) of the contact potential with range `range` (0 outside (0, ρ)).
+fn contact_curvature(d: f64, range: f64) -> f64 {
+    if d <= 0.0 || d >= range {
+        return 0.0;
+    }
+    (12.0 * d / range - 6.0) / (range * range)
+}
+
 /// The adhesion energy (Ē) of the faces at `positions`; with `force`, adds
 /// −∇E. Also returns the contact area Σ_f A_f φ(d_f) (l̄²).
 pub fn adhesion_energy(
@@ -153,6 +161,26 @@ impl ForceTerm for AdhesionForces {
             Some(force),
         )
         .0
+    }
+
+    /// W A_f |φ″(d_f)| per face within the range, a third to each of its
+    /// vertices: the contact potential is as stiff as W·6/ρ² per area, far
+    /// beyond bending at the ladder's fine rungs (ρ shrinks with h).
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+        let p = &self.params;
+        for f in &ctx.topology.faces {
+            let [a, b, c] = f.map(|i| ctx.positions[i as usize]);
+            let (d, _) = p.shape.distance((a + b + c) / 3.0);
+            let curvature = contact_curvature(d, p.range);
+            if curvature == 0.0 {
+                continue;
+            }
+            let area = 0.5 * (b - a).cross(c - a).length();
+            let share = p.strength * area * curvature.abs() / 3.0;
+            for &v in f {
+                out[v as usize] += share;
+            }
+        }
     }
 }
 
@@ -285,6 +313,59 @@ mod tests {
                 report.max_rel_error
             );
         }
+    }
+
+    /// Translating the membrane by t along a plane substrate's normal
+    /// keeps every face's area and moves its distance by t, so d²E/dt² is
+    /// −W Σ_f A_f φ″(d_f). With a range long enough that every face within
+    /// it lies on φ's concave half (φ″ < 0), that is the sum of the
+    /// vertices' stiffnesses.
+    #[test]
+    fn normal_stiffness_is_the_second_derivative_along_a_plane_substrate() {
+        let mesh = perturbed_icosphere(3, 83);
+        let mut membrane = Membrane::from_mesh(&mesh, false).unwrap();
+        membrane.topology().unwrap();
+        let mut positions = Vec::new();
+        membrane.gather_positions(&mut positions);
+        // The plane below the whole membrane (φ is only C¹ at d = 0).
+        let params = AdhesionParams {
+            shape: WallShape::Plane {
+                point: (0.0, 0.0, -8.0),
+                normal: (0.1, -0.2, 1.0),
+            },
+            range: 30.0,
+            ..substrates().swap_remove(0)
+        };
+        let (_, normal) = params.shape.distance(DVec3::ZERO);
+        let faces = &membrane.cached_topology().faces;
+        let energy = |t: f64| {
+            let moved: Vec<DVec3> = positions.iter().map(|&x| x + normal * t).collect();
+            adhesion_energy(&params, faces, &moved, None).0
+        };
+        let step = 1e-3;
+        let fd = (energy(step) - 2.0 * energy(0.0) + energy(-step)) / (step * step);
+        let term = AdhesionForces::new(params.clone());
+        let mut geometry = Vec::new();
+        let ctx = ForceContext::new(
+            &membrane.world,
+            membrane.cached_topology(),
+            &positions,
+            &[],
+            &mut geometry,
+            false,
+        );
+        let mut stiffness = vec![0.0; positions.len()];
+        term.normal_stiffness(&ctx, &mut stiffness);
+        let sum: f64 = stiffness.iter().sum();
+        assert!(faces.iter().all(|f| {
+            let c = f.map(|k| positions[k as usize]);
+            let d = params.shape.distance((c[0] + c[1] + c[2]) / 3.0).0;
+            d > 0.0 && d < 0.5 * params.range
+        }));
+        assert!(
+            sum > 0.0 && (sum - fd).abs() < 1e-5 * fd,
+            "{sum} against {fd}"
+        );
     }
 
     #[test]

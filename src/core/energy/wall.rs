@@ -208,6 +208,12 @@ fn repulsion(d: f64, strength: f64, range: f64) -> (f64, f64) {
     )
 }
 
+/// ∂²E/∂d² of one vertex's energy ε (r/d − 1)³ at 0 < d < r.
+fn repulsion_stiffness(d: f64, strength: f64, range: f64) -> f64 {
+    let q = range / d - 1.0;
+    6.0 * strength * q * range / (d * d * d) * (range / d + q)
+}
+
 /// The wall energy (Ē) of `positions`; with `force`, adds −∇E. A vertex on
 /// or beyond the wall gives +∞ (and no force).
 pub fn wall_energy(
@@ -266,6 +272,17 @@ impl ForceTerm for WallForces {
     /// A flip moves no vertex, and the energy is a sum over vertices.
     fn flip_energy_change(&mut self, _proposal: &FlipProposal<'_>) -> Option<f64> {
         Some(0.0)
+    }
+
+    /// ε ∂²(r/d − 1)³/∂d² at each vertex within the range.
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+        let p = &self.params;
+        for (o, &x) in out.iter_mut().zip(ctx.positions) {
+            let (d, _) = p.shape.distance(x);
+            if d > 0.0 && d < p.range {
+                *o += repulsion_stiffness(d, p.strength, p.range);
+            }
+        }
     }
 }
 
@@ -441,6 +458,43 @@ mod tests {
                 report.max_rel_error
             );
         }
+    }
+
+    /// Translating the membrane by t along a plane wall's normal moves
+    /// every vertex's distance by t, so d²E/dt² is the sum of the
+    /// vertices' stiffnesses exactly.
+    #[test]
+    fn normal_stiffness_is_the_second_derivative_along_a_plane_wall() {
+        let mesh = perturbed_icosphere(3, 71);
+        let mut membrane = Membrane::from_mesh(&mesh, false).unwrap();
+        membrane.topology().unwrap();
+        let mut positions = Vec::new();
+        membrane.gather_positions(&mut positions);
+        let params = walls().swap_remove(0);
+        let (_, normal) = params.shape.distance(DVec3::ZERO);
+        let energy = |t: f64| {
+            let moved: Vec<DVec3> = positions.iter().map(|&x| x + normal * t).collect();
+            wall_energy(&params.shape, params.strength, params.range, &moved, None)
+        };
+        let step = 1e-4;
+        let fd = (energy(step) - 2.0 * energy(0.0) + energy(-step)) / (step * step);
+        let term = WallForces::new(params.clone());
+        let mut geometry = Vec::new();
+        let ctx = ForceContext::new(
+            &membrane.world,
+            membrane.cached_topology(),
+            &positions,
+            &[],
+            &mut geometry,
+            false,
+        );
+        let mut stiffness = vec![0.0; positions.len()];
+        term.normal_stiffness(&ctx, &mut stiffness);
+        let sum: f64 = stiffness.iter().sum();
+        assert!(
+            sum > 0.0 && (sum - fd).abs() < 1e-5 * fd,
+            "{sum} against {fd}"
+        );
     }
 
     #[test]

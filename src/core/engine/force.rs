@@ -167,6 +167,19 @@ pub trait ForceTerm: Send {
         let _ = proposal;
         None
     }
+    /// Adds the term's stiffness against a displacement of each vertex
+    /// along the membrane's normal to `out` (by dense slot, Ē/l̄²): the
+    /// magnitude of the energy's second derivative, lumped to the vertices
+    /// (for a smooth displacement u of the whole membrane, ½ Σ_i out_i u²
+    /// is the energy's second-order change). The Sobolev minimiser adds it
+    /// to its metric ([`crate::minimise::sobolev`]), which otherwise sees
+    /// only bending and in-plane stretching: a stiff, short-range term (a
+    /// contact potential, a wall) then no longer forces its smallest step on
+    /// the whole membrane. The default adds nothing, right for any term
+    /// whose stiffness bending's dominates.
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+        let _ = (ctx, out);
+    }
     /// State the term carries from one evaluation to the next, for
     /// checkpoints; `None` (the default) means none (caches that do not
     /// change results do not count). See
@@ -289,6 +302,17 @@ impl ForceBuffers {
     /// a flip with.
     pub fn term_objects_mut(&mut self) -> &mut [Box<dyn ForceTerm>] {
         &mut self.objects.0
+    }
+
+    /// The sum of the terms' [`ForceTerm::normal_stiffness`] at `ctx`,
+    /// written into `out` (by dense slot, Ē/l̄²; resized to the vertex
+    /// count).
+    pub fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(ctx.positions.len(), 0.0);
+        for term in &self.objects.0 {
+            term.normal_stiffness(ctx, out);
+        }
     }
 
     /// The registered terms and the evaluation they write, borrowed together.
@@ -470,6 +494,9 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     }
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
         (**self).flip_energy_change(proposal)
+    }
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+        (**self).normal_stiffness(ctx, out)
     }
     fn save_state(&self) -> Option<serde_json::Value> {
         (**self).save_state()

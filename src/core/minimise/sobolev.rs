@@ -21,7 +21,13 @@
 //!
 //! ε = 4π/A (A the membrane's area: 1/R² on a sphere) makes A positive
 //! definite and sets the scale beyond which the metric is L² (a vesicle's
-//! size). Weights are |cot|/2 per face corner (capped at [`COT_CAP`]): an
+//! size). A term much stiffer than bending where it acts (a contact
+//! potential, a wall) adds its normal stiffness S_i
+//! ([`ForceTerm::normal_stiffness`](crate::engine::force::ForceTerm::normal_stiffness))
+//! to the diagonal: εM becomes EM with E_ii = ε + √(S_i / (s_n M_i)), so
+//! that s_n A M⁻¹ A gains S_i at vertex i (its other new terms, s_n (L E +
+//! E L), only stiffen the metric further there). The adhered vesicle then
+//! converges in about 1100 iterations instead of 33 000. Weights are |cot|/2 per face corner (capped at [`COT_CAP`]): an
 //! obtuse corner would otherwise give a negative weight, and P need not
 //! equal the Hessian, only be close to it and positive definite.
 //!
@@ -77,6 +83,8 @@ pub struct SobolevMetric {
     scales: Option<MetricScales>,
     triplets: Vec<Triplet<usize, usize, f64>>,
     diagonal: Vec<f64>,
+    /// E_ii, the diagonal shift at the build (ε plus the stiff terms' part).
+    shifts: Vec<f64>,
     /// The columns being solved for: the normal components of the force
     /// and of the active constraints' gradients, then the force's
     /// tangential x, y and z components.
@@ -116,6 +124,15 @@ fn cot(o: DVec3, a: DVec3, b: DVec3) -> f64 {
     if s > 0.0 { u.dot(v) / s } else { COT_CAP }
 }
 
+/// √(S / (s_n M)): the part of E_ii that gives a vertex of mass `mass`
+/// the stiffness `stiffness` in the normal block (0 without either).
+fn local_shift(stiffness: Option<f64>, mass: f64, scales: MetricScales) -> f64 {
+    match stiffness {
+        Some(k) if k > 0.0 && mass > 0.0 => (k / (scales.normal * mass)).sqrt(),
+        _ => 0.0,
+    }
+}
+
 /// The active constraints of `gradients` (area, volume).
 fn active(gradients: Option<(&Gradients, ConstraintTargets)>) -> [bool; 2] {
     gradients.map_or([false, false], |(_, t)| {
@@ -129,13 +146,18 @@ impl SobolevMetric {
         self.factor.is_some()
     }
 
-    /// Assembles A = L + εM at `positions` and factorises it (the symbolic
+    /// Assembles A = L + EM at `positions` and factorises it (the symbolic
     /// analysis only when the topology changed since the last build).
+    /// `stiffness` is the force terms' normal stiffness S by vertex slot
+    /// (Ē/l̄², [`crate::engine::force::ForceTerm::normal_stiffness`]; empty
+    /// for none): E_ii = ε + √(S_i / (s_n M_i)), so that the normal block's
+    /// s_n E M E adds S_i at vertex i.
     pub fn build(
         &mut self,
         positions: &[DVec3],
         topology: &Topology,
         scales: MetricScales,
+        stiffness: &[f64],
     ) -> Result<(), MetricError> {
         let start = Instant::now();
         let n = positions.len();
@@ -167,9 +189,12 @@ impl SobolevMetric {
         } else {
             1.0
         };
+        self.shifts.clear();
         for (i, d) in self.diagonal.iter().enumerate() {
-            self.triplets
-                .push(Triplet::new(i, i, d + shift * self.mass[i]));
+            let m = self.mass[i];
+            let e = shift + local_shift(stiffness.get(i).copied(), m, scales);
+            self.shifts.push(e);
+            self.triplets.push(Triplet::new(i, i, d + e * m));
         }
         let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &self.triplets)
             .map_err(|e| MetricError::Factor(format!("{e:?}")))?;
@@ -189,6 +214,27 @@ impl SobolevMetric {
         self.factor = Some(factor);
         self.factor_time += start.elapsed();
         Ok(())
+    }
+
+    /// Whether `stiffness` (by vertex slot, as given to
+    /// [`build`](Self::build)) asks at some vertex for more than twice the
+    /// diagonal shift the factor was built with: a vertex that has come
+    /// within a stiff term's range since the build, where the metric's
+    /// steps would be far too long (on the paper model's adhered vesicle
+    /// such a step carried a vertex through the wall). Always false
+    /// without a factor or with another vertex count.
+    pub fn underestimates(&self, stiffness: &[f64]) -> bool {
+        let Some(scales) = self.scales else {
+            return false;
+        };
+        if self.factor.is_none() || stiffness.len() != self.shifts.len() {
+            return false;
+        }
+        stiffness
+            .iter()
+            .zip(&self.mass)
+            .zip(&self.shifts)
+            .any(|((&k, &m), &e)| local_shift(Some(k), m, scales) > 2.0 * e)
     }
 
     /// Whether the last build was for `topology` as it is now (the same
