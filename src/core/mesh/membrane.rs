@@ -25,6 +25,9 @@ pub struct Membrane {
     topology: Topology,
     has_lipid: bool,
     fields: Vec<Arc<dyn FieldTransfer>>,
+    /// Whether every incremental topology update is checked against a full
+    /// rebuild ([`Membrane::set_check_updates`]).
+    check_updates: bool,
 }
 
 impl Membrane {
@@ -115,6 +118,7 @@ impl Membrane {
             topology,
             has_lipid: lipid_density,
             fields,
+            check_updates: cfg!(debug_assertions),
         })
     }
 
@@ -185,11 +189,21 @@ impl Membrane {
         Ok(&self.topology)
     }
 
+    /// Whether every incremental topology update after an edit is checked
+    /// against a full rebuild (O(N) per edit; default on in debug builds,
+    /// and so in tests). The `gather_state` system sets it each tick from
+    /// the run's `CheckInvariants`, so a test that turns the invariant
+    /// checks off for a long run turns this one off too, and
+    /// `--check-invariants` turns it on in release.
+    pub fn set_check_updates(&mut self, on: bool) {
+        self.check_updates = on;
+    }
+
     /// Brings the topology cache up to date after an edit that made
     /// `changes` (in order), in O(patch) when the cache was current before
-    /// it, by a full rebuild otherwise (or when a ring block overflows). In
-    /// debug builds (and so in tests) the result is checked against a full
-    /// rebuild.
+    /// it, by a full rebuild otherwise (or when a ring block overflows).
+    /// With [`Membrane::set_check_updates`] (debug builds) the result is
+    /// checked against a full rebuild.
     pub(crate) fn update_topology(
         &mut self,
         changes: &[crate::mesh::topology_update::WorldChange],
@@ -210,7 +224,7 @@ impl Membrane {
         if !updated {
             self.topology = Topology::build(&self.world, self.epoch)?;
         }
-        if cfg!(debug_assertions) {
+        if self.check_updates {
             let full = Topology::build(&self.world, self.epoch)?;
             assert!(
                 self.topology.same_as(&full),
