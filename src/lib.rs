@@ -42,7 +42,9 @@
 //!   last completed iteration's state with the forces its next step applies (no second force
 //!   evaluation); the `frames` system writes the frame in the Output stage. A scene's simulation
 //!   has frame output from its build: a run only sets the [`FrameSchedule`] and opens the
-//!   [`OpenOutput`] directory, both resources.
+//!   [`OpenOutput`] directory, both resources. A plugin can add its own section to
+//!   `summary.json` the same way ([`summary_section`](engine::summary_section)); the adhered
+//!   vesicle's report is one.
 //! - **Checkpoints** ([`checkpoint`](io::checkpoint)) save what carries from one tick to the next and nothing
 //!   else: the world entity by entity with hecs' free list ([`world_snapshot`](io::world_snapshot)), the resources
 //!   their plugins declared persistent ([`SimBuilder::persist_resource`], [`persisted`](engine::persisted)), and
@@ -60,12 +62,14 @@
 //! - **Three crates, one API.** The engine core is the crate `remembrane_core` (`src/core/`):
 //!   [`util`] (parallel loops, random streams, validators, atomic writes) → [`mesh`] (meshes,
 //!   the world's components, topology, edits, geometry) → [`engine`] (resources, schedule,
-//!   simulation, the force-term interface, recorders) → [`energy`] (one file per term) →
-//!   [`remesh`] (split/merge events, relaxation, flips), with [`params`] (the scene's
-//!   parameters by part), [`constraint`], [`fluid`], [`minimise`], [`timestep`] and [`fd`].
-//!   The built-in systems are the crate `remembrane_systems` (`systems/`, one system per
-//!   file), which depends on the core's public API only, as a user's plugin does; the core
-//!   never imports it. This crate (`src/`) sits on both: [`analysis`] (measuring a run's
+//!   simulation, the force-term interface, recorders, summary sections, and the resources the
+//!   built-in systems publish for each other, [`shared_resources`](engine::shared_resources))
+//!   → [`energy`] (one file per term) → [`remesh`] (split/merge events, relaxation, flips),
+//!   with [`params`] (the scene's parameters by part), [`constraint`], [`fluid`],
+//!   [`minimise`], [`timestep`], [`diffusion`] and [`fd`]. The built-in systems are the crate
+//!   `remembrane_systems` (`systems/`, one system per file and nothing else), which depends
+//!   on the core's public API only, as a user's plugin does; the core never imports it, and
+//!   no system imports another. This crate (`src/`) sits on both: [`analysis`] (measuring a run's
 //!   shapes, and the continuum references it is held against: axisymmetric shapes, the
 //!   adhered vesicle) → [`io`] (run directories and their typed summary, frames, state,
 //!   checkpoints, reports, plots, the built-in recorders) → [`scene`] (the file format,
@@ -146,13 +150,13 @@
 //! [`CurrentFrame`]: engine::frame_clock::CurrentFrame
 //! [`TimeStepChoice`]: timestep::TimeStepChoice
 //! [`MinimiserStatus`]: minimise::MinimiserStatus
-//! [`AbnormalEdges`]: systems::barrier_check::AbnormalEdges
+//! [`AbnormalEdges`]: engine::shared_resources::AbnormalEdges
 //! [`RemeshStats`]: remesh::RemeshStats
-//! [`RemeshTriggered`]: systems::remesh::RemeshTriggered
-//! [`FlipStats`]: systems::edge_flips::FlipStats
-//! [`MaintenanceFlipStats`]: systems::maintenance_flips::MaintenanceFlipStats
-//! [`VertexNormals`]: systems::vertex_normals::VertexNormals
-//! [`PinnedVertices`]: systems::pin_forces::PinnedVertices
+//! [`RemeshTriggered`]: engine::shared_resources::RemeshTriggered
+//! [`FlipStats`]: engine::shared_resources::FlipStats
+//! [`MaintenanceFlipStats`]: engine::shared_resources::MaintenanceFlipStats
+//! [`VertexNormals`]: engine::shared_resources::VertexNormals
+//! [`PinnedVertices`]: engine::shared_resources::PinnedVertices
 //! [`MembraneModel`]: params::MembraneModel
 //! [`DynamicsParams`]: params::DynamicsParams
 //! [`RemeshParams`]: params::RemeshParams
@@ -171,7 +175,8 @@ pub mod workflow;
 // path, `remembrane::…`, names every public item.
 pub use remembrane_core::{atomic_write, atomic_write_with};
 pub use remembrane_core::{
-    constraint, energy, engine, fd, fluid, mesh, minimise, params, remesh, timestep, util,
+    constraint, diffusion, energy, engine, fd, fluid, mesh, minimise, params, remesh, timestep,
+    util,
 };
 pub use remembrane_systems as systems;
 

@@ -6,14 +6,10 @@
 
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::AbnormalEdges;
 use remembrane_core::engine::simulation::{DensePositions, SimError};
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::params::RemeshParams;
-
-/// Edges (slots) outside [l_−, l_+] after the last integration (or, after
-/// remeshing, those it left abnormal).
-#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct AbnormalEdges(pub Vec<u32>);
 
 /// The barrier-check system.
 pub struct BarrierCheck;

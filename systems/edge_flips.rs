@@ -22,6 +22,7 @@ use rand::{RngExt, SeedableRng};
 use remembrane_core::engine::force::{FlipProposal, ForceBuffers};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::FlipStats;
 use remembrane_core::engine::simulation::{
     CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
 };
@@ -33,23 +34,6 @@ use remembrane_core::util::rng::stream_seed;
 
 /// Stream id of the flips' randomness (edges drawn, acceptance).
 const FLIP_STREAM: u64 = 0x666c_6970_0000_0001;
-
-/// Counts of flip proposals and their outcomes over a run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct FlipStats {
-    /// Flips proposed.
-    pub proposed: u64,
-    /// Flips taken.
-    pub accepted: u64,
-    /// Rejected: a valence would leave its range, c–d is already an edge,
-    /// or the flip touches a control point's nearest vertex.
-    pub rejected_topology: u64,
-    /// Rejected: an edge outside `edge_range`, a fold, or faces the edit
-    /// layer refused.
-    pub rejected_geometry: u64,
-    /// Rejected by the Metropolis rule.
-    pub rejected_energy: u64,
-}
 
 /// The edge-flip system.
 pub struct EdgeFlips {

@@ -32,19 +32,17 @@
 //! step is halved and FIRE restarts from rest. Below a millionth of the
 //! first step the run stops with [`SimError::MinimiserStuck`].
 
-use crate::edge_flips::FlipStats;
-use crate::langevin_integration::check_step;
-use crate::maintenance_flips::MaintenanceFlipStats;
-use crate::pin_forces::PinnedVertices;
 use glam::DVec3;
 use remembrane_core::constraint::{Constraints, Gradients, ProjectionDirections};
 use remembrane_core::engine::core_resources::ScheduledChangesAhead;
 use remembrane_core::engine::force::{ForceBuffers, ForceContext};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::{FlipStats, MaintenanceFlipStats, PinnedVertices};
 use remembrane_core::engine::simulation::{Clock, DensePositions, SimError, StopRequest};
 use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::mesh::step_check::check_step;
 use remembrane_core::minimise::axial;
 use remembrane_core::minimise::sobolev::{MetricScales, SobolevMetric};
 use remembrane_core::minimise::{Fire, MinimiserStatus, StopReason};

@@ -24,13 +24,12 @@
 //! the held rim takes them, as a clamped membrane's frame does, and a
 //! uniform force taken from every vertex would be a load of its own.
 
-use crate::force_terms::FORCE_TERMS;
-use crate::pin_forces::PinnedVertices;
-use crate::vertex_normals::VertexNormals;
 use glam::DVec3;
-use remembrane_core::engine::force::{FORCE_TOTAL, ForceBuffers, ForceKind};
+use remembrane_core::engine::force::{FORCE_TERMS, FORCE_TOTAL, ForceBuffers, ForceKind};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::PinnedVertices;
+use remembrane_core::engine::shared_resources::VertexNormals;
 use remembrane_core::engine::simulation::DensePositions;
 use remembrane_core::engine::simulation::SimError;
 use remembrane_core::fluid::{

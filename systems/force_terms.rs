@@ -3,16 +3,15 @@
 
 use remembrane_core::engine::core_resources::{DenseLipid, DensePositions};
 use remembrane_core::engine::error::SimError;
-use remembrane_core::engine::force::{FaceGeometry, ForceBuffers, ForceContext, ForceTerm};
+use remembrane_core::engine::force::{
+    FORCE_TERMS, FaceGeometry, ForceBuffers, ForceContext, ForceTerm,
+};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::util::parallel::serially;
 use std::time::{Duration, Instant};
-
-/// Name of the system that evaluates the force terms.
-pub const FORCE_TERMS: &str = "force_terms";
 
 /// The system evaluating every force term into its own buffer.
 ///

@@ -4,6 +4,11 @@
 //! Only systems live here, written against the engine core's public API
 //! (the crate `remembrane_core`) exactly as a user's system is: this crate
 //! sees nothing the core keeps to itself, and the core never imports it.
+//! A file exports its system (and its name in the schedule) and nothing
+//! else, and no system imports another: what systems share lives in the
+//! core (the resources they publish for each other in
+//! `remembrane_core::engine::shared_resources`, kernels such as the step
+//! check or the flips' Delaunay test in the core module of their concept).
 //! The force terms are in the core's `energy`; the built-in recorders
 //! (`remembrane::io::recorders`) and the built-in plugins that register
 //! these systems (`remembrane::scene::plugins`, beside the scene build that

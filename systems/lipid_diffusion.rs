@@ -8,13 +8,13 @@
 //! allowed edge (a, b) (v = valence), so Σρ is conserved; an edge touching a
 //! blocked vertex does not diffuse. `Instant` sets ρ = Σρ / N everywhere.
 
-use crate::remesh::RemeshTriggered;
-use glam::DVec3;
+use remembrane_core::diffusion::{blocked, diffuse};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::RemeshTriggered;
 use remembrane_core::engine::simulation::{DenseLipid, DensePositions, SimError};
 use remembrane_core::mesh::membrane::Membrane;
-use remembrane_core::params::{BlockedRegion, DiffusionParams, DiffusionRate};
+use remembrane_core::params::{DiffusionParams, DiffusionRate};
 
 /// The diffusion system.
 pub struct LipidDiffusion {
@@ -29,44 +29,6 @@ impl LipidDiffusion {
         Self {
             params,
             next: Vec::new(),
-        }
-    }
-}
-
-/// Whether a vertex at `p` lies in a blocked region.
-pub fn blocked(regions: &[BlockedRegion], p: DVec3) -> bool {
-    regions.iter().any(|r| match *r {
-        BlockedRegion::Slab { half_width, gap } => {
-            p.x.abs() < half_width && p.y.abs() > gap * p.length()
-        }
-    })
-}
-
-/// `sweeps` synchronous diffusion sweeps at rate `k` over the edges not
-/// touching a blocked vertex; `scratch` is reused.
-pub fn diffuse(
-    density: &mut [f64],
-    edges: &[[u32; 2]],
-    valence: impl Fn(usize) -> usize,
-    allowed: impl Fn(usize) -> bool,
-    k: f64,
-    sweeps: u32,
-    scratch: &mut Vec<f64>,
-) {
-    let open: Vec<[u32; 2]> = edges
-        .iter()
-        .copied()
-        .filter(|&[a, b]| allowed(a as usize) && allowed(b as usize))
-        .collect();
-    let share: Vec<f64> = (0..density.len()).map(|v| k / valence(v) as f64).collect();
-    for _ in 0..sweeps {
-        scratch.clear();
-        scratch.extend_from_slice(density);
-        for &[a, b] in &open {
-            let (a, b) = (a as usize, b as usize);
-            let flow = scratch[a] * share[a] - scratch[b] * share[b];
-            density[a] -= flow;
-            density[b] += flow;
         }
     }
 }

@@ -35,32 +35,14 @@
 //! the same flips as testing every edge in the sweep (at 10 242 vertices
 //! the serial sweep took 1.3 ms a tick, almost all of it the test).
 
-use glam::DVec3;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::MaintenanceFlipStats;
 use remembrane_core::engine::simulation::{CheckInvariants, Clock, DensePositions, SimError};
 use remembrane_core::mesh::ValenceRange;
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::params::MaintenanceFlipParams;
-use remembrane_core::remesh::flip::{Flip, keeps_surface_unfolded};
-
-/// Counts of the maintenance flips over a run (`summary.json`
-/// `maintenance_flips`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct MaintenanceFlipStats {
-    /// Sweeps over the edges.
-    pub sweeps: u64,
-    /// Edges found not locally Delaunay.
-    pub non_delaunay: u64,
-    /// Flips taken.
-    pub flipped: u64,
-    /// Left: a valence limit, or the new edge exists.
-    pub kept_valence: u64,
-    /// Left: the faces meet at more than `max_dihedral` from flat.
-    pub kept_dihedral: u64,
-    /// Left: the flip would fold the surface, or the edit layer refused it.
-    pub kept_fold: u64,
-}
+use remembrane_core::remesh::flip::{Flip, dihedral, is_non_delaunay, keeps_surface_unfolded};
 
 /// The maintenance-flip system.
 pub struct MaintenanceFlips {
@@ -78,27 +60,6 @@ impl MaintenanceFlips {
             to_test: Vec::new(),
         }
     }
-}
-
-/// Cotangent of the angle at `o` in the triangle (o, p, q).
-fn cot_at(o: DVec3, p: DVec3, q: DVec3) -> f64 {
-    let (u, v) = (p - o, q - o);
-    u.dot(v) / u.cross(v).length().max(f64::MIN_POSITIVE)
-}
-
-/// Whether the flip's edge a–b is not locally Delaunay: cot∠c + cot∠d < 0
-/// (the opposite angles sum to more than π).
-pub fn is_non_delaunay(flip: &Flip, positions: &[DVec3]) -> bool {
-    let [a, b, c, d] = [flip.a, flip.b, flip.c, flip.d].map(|v| positions[v as usize]);
-    cot_at(c, a, b) + cot_at(d, a, b) < -1e-12
-}
-
-/// Angle between the normals of the flip's two faces (radians; 0: flat).
-pub fn dihedral(flip: &Flip, positions: &[DVec3]) -> f64 {
-    let [a, b, c, d] = [flip.a, flip.b, flip.c, flip.d].map(|v| positions[v as usize]);
-    let n1 = (b - a).cross(c - a).normalize_or_zero();
-    let n2 = (a - b).cross(d - b).normalize_or_zero();
-    n1.dot(n2).clamp(-1.0, 1.0).acos()
 }
 
 impl System for MaintenanceFlips {

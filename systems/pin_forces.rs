@@ -16,26 +16,11 @@
 //! vertex of a split held boundary edge and never merges a held vertex
 //! away (flips are refused on open membranes).
 
-use glam::DVec3;
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::PinnedVertices;
 use remembrane_core::engine::simulation::SimError;
-use remembrane_core::params::HeldDirections;
-
-/// The held vertices (entities and dense slots), their initial positions (l̄) and the
-/// directions in which each is held.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PinnedVertices {
-    /// The held vertices' entities (kept through edits).
-    pub entities: Vec<hecs::Entity>,
-    /// Their dense slots, in the same order (a cache of `entities`).
-    pub vertices: Vec<u32>,
-    /// Their initial positions (l̄), in the same order.
-    pub positions: Vec<DVec3>,
-    /// The directions each is held in, in the same order.
-    pub held: Vec<HeldDirections>,
-}
 
 /// Name of [`PinForces`] in the schedule.
 pub const PIN_FORCES: &str = "pin_forces";

@@ -6,10 +6,10 @@
 //! [`ForceBuffers`] (written back with the positions). Writes
 //! [`DensePositions`] and the world's positions (in [`Membrane`]).
 
-use crate::pin_forces::PinnedVertices;
 use remembrane_core::engine::force::ForceBuffers;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::PinnedVertices;
 use remembrane_core::engine::simulation::{DensePositions, SimError};
 use remembrane_core::mesh::membrane::Membrane;
 

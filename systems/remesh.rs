@@ -27,14 +27,14 @@
 //! edge between two held vertices holds the new vertex at the split point,
 //! and the dense slots of the held vertices are re-read after the edits.
 
-use crate::barrier_check::AbnormalEdges;
-use crate::pin_forces::PinnedVertices;
 use glam::DVec3;
 use hecs::Entity;
 use rand::{RngExt, SeedableRng};
 use remembrane_core::energy::vin::VinSegmentation;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::PinnedVertices;
+use remembrane_core::engine::shared_resources::{AbnormalEdges, RemeshTriggered};
 use remembrane_core::engine::simulation::{
     CheckInvariants, Clock, DenseLipid, DensePositions, Seed, SimError,
 };
@@ -61,11 +61,6 @@ const KICK_TABLE_STREAM: u64 = 0x7265_6d65_7368_0002;
 pub struct Remesh {
     kicks: Option<KickTable>,
 }
-
-/// Whether this tick's remeshing was triggered (abnormal edges existed);
-/// diffusion runs only after such ticks.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct RemeshTriggered(pub bool);
 
 /// What the remesh steps below work on: borrowed resources.
 struct State<'a> {

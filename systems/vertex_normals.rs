@@ -4,18 +4,13 @@
 //! each vertex), [`DensePositions`], [`FaceGeometry`] (its normals and areas
 //! when a force term had them computed). Writes: [`VertexNormals`].
 
-use glam::DVec3;
 use remembrane_core::engine::force::FaceGeometry;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::shared_resources::VertexNormals;
 use remembrane_core::engine::simulation::{DensePositions, SimError};
 use remembrane_core::fluid::{vertex_normals, vertex_normals_from_faces};
 use remembrane_core::mesh::membrane::Membrane;
-
-/// Unit area-weighted vertex normals, n_i ∝ Σ_{f∋i} A_f n̂_f ∝ ∇_i V, by
-/// dense slot (inserted by the fluid plugin).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct VertexNormals(pub Vec<DVec3>);
 
 /// Its name in the schedule.
 pub const VERTEX_NORMALS: &str = "vertex_normals";

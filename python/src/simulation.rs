@@ -685,7 +685,7 @@ impl PySimulation {
         let Ok(stats) = inner
             .sim(py)?
             .resources()
-            .get::<remembrane::systems::edge_flips::FlipStats>()
+            .get::<remembrane::engine::shared_resources::FlipStats>()
         else {
             return Ok(None);
         };

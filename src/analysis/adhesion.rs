@@ -92,3 +92,42 @@ pub fn measure(
         fit,
     })
 }
+
+/// The `adhesion` section of `summary.json`
+/// ([`crate::engine::summary_section`]): the [`AdhesionReport`] of the final
+/// state of a closed vesicle on the plane substrate `substrate` with bending
+/// rigidity `kappa` (left out for an open membrane, or when the continuum
+/// vesicle cannot be solved there). The scene registers it when it has one
+/// plane `Adhesion` term and a bending rigidity
+/// ([`crate::scene::Scene::adhesion_substrate`]).
+pub struct AdhesionSection {
+    /// The substrate.
+    pub substrate: crate::energy::adhesion::AdhesionParams,
+    /// The bending rigidity κ (Ē).
+    pub kappa: f64,
+}
+
+/// The section's name in `summary.json`.
+pub const ADHESION_SECTION: &str = "adhesion";
+
+impl crate::engine::summary_section::SummarySection for AdhesionSection {
+    fn name(&self) -> &str {
+        ADHESION_SECTION
+    }
+
+    fn measure(&self, sim: &crate::engine::simulation::Simulation) -> Option<serde_json::Value> {
+        use crate::mesh::geometry::{enclosed_volume, reduced_volume, total_area};
+        let membrane = sim.membrane();
+        let topology = membrane.cached_topology();
+        if topology.is_open() {
+            return None;
+        }
+        let positions = sim.resource::<crate::engine::simulation::DensePositions>();
+        let p = &positions.0;
+        let area = total_area(p, &topology.faces);
+        let v = reduced_volume(enclosed_volume(p, &topology.faces, p[0]), area);
+        let points: Vec<[f64; 3]> = p.iter().map(|x| x.to_array()).collect();
+        let report = measure((&self.substrate, self.kappa), &points, area, v).ok()?;
+        serde_json::to_value(report).ok()
+    }
+}

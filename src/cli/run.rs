@@ -238,7 +238,9 @@ pub(super) fn report_run(
                         c.reactions.tension, c.reactions.pressure
                     );
                 }
-                if let Some(a) = &summary.adhesion {
+                if let Ok(Some(a)) = summary.section::<crate::analysis::adhesion::AdhesionReport>(
+                    crate::analysis::adhesion::ADHESION_SECTION,
+                ) {
                     let curvature = match (a.contact_curvature, a.contact_curvature_error) {
                         (Some(c), Some(e)) => format!(
                             "{c:.4} ± {e:.1e} /l̄ ({:+.1} %)",

@@ -24,6 +24,7 @@
 //!   the adaptive step; [`fd`]: finite-difference checks of every force.
 
 pub mod constraint;
+pub mod diffusion;
 pub mod energy;
 pub mod engine;
 pub mod fd;

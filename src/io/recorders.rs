@@ -22,10 +22,10 @@ use crate::analysis::tube_radius::TubeProbe;
 use crate::engine::force::ForceBuffers;
 use crate::engine::recorder::{FrameData, Recorder};
 use crate::engine::resources::Res;
+use crate::engine::shared_resources::AbnormalEdges;
 use crate::engine::simulation::{Clock, DenseLipid, DensePositions, SimError};
 use crate::mesh::membrane::Membrane;
 use crate::remesh::RemeshStats;
-use crate::systems::barrier_check::AbnormalEdges;
 use crate::timestep::TimeStepChoice;
 
 /// The state columns of `series.csv`.

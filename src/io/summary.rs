@@ -55,20 +55,23 @@ pub struct RunSummary {
     pub time_notes: Vec<String>,
     /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub edge_flips: Option<crate::systems::edge_flips::FlipStats>,
+    pub edge_flips: Option<crate::engine::shared_resources::FlipStats>,
     /// Delaunay maintenance flips of the fluid model (scenes with
     /// `model: Fluid(flips: ...)` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub maintenance_flips: Option<crate::systems::maintenance_flips::MaintenanceFlipStats>,
+    pub maintenance_flips: Option<crate::engine::shared_resources::MaintenanceFlipStats>,
     /// How the minimisation ended (scenes with `method: Minimise` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub minimiser: Option<MinimiserSummary>,
-    /// The adhered vesicle against the continuum adhered vesicle: contact
-    /// curvature, height and contact area (closed membranes on one plane
-    /// `Adhesion` substrate, completed runs only;
-    /// [`crate::analysis::adhesion`]).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub adhesion: Option<crate::analysis::adhesion::AdhesionReport>,
+    /// The sections the scene's terms and plugins add
+    /// ([`crate::engine::summary_section`]), by name, each at the top level
+    /// of the file (completed runs only). The bundled ones: `adhesion`, the
+    /// adhered vesicle against the continuum adhered vesicle
+    /// ([`crate::analysis::adhesion::AdhesionReport`], closed membranes on
+    /// one plane `Adhesion` substrate). Read one with
+    /// [`RunSummary::section`].
+    #[serde(flatten)]
+    pub sections: std::collections::BTreeMap<String, serde_json::Value>,
     /// The exact constraints at the final state: targets, area, volume and
     /// the multipliers σ (`tension`, Ē/l̄²) and Δp (`pressure`, Ē/l̄³)
     /// (scenes with `constraints` only).
@@ -81,6 +84,56 @@ pub struct RunSummary {
     pub frames: Vec<crate::io::output::FrameRecord>,
     /// Wall time per system.
     pub timings: Vec<SystemTiming>,
+}
+
+/// The keys of `summary.json`'s own fields: a plugin's section may not
+/// take one of them (checked before a run starts; a test checks the list
+/// against a written summary).
+pub const SUMMARY_FIELDS: &[&str] = &[
+    "scene_file",
+    "seed",
+    "status",
+    "error",
+    "last_good_frame",
+    "iterations",
+    "simulated_time",
+    "wall_time_s",
+    "scene",
+    "vertices",
+    "edges",
+    "faces",
+    "energies",
+    "total_energy",
+    "area",
+    "volume",
+    "reduced_volume",
+    "quality",
+    "shape",
+    "abnormal_edges",
+    "remesh",
+    "cautions",
+    "time_notes",
+    "edge_flips",
+    "maintenance_flips",
+    "minimiser",
+    "constraints",
+    "model",
+    "frames",
+    "timings",
+];
+
+impl RunSummary {
+    /// The section `name` read as a `T`: `Ok(None)` when the run has no
+    /// such section, an error when it does not read as a `T`.
+    pub fn section<T: serde::de::DeserializeOwned>(
+        &self,
+        name: &str,
+    ) -> Result<Option<T>, serde_json::Error> {
+        self.sections
+            .get(name)
+            .map(|v| serde_json::from_value(v.clone()))
+            .transpose()
+    }
 }
 
 /// How a minimisation ended, in `summary.json`.

@@ -205,6 +205,7 @@ impl Scene {
                         _ => None,
                     })
                     .collect(),
+                self.adhesion_substrate().ok(),
             ))
             .map_err(build_err)?;
         let spring_stiffness = self.add_energy_terms(&mut builder, scene_path)?;

@@ -13,13 +13,15 @@
 //! | [`control_points`] | control-point entities | `control_point_schedule` (Prepare) when scheduled |
 //! | [`remesh`] | `ValenceRange`, `RemeshStats`, `RemeshTriggered` | `remesh` (Remesh) |
 //! | [`diffusion`] | — | `lipid_diffusion` (Diffuse) |
-//! | [`recorders`] | `FrameSchedule`, `CurrentFrame` | `frame_clock` and a `record_<name>` system per recorder (Observe) |
+//! | [`recorders`] | `FrameSchedule`, `CurrentFrame`, `SummarySections` (with a plane substrate) | `frame_clock` and a `record_<name>` system per recorder (Observe) |
 //! | [`boundary_conditions`] | `PinnedVertices` | `pin_forces` (Forces), `pin_positions` (Integrate); the `line_tension` term (Forces) |
 //! | [`crate::io::output::frame_output`] (added last) | `OpenOutput` | `frames` (Output) |
 
 use crate::engine::core_resources::ScheduledChangesAhead;
 use crate::engine::force::{FaceGeometry, ForceBuffers};
 use crate::engine::schedule::Stage;
+use crate::engine::shared_resources::AbnormalEdges;
+use crate::engine::shared_resources::RemeshTriggered;
 use crate::engine::simulation::{
     BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, Plugin, Seed, SimBuilder,
 };
@@ -29,9 +31,9 @@ use crate::mesh::membrane::Membrane;
 use crate::params::schedule::ScheduledChange;
 use crate::params::{DiffusionParams, DynamicsParams, RemeshParams};
 use crate::remesh::RemeshStats;
-use crate::systems::barrier_check::{AbnormalEdges, BarrierCheck};
+use crate::systems::barrier_check::BarrierCheck;
 use crate::systems::control_point_schedule::ControlPointSchedule;
-use crate::systems::remesh::{Remesh, RemeshTriggered};
+use crate::systems::remesh::Remesh;
 use crate::timestep::TimeStepChoice;
 
 /// Settings of the core plugin.
@@ -155,8 +157,9 @@ pub fn constraints(params: crate::params::ConstraintParams) -> impl Plugin {
 /// `force_total`).
 pub fn fluid(params: crate::params::FluidParams) -> impl Plugin {
     move |b: &mut SimBuilder| {
+        use crate::engine::shared_resources::VertexNormals;
         use crate::systems::fluid_projection::FluidProjection;
-        use crate::systems::vertex_normals::{VertexNormals, VertexNormalsSystem};
+        use crate::systems::vertex_normals::VertexNormalsSystem;
         b.insert_resource(crate::params::MembraneModel::Fluid(params))
             .insert_resource(VertexNormals::default());
         b.add_system(Stage::Gather, VertexNormalsSystem)
@@ -177,7 +180,8 @@ pub fn maintenance_flips(
     valence: ValenceRange,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::systems::maintenance_flips::{MaintenanceFlipStats, MaintenanceFlips};
+        use crate::engine::shared_resources::MaintenanceFlipStats;
+        use crate::systems::maintenance_flips::MaintenanceFlips;
         b.insert_resource(valence)
             .insert_resource(MaintenanceFlipStats::default())
             .persist_resource::<MaintenanceFlipStats>();
@@ -227,8 +231,8 @@ pub fn remesh(valence: ValenceRange) -> impl Plugin {
 pub fn edge_flips(params: crate::params::EdgeFlipParams, valence: ValenceRange) -> impl Plugin {
     move |b: &mut SimBuilder| {
         b.insert_resource(valence)
-            .insert_resource(crate::systems::edge_flips::FlipStats::default())
-            .persist_resource::<crate::systems::edge_flips::FlipStats>();
+            .insert_resource(crate::engine::shared_resources::FlipStats::default())
+            .persist_resource::<crate::engine::shared_resources::FlipStats>();
         b.add_system(
             Stage::Remesh,
             crate::systems::edge_flips::EdgeFlips::new(params),
@@ -240,12 +244,15 @@ pub fn edge_flips(params: crate::params::EdgeFlipParams, valence: ValenceRange) 
 /// The built-in recorders (state columns, force, mean curvature, lipid
 /// density; the constraints' multipliers and the minimiser's progress
 /// when the [`constraints`] plugin and the minimiser were added before),
-/// one tube-radius recorder per probe, and one contact-curvature column per
-/// adhesive substrate.
+/// one tube-radius recorder per probe, one contact-curvature column per
+/// adhesive substrate, and with `adhesion_report` (a plane substrate and
+/// κ) the `adhesion` section of `summary.json`
+/// ([`crate::analysis::adhesion::AdhesionSection`]).
 pub fn recorders(
     probes: Vec<crate::analysis::tube_radius::TubeProbe>,
     named_points: Vec<(String, u32)>,
     substrates: Vec<crate::energy::adhesion::AdhesionParams>,
+    adhesion_report: Option<(crate::energy::adhesion::AdhesionParams, f64)>,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {
         use crate::io::recorders::*;
@@ -267,6 +274,9 @@ pub fn recorders(
         }
         for params in substrates {
             b.add_recorder(ContactCurvatureColumn::new(params));
+        }
+        if let Some((substrate, kappa)) = adhesion_report {
+            b.add_summary_section(crate::analysis::adhesion::AdhesionSection { substrate, kappa })?;
         }
         Ok(())
     }
@@ -293,7 +303,8 @@ pub fn diffusion(params: DiffusionParams) -> impl Plugin {
 /// integrator or minimiser). Errors name the condition (`[i].loop`).
 pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) -> impl Plugin {
     move |b: &mut SimBuilder| {
-        use crate::systems::pin_forces::{PinForces, PinnedVertices};
+        use crate::engine::shared_resources::PinnedVertices;
+        use crate::systems::pin_forces::PinForces;
         use crate::systems::pin_positions::PinPositions;
         let invalid = |field: String, reason: String| BuildError::Invalid { field, reason };
         let membrane = b

@@ -3,14 +3,14 @@
 //! finite diffusion give uniform ρ.
 
 use glam::DVec3;
+use remembrane::diffusion::{blocked, diffuse};
+use remembrane::engine::shared_resources::RemeshTriggered;
 use remembrane::mesh::components::LipidDensity;
 use remembrane::mesh::icosphere;
 use remembrane::mesh::membrane::Membrane;
 use remembrane::params::BlockedRegion;
 use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
-use remembrane::systems::lipid_diffusion::{blocked, diffuse};
-use remembrane::systems::remesh::RemeshTriggered;
 use std::path::Path;
 
 fn sphere() -> (Vec<DVec3>, remembrane::mesh::topology::Topology) {

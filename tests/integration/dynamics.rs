@@ -556,7 +556,7 @@ fn a_step_that_folds_the_mesh_stops_the_run_with_finite_frames_only() {
 
 #[test]
 fn turned_faces_are_found() {
-    use remembrane::systems::langevin_integration::check_step;
+    use remembrane::mesh::step_check::check_step;
     let before = [DVec3::ZERO, DVec3::X, DVec3::Y];
     let faces = [[0u32, 1, 2]];
     // Moving vertex 2 across the edge 0-1 turns the face over.

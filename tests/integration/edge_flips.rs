@@ -329,7 +329,7 @@ fn flips_leave_the_rings_under_control_points_alone() {
     for _ in 0..3000 {
         sim.tick().unwrap();
     }
-    let stats = *sim.resource::<remembrane::systems::edge_flips::FlipStats>();
+    let stats = *sim.resource::<remembrane::engine::shared_resources::FlipStats>();
     assert!(stats.accepted > 1000, "{stats:?}");
     assert_eq!(rings(&sim), before);
 }

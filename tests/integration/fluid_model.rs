@@ -330,7 +330,7 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
 /// maintenance flip may take them (valence and dihedral guards).
 fn flippable_non_delaunay(sim: &Simulation, max_dihedral: f64) -> usize {
     use remembrane::remesh::flip::Flip;
-    use remembrane::systems::maintenance_flips::{dihedral, is_non_delaunay};
+    use remembrane::remesh::flip::{dihedral, is_non_delaunay};
     let membrane = sim.membrane();
     let mut p = Vec::new();
     membrane.gather_positions(&mut p);
@@ -388,7 +388,7 @@ fn maintenance_flips_make_a_jittered_fluid_mesh_delaunay_and_count_it() {
         sim.tick().unwrap();
     }
     let after = flippable_non_delaunay(&sim, 20.0);
-    let stats = *sim.resource::<remembrane::systems::maintenance_flips::MaintenanceFlipStats>();
+    let stats = *sim.resource::<remembrane::engine::shared_resources::MaintenanceFlipStats>();
     assert_eq!(stats.sweeps, 3);
     assert!(
         stats.flipped as usize >= before / 2,
@@ -411,9 +411,10 @@ fn maintenance_flips_make_a_jittered_fluid_mesh_delaunay_and_count_it() {
 /// the prefilter), here on a jittered mesh where flips neighbour flips.
 #[test]
 fn a_maintenance_sweep_flips_what_testing_every_edge_flips() {
+    use remembrane::engine::shared_resources::MaintenanceFlipStats;
     use remembrane::mesh::ValenceRange;
     use remembrane::remesh::flip::{Flip, keeps_surface_unfolded};
-    use remembrane::systems::maintenance_flips::{MaintenanceFlipStats, dihedral, is_non_delaunay};
+    use remembrane::remesh::flip::{dihedral, is_non_delaunay};
     let build = |every: u32| {
         let text = format!(
             "Scene(name: \"flips\", seed: 3, \

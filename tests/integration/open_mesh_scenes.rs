@@ -539,7 +539,7 @@ fn edge_flips_fluctuate_an_open_patch_and_never_touch_its_rim() {
     for _ in 0..400 {
         sim.tick().unwrap();
     }
-    let stats = *sim.resource::<remembrane::systems::edge_flips::FlipStats>();
+    let stats = *sim.resource::<remembrane::engine::shared_resources::FlipStats>();
     println!("{stats:?}");
     assert!(stats.accepted > 10, "{stats:?}");
     let t = sim.membrane().cached_topology().clone();

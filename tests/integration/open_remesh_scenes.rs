@@ -7,10 +7,10 @@
 
 use crate::common;
 
+use remembrane::engine::shared_resources::PinnedVertices;
 use remembrane::engine::simulation::{Simulation, StopRequest};
 use remembrane::remesh::RemeshStats;
 use remembrane::scene::Scene;
-use remembrane::systems::pin_forces::PinnedVertices;
 use std::path::{Path, PathBuf};
 
 const PULLED: &str = r#"Scene(

@@ -604,3 +604,81 @@ fn a_force_terms_own_state_is_saved_and_restored_with_the_run() {
     }
     assert_eq!(straight.positions(), resumed.positions());
 }
+
+/// A plugin's own section of `summary.json`: the centroid of the final
+/// state, written beside the summary's fields and read back typed.
+struct CentroidSection(&'static str);
+
+impl remembrane::engine::summary_section::SummarySection for CentroidSection {
+    fn name(&self) -> &str {
+        self.0
+    }
+    fn measure(&self, sim: &Simulation) -> Option<serde_json::Value> {
+        Some(serde_json::json!({ "centroid": centroid(sim).to_array() }))
+    }
+}
+
+#[test]
+fn a_plugin_adds_its_own_section_to_the_summary() {
+    use remembrane::workflow::run::{RunError, RunOptions, run_scene};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("field.ron");
+    std::fs::write(&path, SCENE).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let out = dir.path().join("run");
+    let summary = run_scene(&scene, &path, &RunOptions::quiet(&out), |b| {
+        b.add_summary_section(CentroidSection("field_probe"))?;
+        Ok(())
+    })
+    .unwrap();
+    #[derive(serde::Deserialize)]
+    struct Probe {
+        centroid: [f64; 3],
+    }
+    let written = crate::common::summary(&out);
+    let probe: Probe = written.section("field_probe").unwrap().unwrap();
+    assert_eq!(
+        probe.centroid,
+        summary
+            .section::<Probe>("field_probe")
+            .unwrap()
+            .unwrap()
+            .centroid
+    );
+    assert!(probe.centroid.iter().all(|c| c.is_finite()));
+    // At the top level of the file, beside the summary's own fields.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(json["field_probe"]["centroid"].is_array());
+    assert!(written.section::<Probe>("absent").unwrap().is_none());
+
+    // A section may not take a name the summary has, nor one another
+    // section has, nor one that is not letters, digits and `_`.
+    let refused = run_scene(
+        &scene,
+        &path,
+        &RunOptions::quiet(dir.path().join("taken")),
+        |b| {
+            b.add_summary_section(CentroidSection("energies"))?;
+            Ok(())
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(refused, RunError::Scene(_)), "{refused}");
+    assert!(refused.to_string().contains("`energies`"), "{refused}");
+    assert!(!dir.path().join("taken").exists());
+    let mut builder = scene_builder_with(|_| {});
+    builder
+        .add_summary_section(CentroidSection("twice"))
+        .unwrap();
+    let twice = builder
+        .add_summary_section(CentroidSection("twice"))
+        .err()
+        .unwrap();
+    assert!(twice.to_string().contains("another section"), "{twice}");
+    let spaced = builder
+        .add_summary_section(CentroidSection("a b"))
+        .err()
+        .unwrap();
+    assert!(spaced.to_string().contains("letters, digits"), "{spaced}");
+}

@@ -7,12 +7,12 @@ use rand::SeedableRng;
 use remembrane::energy::vin::VinSegmentation;
 use remembrane::energy::vin::{Segmentation, VinParams};
 use remembrane::engine::force::ForceBuffers;
+use remembrane::engine::shared_resources::AbnormalEdges;
 use remembrane::remesh::RemeshStats;
 use remembrane::remesh::relax::{
     Goal, KickTable, Patch, RelaxOutcome, RelaxSettings, Relaxed, relax, rings, stable_alpha1_beta1,
 };
 use remembrane::scene::Scene;
-use remembrane::systems::barrier_check::AbnormalEdges;
 use std::f64::consts::PI;
 
 #[test]

@@ -124,12 +124,15 @@ fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
     let summary =
         remembrane::workflow::run::run_scene(&scene, &path, &RunOptions::quiet(&out), |_| Ok(()))
             .unwrap();
-    let m = summary.minimiser.expect("minimised");
+    let m = summary.minimiser.as_ref().expect("minimised");
     assert_eq!(m.stopped_by, "force_residual", "W = {w}");
     // summary.json compares the vesicle with the continuum adhered vesicle
     // of its area, reduced volume, κ = 1 and W (the contact curvature
     // itself is unit-tested in src/analysis/axisymmetric/contact_fit.rs).
-    let a = summary.adhesion.as_ref().expect("a plane substrate");
+    let a = summary
+        .section::<remembrane::analysis::adhesion::AdhesionReport>("adhesion")
+        .unwrap()
+        .expect("a plane substrate");
     let r0_squared = summary.last.area / (4.0 * std::f64::consts::PI);
     assert!((a.reduced_adhesion / (w * r0_squared) - 1.0).abs() < 1e-12);
     assert!((a.contact_condition - (2.0 * w).sqrt()).abs() < 1e-12);
@@ -143,6 +146,32 @@ fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
         a.fit.starts_with("contact curvature not measured"),
         "{a:?}"
     );
+    // Every key of the file is one of the summary's own fields or the
+    // section, and only the optional fields are missing: the list that
+    // plugins' section names are checked against is the summary's.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let keys: Vec<&String> = json.as_object().unwrap().keys().collect();
+    let fields = remembrane::io::summary::SUMMARY_FIELDS;
+    for key in &keys {
+        assert!(
+            fields.contains(&key.as_str()) || *key == "adhesion",
+            "{key}"
+        );
+    }
+    let optional = [
+        "cautions",
+        "time_notes",
+        "edge_flips",
+        "maintenance_flips",
+        "constraints",
+    ];
+    for field in fields {
+        assert!(
+            keys.iter().any(|k| k == field) || optional.contains(field),
+            "{field} not in {keys:?}"
+        );
+    }
     let min_distance = common::series_column(&out, "wall_min_distance");
     assert!(
         min_distance.iter().all(|&d| d > 0.0),

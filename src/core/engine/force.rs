@@ -274,6 +274,9 @@ impl std::fmt::Debug for TermObjects {
     }
 }
 
+/// Name of the system that evaluates the force terms (`force_terms`).
+pub const FORCE_TERMS: &str = "force_terms";
+
 /// Name of the system that sums the term buffers (every term runs before it).
 pub const FORCE_TOTAL: &str = "force_total";
 

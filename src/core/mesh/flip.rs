@@ -86,6 +86,27 @@ fn normal(p: &[DVec3], f: [u32; 3]) -> DVec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
+/// Cotangent of the angle at `o` in the triangle (o, p, q).
+fn cot_at(o: DVec3, p: DVec3, q: DVec3) -> f64 {
+    let (u, v) = (p - o, q - o);
+    u.dot(v) / u.cross(v).length().max(f64::MIN_POSITIVE)
+}
+
+/// Whether the flip's edge a–b is not locally Delaunay: cot∠c + cot∠d < 0
+/// (the opposite angles sum to more than π).
+pub fn is_non_delaunay(flip: &Flip, positions: &[DVec3]) -> bool {
+    let [a, b, c, d] = [flip.a, flip.b, flip.c, flip.d].map(|v| positions[v as usize]);
+    cot_at(c, a, b) + cot_at(d, a, b) < -1e-12
+}
+
+/// Angle between the normals of the flip's two faces (radians; 0: flat).
+pub fn dihedral(flip: &Flip, positions: &[DVec3]) -> f64 {
+    let [a, b, c, d] = [flip.a, flip.b, flip.c, flip.d].map(|v| positions[v as usize]);
+    let n1 = (b - a).cross(c - a).normalize_or_zero();
+    let n2 = (a - b).cross(d - b).normalize_or_zero();
+    n1.dot(n2).clamp(-1.0, 1.0).acos()
+}
+
 /// Whether the flip keeps the surface unfolded both ways: the two faces
 /// before and the two after each meet at a dihedral angle below 90° from
 /// flat (n₁·n₂ > 0). Required in both states, so the rule is symmetric and

@@ -20,6 +20,7 @@ pub mod membrane;
 pub mod patch;
 pub mod quality;
 mod revolution;
+pub mod step_check;
 pub mod topology;
 pub mod topology_update;
 pub mod vertex_field;

@@ -23,7 +23,7 @@
 //! surfaces; Gompper & Kroll, Phys. Rev. E 51, 514, 1995).
 
 use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
-pub use crate::mesh::flip::{Flip, FlipTotals, keeps_surface_unfolded};
+pub use crate::mesh::flip::{Flip, FlipTotals, dihedral, is_non_delaunay, keeps_surface_unfolded};
 use crate::mesh::geometry::{Corners, face_geometry};
 use crate::mesh::topology::Topology;
 

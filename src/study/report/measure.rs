@@ -32,6 +32,10 @@ pub enum MeasureError {
     /// A peer's result cannot be measured (the reason says why).
     #[error("{0}")]
     Peer(&'static str),
+    /// The summary's `adhesion` section does not read as an adhesion
+    /// report.
+    #[error("summary.json: section `adhesion`: {0}")]
+    Section(#[from] serde_json::Error),
 }
 
 /// A run directory's outputs needed here.
@@ -317,8 +321,11 @@ pub(super) fn adhesion_measurements(
     summary: &crate::io::summary::RunSummary,
 ) -> Result<(Vec<Measurement>, String), MeasureError> {
     let v = summary.last.reduced_volume.unwrap_or(f64::NAN);
-    let r = match &summary.adhesion {
-        Some(r) => r.clone(),
+    let report = summary.section::<crate::analysis::adhesion::AdhesionReport>(
+        crate::analysis::adhesion::ADHESION_SECTION,
+    )?;
+    let r = match report {
+        Some(r) => r,
         None => {
             let mesh = crate::mesh::io::read_mesh(mesh_path)?;
             let positions: Vec<[f64; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();

@@ -1,6 +1,7 @@
 //! Running a scene to completion with outputs: the driver behind
 //! `remembrane run`.
 
+use crate::engine::shared_resources::AbnormalEdges;
 use crate::engine::simulation::{
     BuildError, CheckInvariants, DenseLipid, DensePositions, InitialState, SimBuilder, SimError,
     Simulation,
@@ -11,7 +12,6 @@ use crate::io::report::EnergyReport;
 use crate::io::summary::{MinimiserSummary, RemeshSummary, RunStatus, RunSummary};
 use crate::remesh::RemeshStats;
 use crate::scene::{Scene, SceneError};
-use crate::systems::barrier_check::AbnormalEdges;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -220,6 +220,20 @@ impl PendingRun {
             field: "systems".into(),
             reason: e.to_string(),
         })?;
+        if let Some(name) = sim
+            .summary_section_names()
+            .into_iter()
+            .find(|n| crate::io::summary::SUMMARY_FIELDS.contains(&n.as_str()))
+        {
+            return Err(SceneError::Invalid {
+                path: scene_path.to_owned(),
+                field: "systems".into(),
+                reason: format!(
+                    "a plugin's summary section is named `{name}`, a field summary.json has already"
+                ),
+            }
+            .into());
+        }
         Ok(PreparedRun {
             scene: self.scene,
             name: self.name,

@@ -21,10 +21,10 @@ pub(super) fn summarize(
     let last = EnergyReport::new(name, sim);
     let timings = sim.schedule().timings();
     let time_notes: Vec<String> = remesh_dominance(&timings, stats).into_iter().collect();
-    let adhesion = if stop.is_none() {
-        adhesion_report(scene, sim, &last)
+    let sections = if stop.is_none() {
+        sim.summary_sections()
     } else {
-        None
+        Default::default()
     };
     RunSummary {
         scene_file: scene_path.display().to_string(),
@@ -46,12 +46,12 @@ pub(super) fn summarize(
         time_notes,
         edge_flips: sim
             .resources()
-            .get::<crate::systems::edge_flips::FlipStats>()
+            .get::<crate::engine::shared_resources::FlipStats>()
             .ok()
             .map(|s| *s),
         maintenance_flips: sim
             .resources()
-            .get::<crate::systems::maintenance_flips::MaintenanceFlipStats>()
+            .get::<crate::engine::shared_resources::MaintenanceFlipStats>()
             .ok()
             .map(|s| *s),
         remesh: RemeshSummary {
@@ -64,7 +64,7 @@ pub(super) fn summarize(
             event_position_spread: stats.position_spread(),
         },
         minimiser: minimiser_summary(sim),
-        adhesion,
+        sections,
         constraints: sim
             .resource::<crate::engine::force::ForceBuffers>()
             .evaluation
@@ -104,26 +104,6 @@ fn remesh_dominance(
         failed,
         relaxations as f64
     ))
-}
-
-/// The closed vesicle of a scene with one plane `Adhesion` substrate
-/// against the continuum adhered vesicle (at its final area and reduced
-/// volume); `None` for other scenes and open membranes, or when the
-/// continuum vesicle cannot be solved there.
-fn adhesion_report(
-    scene: &Scene,
-    sim: &Simulation,
-    last: &EnergyReport,
-) -> Option<crate::analysis::adhesion::AdhesionReport> {
-    let (substrate, kappa) = scene.adhesion_substrate().ok()?;
-    let v = last.reduced_volume?;
-    let positions: Vec<[f64; 3]> = sim
-        .resource::<DensePositions>()
-        .0
-        .iter()
-        .map(|p| p.to_array())
-        .collect();
-    crate::analysis::adhesion::measure((&substrate, kappa), &positions, last.area, v).ok()
 }
 
 /// The membrane model of `sim` and V_in's network moduli at its current
@@ -167,7 +147,7 @@ pub fn model_summary(sim: &Simulation) -> crate::fluid::ModelSummary {
         .then(|| {
             let normals = sim
                 .resources()
-                .get::<crate::systems::vertex_normals::VertexNormals>()
+                .get::<crate::engine::shared_resources::VertexNormals>()
                 .ok()?;
             let buffers = sim.resource::<crate::engine::force::ForceBuffers>();
             let ev = &buffers.evaluation;
