@@ -81,6 +81,34 @@ impl FdReport {
     }
 }
 
+/// A term's [`ForceTerm::normal_stiffness`] summed over the vertices, and
+/// the second central difference (step `step`) of its energy under a
+/// translation of the whole membrane along `direction` (a unit vector): the
+/// two agree when every vertex's normal displacement is the translation
+/// (a plane substrate or wall along `direction`) and the term's energy is
+/// convex along it there.
+pub fn normal_stiffness_against_translation(
+    term: &mut dyn ForceTerm,
+    world: &World,
+    topology: &Topology,
+    positions: &[DVec3],
+    direction: DVec3,
+    step: f64,
+) -> (f64, f64) {
+    let mut geometry = Vec::new();
+    let mut energy = |t: f64| {
+        let moved: Vec<DVec3> = positions.iter().map(|&x| x + direction * t).collect();
+        let with_geometry = term.uses_face_geometry();
+        let ctx = ForceContext::new(world, topology, &moved, &[], &mut geometry, with_geometry);
+        term.energy(&ctx)
+    };
+    let fd = (energy(step) - 2.0 * energy(0.0) + energy(-step)) / (step * step);
+    let ctx = ForceContext::new(world, topology, positions, &[], &mut geometry, false);
+    let mut stiffness = vec![0.0; positions.len()];
+    term.normal_stiffness(&ctx, &mut stiffness);
+    (stiffness.iter().sum(), fd)
+}
+
 /// Checks `term`'s analytic force against finite differences of its energy
 /// at every vertex (or at the `vertices` given).
 pub fn check_force_term(

@@ -338,25 +338,14 @@ mod tests {
         };
         let (_, normal) = params.shape.distance(DVec3::ZERO);
         let faces = &membrane.cached_topology().faces;
-        let energy = |t: f64| {
-            let moved: Vec<DVec3> = positions.iter().map(|&x| x + normal * t).collect();
-            adhesion_energy(&params, faces, &moved, None).0
-        };
-        let step = 1e-3;
-        let fd = (energy(step) - 2.0 * energy(0.0) + energy(-step)) / (step * step);
-        let term = AdhesionForces::new(params.clone());
-        let mut geometry = Vec::new();
-        let ctx = ForceContext::new(
+        let (sum, fd) = crate::fd::normal_stiffness_against_translation(
+            &mut AdhesionForces::new(params.clone()),
             &membrane.world,
             membrane.cached_topology(),
             &positions,
-            &[],
-            &mut geometry,
-            false,
+            normal,
+            1e-3,
         );
-        let mut stiffness = vec![0.0; positions.len()];
-        term.normal_stiffness(&ctx, &mut stiffness);
-        let sum: f64 = stiffness.iter().sum();
         assert!(faces.iter().all(|f| {
             let c = f.map(|k| positions[k as usize]);
             let d = params.shape.distance((c[0] + c[1] + c[2]) / 3.0).0;

@@ -472,25 +472,14 @@ mod tests {
         membrane.gather_positions(&mut positions);
         let params = walls().swap_remove(0);
         let (_, normal) = params.shape.distance(DVec3::ZERO);
-        let energy = |t: f64| {
-            let moved: Vec<DVec3> = positions.iter().map(|&x| x + normal * t).collect();
-            wall_energy(&params.shape, params.strength, params.range, &moved, None)
-        };
-        let step = 1e-4;
-        let fd = (energy(step) - 2.0 * energy(0.0) + energy(-step)) / (step * step);
-        let term = WallForces::new(params.clone());
-        let mut geometry = Vec::new();
-        let ctx = ForceContext::new(
+        let (sum, fd) = crate::fd::normal_stiffness_against_translation(
+            &mut WallForces::new(params.clone()),
             &membrane.world,
             membrane.cached_topology(),
             &positions,
-            &[],
-            &mut geometry,
-            false,
+            normal,
+            1e-4,
         );
-        let mut stiffness = vec![0.0; positions.len()];
-        term.normal_stiffness(&ctx, &mut stiffness);
-        let sum: f64 = stiffness.iter().sum();
         assert!(
             sum > 0.0 && (sum - fd).abs() < 1e-5 * fd,
             "{sum} against {fd}"
