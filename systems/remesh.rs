@@ -62,6 +62,16 @@ pub struct Remesh {
     kicks: Option<KickTable>,
 }
 
+/// What every relaxation of the remesh steps below uses: V_in's segments,
+/// the as-run relaxation settings, the run's Lévy-kick table and the
+/// tick's random stream.
+struct Relaxing<'a, R> {
+    seg: &'a remembrane_core::energy::vin::Segmentation,
+    settings: &'a RelaxSettings,
+    kicks: &'a KickTable,
+    rng: &'a mut R,
+}
+
 /// What the remesh steps below work on: borrowed resources.
 struct State<'a> {
     membrane: &'a mut Membrane,
@@ -177,7 +187,17 @@ impl System for Remesh {
                 t.vertex_entities[b as usize],
             ));
             events += 1;
-            process(state, edge, op, &seg, &settings, kicks, &mut rng)?;
+            process(
+                state,
+                edge,
+                op,
+                &mut Relaxing {
+                    seg: &seg,
+                    settings: &settings,
+                    kicks,
+                    rng: &mut rng,
+                },
+            )?;
         }
         let left: Vec<u32> = abnormal_edges(state, &p, &HashSet::new())
             .into_iter()
@@ -348,10 +368,7 @@ fn process(
     state: &mut State<'_>,
     edge: u32,
     op: EdgeOp,
-    seg: &remembrane_core::energy::vin::Segmentation,
-    settings: &RelaxSettings,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
+    tools: &mut Relaxing<'_, impl RngExt>,
 ) -> Result<(), SimError> {
     let p = state.remesh;
     let valence = state.valence;
@@ -362,12 +379,12 @@ fn process(
         && (op != EdgeOp::Merge || merge_keeps_held(state, edge, [a, b]));
     if !feasible {
         state.remesh_stats.counts_mut(op).impossible += 1;
-        push_back(state, a, b, seg, settings, kicks, rng);
+        push_back(state, a, b, tools);
         return Ok(());
     }
     let inherit = split_inherits(state, edge, op, [a, b]);
     if state.direct {
-        return direct_edit(state, edge, op, inherit, seg, settings, kicks, rng);
+        return direct_edit(state, edge, op, inherit, tools);
     }
     // Pre-relaxation with the 1-ring moveable; under tension the fixed 2-ring
     // may leave no room, so a failure is retried with the 2-ring moveable
@@ -384,11 +401,9 @@ fn process(
     let (outcome, patch, slots, iterations) = relax_around_edge(
         state,
         [a, b],
-        &ladder(&[1, 2, 0], settings, &p),
+        &ladder(&[1, 2, 0], tools.settings, &p),
         goal,
-        seg,
-        kicks,
-        rng,
+        tools,
     );
     let spent = &mut state.remesh_stats.relax_iterations;
     *match outcome {
@@ -406,7 +421,7 @@ fn process(
             }
             // The patch was relaxed on a copy: the world is as before. Push
             // the edge back into range by moving only its two ends.
-            push_back(state, a, b, seg, settings, kicks, rng);
+            push_back(state, a, b, tools);
             return Ok(());
         }
         RelaxOutcome::Success => {}
@@ -419,7 +434,7 @@ fn process(
     // The edge's slot is unchanged until the topology changes.
     let result = op.apply(state.membrane, edge, valence);
     match result {
-        Ok(out) => finish_edit(state, op, &out, inherit, seg, settings, kicks, rng)?,
+        Ok(out) => finish_edit(state, op, &out, inherit, tools)?,
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
             // Restore the pre-relaxation positions, then push the edge back.
@@ -429,12 +444,7 @@ fn process(
                 ..Default::default()
             };
             write_back(state, &restore, &slots);
-            let t = state.membrane.cached_topology();
-            let (a, b) = (
-                t.vertex_slot(ea).expect("live"),
-                t.vertex_slot(eb).expect("live"),
-            );
-            push_back(state, a, b, seg, settings, kicks, rng);
+            push_back_entities(state, [ea, eb], tools);
         }
     }
     Ok(())
@@ -444,16 +454,12 @@ fn process(
 /// dense mirror, holds the new vertex of a split held boundary edge
 /// (`inherit`) at the split point, checks the invariants (when asked) and
 /// post-relaxes the new vertex's 1-ring.
-#[allow(clippy::too_many_arguments)]
 fn finish_edit(
     state: &mut State<'_>,
     op: EdgeOp,
     out: &remembrane_core::remesh::RemeshOutcome,
     inherit: Option<HeldDirections>,
-    seg: &remembrane_core::energy::vin::Segmentation,
-    settings: &RelaxSettings,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
+    tools: &mut Relaxing<'_, impl RngExt>,
 ) -> Result<(), SimError> {
     state.remesh_stats.counts_mut(op).success += 1;
     state
@@ -471,20 +477,13 @@ fn finish_edit(
         pinned.held.push(held);
     }
     debug_check_invariants(state)?;
-    post_relax(state, out.vertex, seg, settings, kicks, rng);
+    post_relax(state, out.vertex, tools);
     Ok(())
 }
 
 /// Post-relaxation: the new (or surviving) vertex of an edit and its 1-ring
 /// relax into the normal range (kept unless the relaxation fails).
-fn post_relax(
-    state: &mut State<'_>,
-    vertex: Entity,
-    seg: &remembrane_core::energy::vin::Segmentation,
-    settings: &RelaxSettings,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
-) {
+fn post_relax(state: &mut State<'_>, vertex: Entity, tools: &mut Relaxing<'_, impl RngExt>) {
     let t = state.membrane.cached_topology();
     let v = t.vertex_slot(vertex).expect("the edit keeps this vertex");
     let mut moveable = vec![v];
@@ -503,7 +502,14 @@ fn post_relax(
     if state.tangential {
         post.freeze_normals(t, state.positions, &post_slots);
     }
-    let relaxed = relax(&mut post, Goal::Normalize, seg, settings, kicks, rng);
+    let relaxed = relax(
+        &mut post,
+        Goal::Normalize,
+        tools.seg,
+        tools.settings,
+        tools.kicks,
+        tools.rng,
+    );
     state.remesh_stats.relax_iterations.post += u64::from(relaxed.iterations);
     if relaxed.outcome != RelaxOutcome::Failure {
         write_back(state, &post, &post_slots);
@@ -515,30 +521,21 @@ fn post_relax(
 /// midpoint), then its 1-ring relaxes tangentially into the normal range.
 /// An edit the mesh cannot take (valence, a fold) is counted as impossible
 /// and the edge pushed back into range, as in the paper's event.
-#[allow(clippy::too_many_arguments)]
 fn direct_edit(
     state: &mut State<'_>,
     edge: u32,
     op: EdgeOp,
     inherit: Option<HeldDirections>,
-    seg: &remembrane_core::energy::vin::Segmentation,
-    settings: &RelaxSettings,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
+    tools: &mut Relaxing<'_, impl RngExt>,
 ) -> Result<(), SimError> {
     let t = state.membrane.cached_topology();
     let [a, b] = t.edges[edge as usize];
     let (ea, eb) = (t.vertex_entities[a as usize], t.vertex_entities[b as usize]);
     match op.apply(state.membrane, edge, state.valence) {
-        Ok(out) => finish_edit(state, op, &out, inherit, seg, settings, kicks, rng)?,
+        Ok(out) => finish_edit(state, op, &out, inherit, tools)?,
         Err(_) => {
             state.remesh_stats.counts_mut(op).impossible += 1;
-            let t = state.membrane.cached_topology();
-            let (a, b) = (
-                t.vertex_slot(ea).expect("live"),
-                t.vertex_slot(eb).expect("live"),
-            );
-            push_back(state, a, b, seg, settings, kicks, rng);
+            push_back_entities(state, [ea, eb], tools);
         }
     }
     Ok(())
@@ -580,9 +577,7 @@ fn relax_around_edge(
     [a, b]: [u32; 2],
     attempts: &[(usize, RelaxSettings)],
     goal: Goal,
-    seg: &remembrane_core::energy::vin::Segmentation,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
+    tools: &mut Relaxing<'_, impl RngExt>,
 ) -> (RelaxOutcome, Patch, Vec<u32>, u64) {
     let t = state.membrane.cached_topology();
     let mut iterations = 0;
@@ -596,7 +591,14 @@ fn relax_around_edge(
         if state.tangential {
             patch.freeze_normals(t, state.positions, &slots);
         }
-        let relaxed = relax(&mut patch, goal, seg, settings, kicks, rng);
+        let relaxed = relax(
+            &mut patch,
+            goal,
+            tools.seg,
+            settings,
+            tools.kicks,
+            tools.rng,
+        );
         iterations += u64::from(relaxed.iterations);
         last = (relaxed.outcome, patch, slots);
         if relaxed.outcome != RelaxOutcome::Failure {
@@ -606,29 +608,31 @@ fn relax_around_edge(
     (last.0, last.1, last.2, iterations)
 }
 
+/// [`push_back`] of the edge between the vertices `ends` (entities, kept
+/// through an edit that moved their slots).
+fn push_back_entities(
+    state: &mut State<'_>,
+    ends: [hecs::Entity; 2],
+    tools: &mut Relaxing<'_, impl RngExt>,
+) {
+    let t = state.membrane.cached_topology();
+    let [a, b] = ends.map(|e| t.vertex_slot(e).expect("live"));
+    push_back(state, a, b, tools);
+}
+
 /// Pushes the edge back into range: moves only its two ends (their
 /// neighbours fixed) until every incident edge is in the normal range; if
 /// that fails (a crowded neighbourhood), retries with the ends' 1-ring
 /// moveable too (the reference's wider-ring fallback), and then with the
 /// paper's normal range (see `ladder`). Keeps the result unless all fail.
-fn push_back(
-    state: &mut State<'_>,
-    a: u32,
-    b: u32,
-    seg: &remembrane_core::energy::vin::Segmentation,
-    settings: &RelaxSettings,
-    kicks: &KickTable,
-    rng: &mut impl RngExt,
-) {
+fn push_back(state: &mut State<'_>, a: u32, b: u32, tools: &mut Relaxing<'_, impl RngExt>) {
     let p = state.remesh;
     let (outcome, patch, slots, iterations) = relax_around_edge(
         state,
         [a, b],
-        &ladder(&[0, 1], settings, &p),
+        &ladder(&[0, 1], tools.settings, &p),
         Goal::Normalize,
-        seg,
-        kicks,
-        rng,
+        tools,
     );
     state.remesh_stats.relax_iterations.push_back += iterations;
     if outcome != RelaxOutcome::Failure {
