@@ -53,22 +53,18 @@ pub struct RunSummary {
     /// may differ between equal runs. Omitted when none.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub time_notes: Vec<String>,
-    /// Edge-flip proposals and outcomes (scenes with `edge_flips` only).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub edge_flips: Option<crate::engine::shared_resources::FlipStats>,
-    /// Delaunay maintenance flips of the fluid model (scenes with
-    /// `model: Fluid(flips: ...)` only).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub maintenance_flips: Option<crate::engine::shared_resources::MaintenanceFlipStats>,
     /// How the minimisation ended (scenes with `method: Minimise` only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub minimiser: Option<MinimiserSummary>,
     /// The sections the scene's terms and plugins add
     /// ([`crate::engine::summary_section`]), by name, each at the top level
-    /// of the file (completed runs only). The bundled ones: `adhesion`, the
-    /// adhered vesicle against the continuum adhered vesicle
-    /// ([`crate::analysis::adhesion::AdhesionReport`], closed membranes on
-    /// one plane `Adhesion` substrate). Read one with
+    /// of the file. The bundled ones: `edge_flips` (the Metropolis flips'
+    /// proposals and outcomes, [`crate::engine::shared_resources::FlipStats`]),
+    /// `maintenance_flips` (the fluid model's Delaunay flips,
+    /// [`crate::engine::shared_resources::MaintenanceFlipStats`]), and, for
+    /// completed runs, `adhesion`, the adhered vesicle against the continuum
+    /// adhered vesicle ([`crate::analysis::adhesion::AdhesionReport`],
+    /// closed membranes on one plane `Adhesion` substrate). Read one with
     /// [`RunSummary::section`].
     #[serde(flatten)]
     pub sections: std::collections::BTreeMap<String, serde_json::Value>,
@@ -113,8 +109,6 @@ pub const SUMMARY_FIELDS: &[&str] = &[
     "remesh",
     "cautions",
     "time_notes",
-    "edge_flips",
-    "maintenance_flips",
     "minimiser",
     "constraints",
     "model",

@@ -25,6 +25,7 @@ use crate::engine::shared_resources::RemeshTriggered;
 use crate::engine::simulation::{
     BuildError, CheckInvariants, Clock, DenseLipid, DensePositions, Plugin, Seed, SimBuilder,
 };
+use crate::engine::summary_section::ResourceSection;
 use crate::mesh::ValenceRange;
 use crate::mesh::components::ControlPoint;
 use crate::mesh::membrane::Membrane;
@@ -185,6 +186,9 @@ pub fn maintenance_flips(
         b.insert_resource(valence)
             .insert_resource(MaintenanceFlipStats::default())
             .persist_resource::<MaintenanceFlipStats>();
+        b.add_summary_section(ResourceSection::<MaintenanceFlipStats>::new(
+            "maintenance_flips",
+        ))?;
         b.add_system(Stage::Remesh, MaintenanceFlips::new(params));
         Ok(())
     }
@@ -233,6 +237,9 @@ pub fn edge_flips(params: crate::params::EdgeFlipParams, valence: ValenceRange) 
         b.insert_resource(valence)
             .insert_resource(crate::engine::shared_resources::FlipStats::default())
             .persist_resource::<crate::engine::shared_resources::FlipStats>();
+        b.add_summary_section(
+            ResourceSection::<crate::engine::shared_resources::FlipStats>::new("edge_flips"),
+        )?;
         b.add_system(
             Stage::Remesh,
             crate::systems::edge_flips::EdgeFlips::new(params),

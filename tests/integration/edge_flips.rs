@@ -214,7 +214,10 @@ fn flipping_keeps_every_invariant_and_counts_every_proposal() {
         ]),
         std::process::ExitCode::SUCCESS
     );
-    let f = crate::common::summary(&out).edge_flips.unwrap();
+    let f: remembrane::engine::shared_resources::FlipStats = crate::common::summary(&out)
+        .section("edge_flips")
+        .unwrap()
+        .unwrap();
     assert!(f.accepted > 100, "{f:?}");
     assert_eq!(
         f.proposed,

@@ -312,7 +312,8 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
     // Measured: 46 splits, 3 merges and 6 maintenance flips (96 kept by
     // the valence guard).
     assert!(r.split.success > 30, "{r:?}");
-    let flips = summary.maintenance_flips.unwrap();
+    let flips: remembrane::engine::shared_resources::MaintenanceFlipStats =
+        summary.section("maintenance_flips").unwrap().unwrap();
     assert!(flips.sweeps == 600 && flips.flipped > 0, "{flips:?}");
     assert_eq!(r.split.failure + r.merge.failure, 0, "{r:?}");
     assert_eq!(r.split.cancel + r.merge.cancel, 0, "{r:?}");

@@ -4,9 +4,11 @@
 //! one) registers a [`SummarySection`], and the run writes what it measures
 //! under the section's name, beside the summary's own fields.
 //!
-//! Sections are measured once, at the end of a completed run (not after a
-//! blow-up), from the final state. A section whose `measure` returns `None`
-//! is left out.
+//! Sections are measured once, at the end of a run, from the final state:
+//! after a blow-up only those that ask for it
+//! ([`SummarySection::on_blow_up`]). A section whose `measure` returns
+//! `None` is left out. [`ResourceSection`] writes a resource as it stands
+//! (the flips' counts).
 
 use crate::engine::error::BuildError;
 use crate::engine::simulation::{SimBuilder, Simulation};
@@ -20,6 +22,47 @@ pub trait SummarySection: Send + 'static {
     /// The section at the final state of `sim`, or `None` to leave it out
     /// (nothing to report for this run).
     fn measure(&self, sim: &Simulation) -> Option<serde_json::Value>;
+    /// Whether the section is also written for a run that blew up (its
+    /// final state is the last good one; default: no, a comparison with a
+    /// reference shape means nothing there, while counts still do).
+    fn on_blow_up(&self) -> bool {
+        false
+    }
+}
+
+/// A section that writes resource `T` as it stands at the end of the run
+/// (also after a blow-up), left out when the simulation has no `T`.
+pub struct ResourceSection<T> {
+    name: &'static str,
+    resource: std::marker::PhantomData<fn() -> T>,
+}
+
+impl<T> ResourceSection<T> {
+    /// The section `name` holding resource `T`.
+    pub fn new(name: &'static str) -> Self {
+        Self {
+            name,
+            resource: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<T> SummarySection for ResourceSection<T>
+where
+    T: crate::engine::resources::Resource + serde::Serialize,
+{
+    fn name(&self) -> &str {
+        self.name
+    }
+
+    fn measure(&self, sim: &Simulation) -> Option<serde_json::Value> {
+        let value = sim.resources().get::<T>().ok()?;
+        serde_json::to_value(&*value).ok()
+    }
+
+    fn on_blow_up(&self) -> bool {
+        true
+    }
 }
 
 /// The registered sections, in registration order (a resource).
@@ -73,14 +116,16 @@ impl SimBuilder {
 
 impl Simulation {
     /// Every registered section measured at the current state, by name
-    /// (sections returning `None` left out; empty without sections).
-    pub fn summary_sections(&self) -> BTreeMap<String, serde_json::Value> {
+    /// (sections returning `None` left out; empty without sections); after
+    /// a blow-up (`completed` false) only those asking for it.
+    pub fn summary_sections(&self, completed: bool) -> BTreeMap<String, serde_json::Value> {
         let Ok(sections) = self.resources().get::<SummarySections>() else {
             return BTreeMap::new();
         };
         sections
             .0
             .iter()
+            .filter(|s| completed || s.on_blow_up())
             .filter_map(|s| Some((s.name().to_string(), s.measure(self)?)))
             .collect()
     }

@@ -21,11 +21,7 @@ pub(super) fn summarize(
     let last = EnergyReport::new(name, sim);
     let timings = sim.schedule().timings();
     let time_notes: Vec<String> = remesh_dominance(&timings, stats).into_iter().collect();
-    let sections = if stop.is_none() {
-        sim.summary_sections()
-    } else {
-        Default::default()
-    };
+    let sections = sim.summary_sections(stop.is_none());
     RunSummary {
         scene_file: scene_path.display().to_string(),
         seed: scene.seed,
@@ -44,16 +40,6 @@ pub(super) fn summarize(
         abnormal_edges: sim.resource::<AbnormalEdges>().0.len(),
         cautions: scene.cautions(),
         time_notes,
-        edge_flips: sim
-            .resources()
-            .get::<crate::engine::shared_resources::FlipStats>()
-            .ok()
-            .map(|s| *s),
-        maintenance_flips: sim
-            .resources()
-            .get::<crate::engine::shared_resources::MaintenanceFlipStats>()
-            .ok()
-            .map(|s| *s),
         remesh: RemeshSummary {
             split: stats.split,
             merge: stats.merge,
