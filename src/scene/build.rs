@@ -239,7 +239,8 @@ impl Scene {
     }
 
     /// Adds the energy terms' plugins in declaration order; returns the
-    /// `Springs` term's stiffness (the control points' default).
+    /// control points' default stiffness (the last term declaring one,
+    /// [`crate::energy::builtin::TermNeeds::control_point_stiffness`]).
     fn add_energy_terms(
         &self,
         builder: &mut SimBuilder,
@@ -257,10 +258,11 @@ impl Scene {
             term.add_to(builder, &context, |c, b| add_declared(&c.0, b).map(|_| ()))
                 .map_err(|e| invalid_at(format!("energy[{i}]"), e))?;
         }
-        let spring_stiffness = self.energy.iter().rev().find_map(|t| match t {
-            EnergyTerm::Springs(p) => Some(p.stiffness),
-            _ => None,
-        });
+        let spring_stiffness = self
+            .energy
+            .iter()
+            .rev()
+            .find_map(|t| t.needs().control_point_stiffness);
         Ok(spring_stiffness.unwrap_or(SpringParams::default().stiffness))
     }
 
@@ -389,10 +391,7 @@ impl Scene {
             let kappa: f64 = self
                 .energy
                 .iter()
-                .map(|t| match t {
-                    EnergyTerm::Bending(b) => b.kappa,
-                    _ => 0.0,
-                })
+                .filter_map(|t| t.needs().bending_rigidity)
                 .sum();
             p.normal_scale = Some(if kappa > 0.0 { kappa } else { 1.0 });
         }

@@ -498,10 +498,7 @@ impl Scene {
 
     /// κ of the scene's bending term, if it has one (Ē).
     pub fn bending_kappa(&self) -> Option<f64> {
-        self.energy.iter().find_map(|t| match t {
-            EnergyTerm::Bending(p) => Some(p.kappa),
-            _ => None,
-        })
+        self.energy.iter().find_map(|t| t.needs().bending_rigidity)
     }
 
     /// The scene's one adhesive substrate, if it has exactly one and it is

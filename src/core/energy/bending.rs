@@ -631,4 +631,12 @@ impl crate::energy::builtin::BuiltinTerm for BendingParams {
     fn plugin(&self, _context: crate::energy::builtin::TermContext) -> impl Plugin {
         plugin(*self)
     }
+
+    /// Its κ (the Sobolev metric's scale, the adhered vesicle's κ).
+    fn needs(&self) -> crate::energy::builtin::TermNeeds {
+        crate::energy::builtin::TermNeeds {
+            bending_rigidity: Some(self.kappa),
+            ..Default::default()
+        }
+    }
 }

@@ -53,9 +53,10 @@ impl From<String> for OpenMeshError {
     }
 }
 
-/// What a built-in term needs from the rest of the scene, and what it
-/// cannot run with. The scene's validation reads these declarations (and
-/// names the field at fault); it does not know the terms by name.
+/// What a built-in term needs from the rest of the scene, what it cannot
+/// run with, and what it gives the scene's defaults. The scene's
+/// validation and build read these declarations (and name the field at
+/// fault); they do not know the terms by name.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TermNeeds {
     /// It reads the lipid density carried by the vertices
@@ -72,6 +73,13 @@ pub struct TermNeeds {
     /// Why it cannot run in the fluid model, if it cannot: the field of the
     /// term at fault (empty: the term itself) and the reason.
     pub not_in_fluid_model: Option<(&'static str, String)>,
+    /// The bending rigidity κ it carries (Ē): the scene's bending terms'
+    /// sum is the Sobolev metric's default normal scale, and the first
+    /// one's κ is the continuum adhered vesicle's.
+    pub bending_rigidity: Option<f64>,
+    /// The stiffness its control-point springs have (Ē/l̄²): the last such
+    /// term's is the default of control points that set none.
+    pub control_point_stiffness: Option<f64>,
 }
 
 /// A global quantity of the membrane that a penalty or a constraint holds.

@@ -382,6 +382,7 @@ impl crate::energy::builtin::BuiltinTerm for SpringParams {
     fn needs(&self) -> crate::energy::builtin::TermNeeds {
         crate::energy::builtin::TermNeeds {
             control_points: true,
+            control_point_stiffness: Some(self.stiffness),
             not_in_fluid_model: (!matches!(self.coupling, SpringCoupling::Gaussian { .. })).then(
                 || {
                     (
