@@ -222,8 +222,12 @@ struct Metric {
     settings: SobolevParams,
     sobolev: SobolevMetric,
     direction: Vec<DVec3>,
-    /// The force terms' normal stiffness at the last build (Ē/l̄²).
+    /// The force terms' normal stiffness at the last build, or at the
+    /// current positions after the check for new contact (Ē/l̄²).
     stiffness: Vec<f64>,
+    /// Whether any term has a normal stiffness (else the metric is never
+    /// rebuilt for new contact, and nothing is measured for it).
+    stiff: bool,
 }
 
 /// What carries from one iteration to the next (checkpointed).
@@ -258,6 +262,7 @@ impl FireMinimiser {
                 sobolev: SobolevMetric::default(),
                 direction: Vec::new(),
                 stiffness: Vec::new(),
+                stiff: false,
             }),
         };
         let mut params = params;
@@ -399,7 +404,7 @@ impl System for FireMinimiser {
                 source,
             };
             // The stiff terms' normal stiffness at `at`, into `out`.
-            let stiffness = |at: &[DVec3], out: &mut Vec<f64>| {
+            let stiffness = |at: &[DVec3], out: &mut Vec<f64>| -> bool {
                 let ctx = ForceContext {
                     world: &membrane.world,
                     topology,
@@ -408,16 +413,16 @@ impl System for FireMinimiser {
                     face_geometry: &[],
                     inputs: TermInputs::none(),
                 };
-                buffers.normal_stiffness(&ctx, out);
+                buffers.normal_stiffness(&ctx, out)
             };
             if !metric.sobolev.is_built() {
-                stiffness(&s.metric_positions, &mut metric.stiffness);
+                metric.stiff = stiffness(&s.metric_positions, &mut metric.stiffness);
                 metric
                     .sobolev
                     .build(&s.metric_positions, topology, scales, &metric.stiffness)
                     .map_err(build_error)?;
             }
-            if !rebuild {
+            if metric.stiff && !rebuild {
                 // A vertex that came within a stiff term's range since the
                 // build: build again here (a resumed run has just rebuilt
                 // the factor it was saved with, and decides the same).

@@ -166,7 +166,7 @@ impl ForceTerm for AdhesionForces {
     /// W A_f |φ″(d_f)| per face within the range, a third to each of its
     /// vertices: the contact potential is as stiff as W·6/ρ² per area, far
     /// beyond bending at the ladder's fine rungs (ρ shrinks with h).
-    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) -> bool {
         let p = &self.params;
         for f in &ctx.topology.faces {
             let [a, b, c] = f.map(|i| ctx.positions[i as usize]);
@@ -181,6 +181,7 @@ impl ForceTerm for AdhesionForces {
                 out[v as usize] += share;
             }
         }
+        true
     }
 }
 

@@ -275,7 +275,7 @@ impl ForceTerm for WallForces {
     }
 
     /// ε ∂²(r/d − 1)³/∂d² at each vertex within the range.
-    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) -> bool {
         let p = &self.params;
         for (o, &x) in out.iter_mut().zip(ctx.positions) {
             let (d, _) = p.shape.distance(x);
@@ -283,6 +283,7 @@ impl ForceTerm for WallForces {
                 *o += repulsion_stiffness(d, p.strength, p.range);
             }
         }
+        true
     }
 }
 

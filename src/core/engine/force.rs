@@ -175,10 +175,14 @@ pub trait ForceTerm: Send {
     /// to its metric ([`crate::minimise::sobolev`]), which otherwise sees
     /// only bending and in-plane stretching: a stiff, short-range term (a
     /// contact potential, a wall) then no longer forces its smallest step on
-    /// the whole membrane. The default adds nothing, right for any term
-    /// whose stiffness bending's dominates.
-    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+    /// the whole membrane. Returns whether the term has such a stiffness at
+    /// all (true even where it adds nothing at this state: a minimiser
+    /// then watches for vertices coming into its range). The default adds
+    /// nothing and returns false, right for any term whose stiffness
+    /// bending's dominates.
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) -> bool {
         let _ = (ctx, out);
+        false
     }
     /// State the term carries from one evaluation to the next, for
     /// checkpoints; `None` (the default) means none (caches that do not
@@ -309,13 +313,15 @@ impl ForceBuffers {
 
     /// The sum of the terms' [`ForceTerm::normal_stiffness`] at `ctx`,
     /// written into `out` (by dense slot, Ē/l̄²; resized to the vertex
-    /// count).
-    pub fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut Vec<f64>) {
+    /// count); returns whether any term has such a stiffness.
+    pub fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut Vec<f64>) -> bool {
         out.clear();
         out.resize(ctx.positions.len(), 0.0);
+        let mut any = false;
         for term in &self.objects.0 {
-            term.normal_stiffness(ctx, out);
+            any |= term.normal_stiffness(ctx, out);
         }
+        any
     }
 
     /// The registered terms and the evaluation they write, borrowed together.
@@ -498,7 +504,7 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
         (**self).flip_energy_change(proposal)
     }
-    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) {
+    fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) -> bool {
         (**self).normal_stiffness(ctx, out)
     }
     fn save_state(&self) -> Option<serde_json::Value> {
