@@ -36,6 +36,7 @@ fn run(path: &Path, out: &Path, extra: &[&str]) -> ExitCode {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn the_fluid_vesicle_adheres_more_for_a_stronger_adhesion() {
     let dir = tempfile::tempdir().unwrap();
     // κ = 2 (W R²/κ = 8) through a copy of the scene.
@@ -107,6 +108,7 @@ fn study_of(dir: &Path, names: &[&str]) -> PathBuf {
 /// About 90 s in the test profile on the 2-core VM (72 s in release; with
 /// FIRE about 30 minutes).
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn the_contact_curvature_is_within_5_percent_of_the_contact_condition() {
     let dir = tempfile::tempdir().unwrap();
     let study = study_of(dir.path(), &["adhesion_w6", "adhesion_w10"]);

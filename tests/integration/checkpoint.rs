@@ -100,6 +100,7 @@ fn checkpoint_iteration(staging: &Path) -> Option<u64> {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = scene_file(tmp.path());
@@ -280,6 +281,7 @@ fn write_icosahedron(path: &Path, edge: f64) {
 /// killed once in each phase and resumed, writes what it writes left alone
 /// (`protocol.json` without the phases' wall times).
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_protocol_killed_in_each_phase_and_resumed_writes_the_same_bytes() {
     let tmp = tempfile::tempdir().unwrap();
     scene_file(tmp.path());

@@ -311,6 +311,7 @@ fn readme_shell_commands(readme: &str) -> Vec<String> {
 /// repository's scenes, in order (a later command may read an earlier one's
 /// output); the others by what README_COMMANDS_RUN_ELSEWHERE names.
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn readme_commands_run() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let readme = std::fs::read_to_string(root.join("README.md")).unwrap();

@@ -301,6 +301,7 @@ fn run_ticks(sim: &mut Simulation, n: u64) {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn runs_are_bit_identical_for_any_thread_count() {
     let run = |threads: usize, temperature: f64, seed: u64| {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -336,6 +337,7 @@ fn runs_are_bit_identical_for_any_thread_count() {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
     let mut sim = rbc();
     sim.evaluate_forces().unwrap();

@@ -11,7 +11,7 @@
 //! [`HANG`]. CI runs a reduced count; the long mode is
 //!
 //! ```sh
-//! cargo test --release --test integration fuzz:: -- --ignored --nocapture
+//! cargo test --release --test integration fuzz::by_hand_ -- --ignored --nocapture
 //! ```
 //!
 //! which runs 10^6 inputs and 10^5 remesh operations and prints the counts
@@ -481,6 +481,7 @@ fn fuzz_remesh(operations: usize, seed: u64) -> (usize, usize) {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn fuzzed_inputs_never_panic_or_hang() {
     let report = fuzz_readers(20_000, seed());
     println!(
@@ -503,8 +504,8 @@ fn random_remesh_operations_keep_every_invariant() {
 
 /// The long mode: 10^6 inputs and 10^5 remesh operations.
 #[test]
-#[ignore = "long fuzzing run: cargo test --release --test integration fuzz:: -- --ignored --nocapture"]
-fn long_fuzzing_run() {
+#[ignore = "long fuzzing run: cargo test --release --test integration fuzz::by_hand_ -- --ignored --nocapture"]
+fn by_hand_long_fuzzing_run() {
     let report = fuzz_readers(1_000_000, seed());
     println!(
         "readers: {} inputs ({} accepted) in {:.1} s, slowest {:?}, {} panics, {} hangs",

@@ -125,6 +125,7 @@ fn completes_healthy_in(name: &str) -> (RunSummary, tempfile::TempDir, PathBuf) 
 const MIN_ANGLE_DEG: f64 = 20.0;
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn control_points_100_times_stiffer_than_as_run_complete_with_a_healthy_mesh() {
     let s = completes_healthy("stiff_control_points");
     assert!(s.remesh.split.success > 100, "the pull grows the mesh");
@@ -136,12 +137,14 @@ fn a_one_second_step_cap_at_mobility_ten_thousand_completes_with_a_healthy_mesh(
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn valences_limited_to_5_to_7_stay_in_range_through_remeshing() {
     let s = completes_healthy("narrow_valence");
     assert!(s.remesh.merge.success > 50);
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_sudden_deflation_to_v_0_4_completes_with_a_healthy_mesh() {
     let s = completes_healthy("sudden_deflation");
     let v = s.last.reduced_volume.unwrap();
@@ -218,6 +221,7 @@ fn a_thin_tether_pulled_fast_grows_by_splits_and_keeps_its_radius() {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn thermal_noise_ten_times_300_k_with_remeshing_keeps_a_valid_mesh() {
     // 150 iterations here (the burst of the first ticks); the scene's
     // header has the 10^5-iteration run.
@@ -240,6 +244,7 @@ fn thermal_noise_ten_times_300_k_with_remeshing_keeps_a_valid_mesh() {
 /// (split pre-relaxations failing against the ring squeeze). The bundled
 /// scene now uses the centroid coupling; the whole run leaves none.
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn the_lamellipodium_rim_leaves_no_edge_unresolved() {
     let path = crate::common::repo("scenes/lamellipodium.ron");
     let scene = Scene::load(&path).unwrap();
@@ -261,6 +266,7 @@ fn the_lamellipodium_rim_leaves_no_edge_unresolved() {
 /// wall. With SelfAvoidance the walls stay about its range apart and the
 /// mesh stays healthy; without it they come much closer (the case is hard).
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn walls_pressed_together_stay_apart_with_a_healthy_mesh() {
     let (outcome, _, _dir, out) = run_hard("self_contact", None);
     let summary = outcome.unwrap();

@@ -1,8 +1,14 @@
 //! The integration tests, one binary: each module is one file of tests
 //! (they were one binary each; one crate builds and links once, and the
 //! test harness runs every module's tests side by side on every core).
-//! `cargo test --test integration <module>::` runs one file's tests, e.g.
-//! `cargo test --release --test integration fuzz:: -- --ignored`.
+//! `cargo test --test integration <module>::` runs one file's tests.
+//!
+//! Tiers (docs/development.md): a test that takes more than about 2 s in
+//! the test profile is `#[ignore = "slow tier: ..."]`; `.ci/run` runs the
+//! ignored tests with `-- --ignored --skip by_hand_`. Runs too long for CI
+//! (the long fuzzing and remeshing modes, minutes in release) are named
+//! `by_hand_*`, e.g. `cargo test --release --test integration
+//! fuzz::by_hand_ -- --ignored --nocapture`.
 
 mod common;
 

@@ -137,6 +137,7 @@ fn a_pulled_roller_patch_splits_and_keeps_its_rim_in_its_plane() {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_pulled_patch_under_the_minimiser_splits_and_keeps_its_rim() {
     assert!(run_and_check_rim(&scene(PINNED, MINIMISER, 5), true) > 0);
 }
@@ -161,6 +162,7 @@ fn the_cli_runs_a_remeshed_pinned_patch() {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_split_roller_rim_edge_gives_its_new_vertex_the_condition() {
     // A flat disc pushed to a larger area (no pull) expands in its plane:
     // its rim slides outward on the roller and its edges stretch past the

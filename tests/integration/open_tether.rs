@@ -13,6 +13,7 @@ const KAPPA: f64 = 1.0;
 const HEIGHT_PER_ITERATION: f64 = 0.1 / 200.0;
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_tether_pulled_from_a_patch_overshoots_then_settles_on_the_djp_plateau() {
     let scene = crate::common::repo("scenes/open/tether_from_patch.ron");
     let dir = tempfile::tempdir().unwrap();

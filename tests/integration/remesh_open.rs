@@ -236,8 +236,8 @@ fn random_split_merge_on_open_meshes_keeps_every_invariant_and_every_loop() {
 
 /// The long mode: 10^5 operations.
 #[test]
-#[ignore = "long run: cargo test --release --test integration remesh_open:: -- --ignored --nocapture"]
-fn long_random_split_merge_on_open_meshes() {
+#[ignore = "long run: cargo test --release --test integration remesh_open::by_hand_ -- --ignored --nocapture"]
+fn by_hand_long_random_split_merge_on_open_meshes() {
     let started = std::time::Instant::now();
     let c = random_open_operations(100_000, 2026);
     println!(

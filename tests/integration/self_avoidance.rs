@@ -68,6 +68,7 @@ fn deflate(self_avoidance: bool, dir: &Path) -> f64 {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn walls_pressed_together_stop_at_the_repulsion_range_instead_of_passing_through() {
     let dir = tempfile::tempdir().unwrap();
     let without = deflate(false, dir.path());

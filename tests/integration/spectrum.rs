@@ -205,6 +205,7 @@ fn the_spectrum_command_analyses_a_run_directory_and_refuses_other_input() {
 /// 0.06), and the five-fold vertices buckle into an icosahedral facetting
 /// (l = 6: 11×).
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
     use remembrane::io::spectrum::{SpectrumOptions, analyse_run};
     let scene = crate::common::repo("scenes/fluctuating/tethered.ron");
@@ -258,6 +259,7 @@ fn a_tethered_vesicle_fluctuates_with_the_input_kappa_in_its_bending_modes() {
 /// 1.02 ± 0.03 Ē (`scenes/fluctuating/fluid.ron`), below this test's bound:
 /// those events are not detailed-balanced moves.
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_vesicle_fluid_by_metropolis_flips_fluctuates_with_the_input_kappa() {
     use remembrane::engine::simulation::{CheckInvariants, Clock, DensePositions};
     let path = crate::common::repo("scenes/fluctuating/flips.ron");

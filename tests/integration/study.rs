@@ -42,6 +42,7 @@ fn errors(problem: &serde_json::Value) -> Vec<(String, f64)> {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn the_quick_accuracy_study_shows_the_expected_orders_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("accuracy");

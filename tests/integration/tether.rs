@@ -97,6 +97,7 @@ fn a_bad_state_file_is_a_clear_error() {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn time_scheduled_moves_follow_simulated_time() {
     // The pull scene moves point 0 by (−0.75, 0.75, 0) at t = 0, 1.25e-4, …
     let path = crate::common::scene("tether_pull.ron");

@@ -30,6 +30,7 @@ fn noisy_scene() -> (Scene, PathBuf) {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
     remembrane::util::parallel::set_grain(128);
     let (scene, path) = noisy_scene();
@@ -47,6 +48,7 @@ fn a_noisy_remeshing_10242_vertex_run_is_byte_identical_on_1_2_and_3_threads() {
 /// flips are drawn and taken serially from a per-tick stream, between
 /// parallel kernels (grain lowered as above, so every loop splits).
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_vesicle_fluid_by_edge_flips_is_byte_identical_on_1_2_and_3_threads() {
     remembrane::util::parallel::set_grain(128);
     let path = crate::common::repo("scenes/fluctuating_vesicle.ron");

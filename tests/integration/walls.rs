@@ -176,6 +176,7 @@ fn adhered_area(w: f64, dir: &Path) -> (f64, f64) {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn the_vesicle_spreads_on_its_substrate_and_more_for_a_stronger_adhesion() {
     let dir = tempfile::tempdir().unwrap();
     // Set down with only its bottom within range, the vesicle spreads over
@@ -234,6 +235,7 @@ fn confined_fluid_at(h: f64, dir: &Path) -> [f64; 5] {
 }
 
 #[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn the_walls_force_balances_the_pressure_and_tension_of_the_confined_fluid_vesicle() {
     // docs/open_meshes.md, "Confinement": at rest, the isotropic dilation
     // gives Σ|F_i|ρ_i = 3ΔpV − 2σA (bending is scale-invariant), and the

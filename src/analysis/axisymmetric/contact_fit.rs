@@ -567,6 +567,7 @@ mod tests {
     }
 
     #[test]
+    #[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
     fn the_fit_recovers_the_adhesion_of_a_continuum_vesicle() {
         let r0 = 6.6;
         let (kappa, v) = (1.0, 0.9);
