@@ -21,7 +21,8 @@
 //! - [`params`]: the scene's parameters by part;
 //! - [`constraint`], [`fluid`], [`minimise`], [`timestep`]: exact
 //!   constraints, the fluid membrane's projection, the minimiser's state and
-//!   the adaptive step; [`fd`]: finite-difference checks of every force.
+//!   the adaptive step; [`fd`]: finite-difference checks of every force;
+//! - [`species`]: protein species (their parameters, their free energy).
 
 pub mod constraint;
 pub mod diffusion;
@@ -33,6 +34,7 @@ pub mod mesh;
 pub mod minimise;
 pub mod params;
 pub mod remesh;
+pub mod species;
 pub mod timestep;
 pub mod util;
 

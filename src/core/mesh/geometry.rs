@@ -189,6 +189,28 @@ impl Corners {
     }
 }
 
+impl Corners {
+    /// Reverse-mode derivative of Φ = Σ_k `g_cot[k]`·cot_k: returns ∂Φ/∂p_k
+    /// (the cotangents' part of [`Corners::backward`], for energies that
+    /// weight the cotangents by something other than the Laplacian and the
+    /// mixed areas, e.g. a Dirichlet energy Σ ½cot_k (φ_a − φ_b)²).
+    #[inline]
+    pub fn cot_backward(&self, g_cot: [f64; 3]) -> [DVec3; 3] {
+        let [e0, e1, e2] = self.e;
+        let [c0, c1, c2] = self.cot;
+        let inv = self.inv_twice_area;
+        let n_hat = self.n_hat;
+        let (q0, q1, q2) = (e0.cross(n_hat), e1.cross(n_hat), e2.cross(n_hat));
+        let (s0, s1, s2) = (g_cot[0] * inv, g_cot[1] * inv, g_cot[2] * inv);
+        // As in `backward`: ∂cot_k/∂e_{k+1} = −(e_{k+2} + cot_k e_{k+2} × n̂)/|n|,
+        // ∂cot_k/∂e_{k+2} = −(e_{k+1} − cot_k e_{k+1} × n̂)/|n|.
+        let ge0 = -(s1 * (e2 - c1 * q2) + s2 * (e1 + c2 * q1));
+        let ge1 = -(s0 * (e2 + c0 * q2) + s2 * (e0 - c2 * q0));
+        let ge2 = -(s0 * (e1 - c0 * q1) + s1 * (e0 + c1 * q0));
+        [ge1 - ge2, ge2 - ge0, ge0 - ge1]
+    }
+}
+
 /// ∂(area)/∂p_k of triangle `p` with unit normal `n_hat`:
 /// ½ n̂ × (p_{k+2} − p_{k+1}).
 #[inline]

@@ -1,0 +1,457 @@
+//! The species' free energy on a triangulated surface (the terms of
+//! [`crate::species::params`]) in the discretisation of the cotangent
+//! bending ([`crate::energy::bending`]): per vertex i, the mixed Voronoi
+//! area A_i and the signed total curvature h_i = s_i|L_i|/(2A_i);
+//!
+//! F = Σ_i A_i [½κ_i (h_i − C0_i)² − ½κ (h_i − C0)²] (interior vertices)
+//!   + Σ_i A_i f_loc(φ_i)                             (every vertex)
+//!   + Σ_s ½η_s Σ_faces Σ_k ½cot_k (φ_s,a − φ_s,b)²   (edge k = (a, b)),
+//!
+//! the last the cotangent Dirichlet energy ½η∫|∇φ|². It is the energy a
+//! species adds to the `Bending` term's (the coupled bending is written as
+//! a difference, so the membrane's own bending stays that term's).
+//!
+//! The derivatives are analytic: ∂F/∂φ_s,i, and the shape force −∂F/∂r
+//! either at fixed fractions φ ([`Hold::Fraction`]) or at fixed protein
+//! amounts n_i = A_i φ_i / a_p ([`Hold::Amount`]: what a surface carrying
+//! its proteins feels; the fractions dilute as the vertex areas grow,
+//! ∂φ_i/∂A_i = −φ_i/A_i).
+
+use crate::mesh::geometry::{Corners, vertex_curvature_terms};
+use crate::species::params::SpeciesSet;
+use glam::DVec3;
+
+/// What stays fixed when the shape moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hold {
+    /// The area fractions φ.
+    Fraction,
+    /// The protein amounts A_i φ_i / a_p.
+    Amount,
+}
+
+/// The membrane's own bending, which the coupling modifies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseBending {
+    /// κ (Ē).
+    pub kappa: f64,
+    /// C0 (1/l̄, total curvature).
+    pub c0: f64,
+}
+
+/// Reusable per-vertex buffers.
+#[derive(Clone, Debug, Default)]
+pub struct FreeEnergyScratch {
+    areas: Vec<f64>,
+    laplacians: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    g_lap: Vec<DVec3>,
+    g_area: Vec<f64>,
+}
+
+/// Where the derivatives go.
+pub struct Derivatives<'a> {
+    /// −∂F/∂r is added here (Ē/l̄), by dense slot.
+    pub force: &'a mut [DVec3],
+    /// ∂F/∂φ_s,i is written here (Ē), by species then dense slot.
+    pub phi: &'a mut [Vec<f64>],
+}
+
+/// x ln x, continued by 0 at x = 0.
+fn x_ln_x(x: f64) -> f64 {
+    if x > 0.0 { x * x.ln() } else { 0.0 }
+}
+
+/// The species' free energy (Ē) of the mesh `faces` with per-face
+/// `geometry` and `n` vertices, for the fractions `phi` (by species, then
+/// dense slot; each in (0, 1), their sum below 1). `boundary` marks the
+/// vertices of an open mesh's rims, which carry no bending (as in
+/// [`crate::energy::bending`]). With `out`, adds the shape force to
+/// `out.force` under `hold` and writes ∂F/∂φ to `out.phi`.
+#[allow(clippy::too_many_arguments)]
+pub fn free_energy(
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    n: usize,
+    base: BaseBending,
+    set: &SpeciesSet,
+    phi: &[Vec<f64>],
+    boundary: Option<&[bool]>,
+    hold: Hold,
+    scratch: &mut FreeEnergyScratch,
+    mut out: Option<Derivatives<'_>>,
+) -> f64 {
+    let s = scratch;
+    let species = &set.species;
+    let kbt = set.temperature;
+    let a0 = set.solvent_area();
+    let chi = set.interaction_matrix();
+    vertex_curvature_terms(
+        faces,
+        geometry,
+        &mut s.areas,
+        &mut s.laplacians,
+        Some(&mut s.normals),
+        n,
+    );
+    s.g_lap.clear();
+    s.g_lap.resize(n, DVec3::ZERO);
+    s.g_area.clear();
+    s.g_area.resize(n, 0.0);
+    if let Some(o) = out.as_mut() {
+        for d in o.phi.iter_mut() {
+            d.clear();
+            d.resize(n, 0.0);
+        }
+    }
+    let mut energy = 0.0;
+    let mut dphi = vec![0.0; species.len()];
+    for i in 0..n {
+        let a = s.areas[i];
+        // f_loc and ∂f_loc/∂φ_s (per area).
+        let bare = 1.0
+            - species
+                .iter()
+                .enumerate()
+                .map(|(k, _)| phi[k][i])
+                .sum::<f64>();
+        let mut f = kbt / a0 * x_ln_x(bare);
+        let solvent = kbt / a0 * (bare.ln() + 1.0);
+        for (k, sp) in species.iter().enumerate() {
+            let p = phi[k][i];
+            f += sp.binding_energy * p + kbt / sp.area_per_protein * x_ln_x(p);
+            dphi[k] = sp.binding_energy + kbt / sp.area_per_protein * (p.ln() + 1.0) - solvent;
+        }
+        for (k, row) in chi.iter().enumerate() {
+            let p = phi[k][i];
+            for (l, c) in row.iter().enumerate().skip(k) {
+                let q = phi[l][i];
+                f += c * p * q;
+                dphi[k] += c * q;
+                dphi[l] += c * p;
+            }
+        }
+        // The coupled bending, interior vertices only.
+        let interior = !boundary.is_some_and(|b| b[i]);
+        let mut df_dh = 0.0;
+        if interior {
+            let l = s.laplacians[i];
+            let len = l.length();
+            let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
+            let h = sign * len / (2.0 * a);
+            let (mut kappa, mut c0) = (base.kappa, base.c0);
+            for (k, sp) in species.iter().enumerate() {
+                kappa += sp.rigidity_change * phi[k][i];
+                c0 += sp.curvature_coupling * phi[k][i];
+            }
+            let (d, d0) = (h - c0, h - base.c0);
+            f += 0.5 * kappa * d * d - 0.5 * base.kappa * d0 * d0;
+            df_dh = kappa * d - base.kappa * d0;
+            for (k, sp) in species.iter().enumerate() {
+                dphi[k] += 0.5 * sp.rigidity_change * d * d - kappa * d * sp.curvature_coupling;
+            }
+            // h = s|L|/(2A): ∂(A f)/∂L = ½ f'(h) s L/|L|; ∂(A f)/∂A gets −h f'(h).
+            if len > 0.0 {
+                s.g_lap[i] = l * (0.5 * df_dh * sign / len);
+            }
+            df_dh *= h;
+        }
+        energy += a * f;
+        s.g_area[i] = f - df_dh;
+        if let Some(o) = out.as_mut() {
+            for (k, d) in dphi.iter().enumerate() {
+                o.phi[k][i] = a * d;
+            }
+        }
+    }
+    // The gradient energies: ½η Σ_k ½cot_k (Δφ_k)² per face.
+    let mut cot_adjoints = Vec::new();
+    if species.iter().any(|sp| sp.gradient_energy != 0.0) {
+        cot_adjoints.resize(faces.len(), [0.0; 3]);
+        for (fi, (face, c)) in faces.iter().zip(geometry).enumerate() {
+            for k in 0..3 {
+                let (va, vb) = (face[(k + 1) % 3] as usize, face[(k + 2) % 3] as usize);
+                for (sk, sp) in species.iter().enumerate() {
+                    if sp.gradient_energy == 0.0 {
+                        continue;
+                    }
+                    let diff = phi[sk][va] - phi[sk][vb];
+                    let w = 0.25 * sp.gradient_energy;
+                    energy += w * c.cot[k] * diff * diff;
+                    cot_adjoints[fi][k] += w * diff * diff;
+                    if let Some(o) = out.as_mut() {
+                        o.phi[sk][va] += 2.0 * w * c.cot[k] * diff;
+                        o.phi[sk][vb] -= 2.0 * w * c.cot[k] * diff;
+                    }
+                }
+            }
+        }
+    }
+    let Some(o) = out else {
+        return energy;
+    };
+    if hold == Hold::Amount {
+        // φ_i = a_p n_i / A_i: ∂φ_i/∂A_i = −φ_i/A_i.
+        for i in 0..n {
+            let a = s.areas[i];
+            for (k, d) in o.phi.iter().enumerate() {
+                s.g_area[i] -= d[i] * phi[k][i] / a;
+            }
+        }
+    }
+    for (fi, (face, c)) in faces.iter().zip(geometry).enumerate() {
+        let [i0, i1, i2] = face.map(|v| v as usize);
+        let mut g = c.backward(
+            [s.g_lap[i0], s.g_lap[i1], s.g_lap[i2]],
+            [s.g_area[i0], s.g_area[i1], s.g_area[i2]],
+        );
+        if let Some(gc) = cot_adjoints.get(fi) {
+            let extra = c.cot_backward(*gc);
+            for k in 0..3 {
+                g[k] += extra[k];
+            }
+        }
+        o.force[i0] -= g[0];
+        o.force[i1] -= g[1];
+        o.force[i2] -= g[2];
+    }
+    energy
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fd::{perturbed_icosphere, perturbed_patches};
+    use crate::mesh::SurfaceMesh;
+    use crate::mesh::geometry::face_geometry;
+    use crate::species::params::{Interaction, Species};
+    use rand::{RngExt, SeedableRng};
+
+    fn two_species() -> SpeciesSet {
+        let sp = |name: &str, a: f64, c: f64, dk: f64, eps: f64, eta: f64| Species {
+            name: name.into(),
+            area_per_protein: a,
+            curvature_coupling: c,
+            rigidity_change: dk,
+            binding_energy: eps,
+            gradient_energy: eta,
+        };
+        SpeciesSet {
+            species: vec![
+                sp("bar", 0.05, 1.5, 2.0, -0.3, 0.7),
+                sp("epsin", 0.02, -0.8, -1.0, 0.2, 0.0),
+            ],
+            interactions: vec![
+                Interaction {
+                    species: ("bar".into(), "epsin".into()),
+                    chi: 0.9,
+                },
+                Interaction {
+                    species: ("bar".into(), "bar".into()),
+                    chi: -0.4,
+                },
+            ],
+            temperature: 0.1,
+        }
+    }
+
+    fn fields(n: usize, seed: u64) -> Vec<Vec<f64>> {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+        (0..2)
+            .map(|_| (0..n).map(|_| rng.random_range(0.05..0.4)).collect())
+            .collect()
+    }
+
+    /// F at `positions` with the fractions `phi`, or, with `amounts`, the
+    /// fractions a_p n_i / A_i of those amounts at these positions.
+    fn energy_at(
+        mesh: &SurfaceMesh,
+        positions: &[DVec3],
+        set: &SpeciesSet,
+        phi: &[Vec<f64>],
+        boundary: Option<&[bool]>,
+        amounts: bool,
+    ) -> f64 {
+        let mut geometry = Vec::new();
+        face_geometry(positions, &mesh.faces, &mut geometry);
+        let mut s = FreeEnergyScratch::default();
+        let n = positions.len();
+        let phi: Vec<Vec<f64>> = if amounts {
+            let (mut areas, mut laps) = (Vec::new(), Vec::new());
+            vertex_curvature_terms(&mesh.faces, &geometry, &mut areas, &mut laps, None, n);
+            phi.iter()
+                .map(|amount| (0..n).map(|i| amount[i] / areas[i]).collect())
+                .collect()
+        } else {
+            phi.to_vec()
+        };
+        let base = BaseBending {
+            kappa: 5.0,
+            c0: 0.3,
+        };
+        free_energy(
+            &mesh.faces,
+            &geometry,
+            n,
+            base,
+            set,
+            &phi,
+            boundary,
+            Hold::Fraction,
+            &mut s,
+            None,
+        )
+    }
+
+    /// Checks −∂F/∂r and ∂F/∂φ against central differences (fourth order)
+    /// on `mesh`, holding fractions or amounts.
+    fn check(mesh: &SurfaceMesh, boundary: Option<&[bool]>, hold: Hold, seed: u64) {
+        let set = two_species();
+        let n = mesh.positions.len();
+        let phi = fields(n, seed);
+        let mut geometry = Vec::new();
+        face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
+        let mut force = vec![DVec3::ZERO; n];
+        let mut dphi = vec![Vec::new(), Vec::new()];
+        let base = BaseBending {
+            kappa: 5.0,
+            c0: 0.3,
+        };
+        let e = free_energy(
+            &mesh.faces,
+            &geometry,
+            n,
+            base,
+            &set,
+            &phi,
+            boundary,
+            hold,
+            &mut FreeEnergyScratch::default(),
+            Some(Derivatives {
+                force: &mut force,
+                phi: &mut dphi,
+            }),
+        );
+        assert!(e.is_finite());
+        let amounts = hold == Hold::Amount;
+        // The held variables: the amounts A_i φ_i (a_p cancels).
+        let held: Vec<Vec<f64>> = if amounts {
+            let (mut areas, mut laps) = (Vec::new(), Vec::new());
+            vertex_curvature_terms(&mesh.faces, &geometry, &mut areas, &mut laps, None, n);
+            phi.iter()
+                .map(|p| (0..n).map(|i| p[i] * areas[i]).collect())
+                .collect()
+        } else {
+            phi.clone()
+        };
+        // 1e-5 l̄: on the flat disc some |L_i| are small, and the curvature
+        // h_i = s|L_i|/(2A_i) bends sharply at that scale (with 1e-4 the
+        // stencil's truncation error reaches 1e-4 relative there).
+        let h = 1e-5;
+        let diff4 = |f: &dyn Fn(f64) -> f64| {
+            (f(-2.0 * h) - 8.0 * f(-h) + 8.0 * f(h) - f(2.0 * h)) / (12.0 * h)
+        };
+        let mut worst: f64 = 0.0;
+        for v in 0..n {
+            let mut numeric = DVec3::ZERO;
+            for c in 0..3 {
+                let at = |t: f64| {
+                    let mut p = mesh.positions.clone();
+                    p[v][c] += t;
+                    energy_at(mesh, &p, &set, &held, boundary, amounts)
+                };
+                numeric[c] = -diff4(&at);
+            }
+            let err = (force[v] - numeric).length();
+            worst = worst.max(err / (numeric.length() + 1e-3));
+            assert!(
+                err <= 1e-6 * numeric.length() + 1e-8,
+                "{hold:?}, vertex {v}: analytic {:?}, numeric {numeric:?}",
+                force[v]
+            );
+        }
+        for (k, d) in dphi.iter().enumerate() {
+            for v in 0..n {
+                let at = |t: f64| {
+                    let mut p = phi.clone();
+                    p[k][v] += t;
+                    energy_at(mesh, &mesh.positions, &set, &p, boundary, false)
+                };
+                let numeric = diff4(&at);
+                assert!(
+                    (d[v] - numeric).abs() <= 1e-6 * numeric.abs() + 1e-8,
+                    "species {k}, vertex {v}: analytic {}, numeric {numeric}",
+                    d[v]
+                );
+            }
+        }
+        assert!(worst < 1e-6, "{worst}");
+    }
+
+    #[test]
+    fn shape_and_field_derivatives_match_finite_differences_on_a_closed_mesh() {
+        let mesh = perturbed_icosphere(1, 7);
+        check(&mesh, None, Hold::Fraction, 1);
+        check(&mesh, None, Hold::Amount, 2);
+    }
+
+    #[test]
+    fn shape_and_field_derivatives_match_finite_differences_on_open_meshes() {
+        for mesh in perturbed_patches(11) {
+            // The rims: the vertices of edges with one face.
+            let mut uses = std::collections::HashMap::new();
+            for f in &mesh.faces {
+                for k in 0..3 {
+                    let (a, b) = (f[k], f[(k + 1) % 3]);
+                    *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                }
+            }
+            let mut boundary = vec![false; mesh.vertex_count()];
+            for ((a, b), _) in uses.into_iter().filter(|(_, c)| *c == 1) {
+                boundary[a as usize] = true;
+                boundary[b as usize] = true;
+            }
+            assert!(boundary.iter().any(|b| *b));
+            check(&mesh, Some(&boundary), Hold::Fraction, 3);
+            check(&mesh, Some(&boundary), Hold::Amount, 4);
+        }
+    }
+
+    #[test]
+    fn without_proteins_the_coupling_vanishes_and_one_species_has_the_lattice_gas_entropy() {
+        let mesh = perturbed_icosphere(1, 5);
+        let n = mesh.vertex_count();
+        let mut set = two_species();
+        set.species.truncate(1);
+        set.interactions.clear();
+        set.species[0].binding_energy = 0.0;
+        set.species[0].gradient_energy = 0.0;
+        let phi = vec![vec![0.3; n]];
+        let mut geometry = Vec::new();
+        face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
+        let (mut areas, mut laps) = (Vec::new(), Vec::new());
+        vertex_curvature_terms(&mesh.faces, &geometry, &mut areas, &mut laps, None, n);
+        let area: f64 = areas.iter().sum();
+        // With no coupling: only the entropy, (k_BT/a_p)[φ ln φ + (1−φ) ln(1−φ)] per area.
+        set.species[0].curvature_coupling = 0.0;
+        set.species[0].rigidity_change = 0.0;
+        let base = BaseBending {
+            kappa: 5.0,
+            c0: 0.3,
+        };
+        let e = free_energy(
+            &mesh.faces,
+            &geometry,
+            n,
+            base,
+            &set,
+            &phi,
+            None,
+            Hold::Fraction,
+            &mut FreeEnergyScratch::default(),
+            None,
+        );
+        let per_area = 0.1 / 0.05 * (0.3 * 0.3f64.ln() + 0.7 * 0.7f64.ln());
+        assert!((e - area * per_area).abs() <= 1e-12 * e.abs(), "{e}");
+    }
+}
