@@ -103,12 +103,7 @@ pub fn free_energy(
     for i in 0..n {
         let a = s.areas[i];
         // f_loc and ∂f_loc/∂φ_s (per area).
-        let bare = 1.0
-            - species
-                .iter()
-                .enumerate()
-                .map(|(k, _)| phi[k][i])
-                .sum::<f64>();
+        let bare = 1.0 - phi.iter().map(|p| p[i]).sum::<f64>();
         let mut f = kbt / a0 * x_ln_x(bare);
         let solvent = kbt / a0 * (bare.ln() + 1.0);
         for (k, sp) in species.iter().enumerate() {
