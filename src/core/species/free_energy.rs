@@ -57,6 +57,15 @@ pub struct Derivatives<'a> {
     pub phi: &'a mut [Vec<f64>],
 }
 
+/// The signed total curvature h = s|L|/(2A) of a vertex with cotangent
+/// Laplacian `l`, area-weighted normal `normal` and area `area`, with the
+/// sign s (negative where L points against the normal) and |L|.
+pub(crate) fn signed_curvature(l: DVec3, normal: DVec3, area: f64) -> (f64, f64, f64) {
+    let len = l.length();
+    let sign = if l.dot(normal) < 0.0 { -1.0 } else { 1.0 };
+    (sign * len / (2.0 * area), sign, len)
+}
+
 /// x ln x, continued by 0 at x = 0.
 fn x_ln_x(x: f64) -> f64 {
     if x > 0.0 { x * x.ln() } else { 0.0 }
@@ -125,9 +134,7 @@ pub fn free_energy(
         let mut df_dh = 0.0;
         if interior {
             let l = s.laplacians[i];
-            let len = l.length();
-            let sign = if l.dot(s.normals[i]) < 0.0 { -1.0 } else { 1.0 };
-            let h = sign * len / (2.0 * a);
+            let (h, sign, len) = signed_curvature(l, s.normals[i], a);
             let (mut kappa, mut c0) = (base.kappa, base.c0);
             for (k, sp) in species.iter().enumerate() {
                 kappa += sp.rigidity_change * phi[k][i];
@@ -224,6 +231,8 @@ mod tests {
             rigidity_change: dk,
             binding_energy: eps,
             gradient_energy: eta,
+            reservoir: Default::default(),
+            chemical_potential: None,
         };
         SpeciesSet {
             species: vec![

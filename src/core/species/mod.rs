@@ -1,7 +1,9 @@
 //! Protein species on the membrane: area fractions φ that couple to the
 //! curvature, bind, interact and mix (SPEC §9). [`params`] declares them
 //! with their units; [`free_energy`] is their free energy on the mesh with
-//! its analytic derivatives against the shape and the fields.
+//! its analytic derivatives against the shape and the fields; [`relax`]
+//! minimises it over the fields at a fixed shape.
 
 pub mod free_energy;
 pub mod params;
+pub mod relax;

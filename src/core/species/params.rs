@@ -18,6 +18,10 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The most species a scene may declare (each has its own per-vertex
+/// component).
+pub const MAX_SPECIES: usize = 8;
+
 /// One protein species.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -41,6 +45,26 @@ pub struct Species {
     /// covered and bare membrane.
     #[serde(default)]
     pub gradient_energy: f64,
+    /// Where its proteins come from (default [`Reservoir::Conserved`]).
+    #[serde(default)]
+    pub reservoir: Reservoir,
+    /// The bulk's chemical potential μ (Ē per protein) of a species
+    /// [`Reservoir::Bulk`]; a conserved species' μ is computed (the
+    /// multiplier of its count), so it is not given.
+    #[serde(default)]
+    pub chemical_potential: Option<f64>,
+}
+
+/// Where a species' proteins come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Reservoir {
+    /// The protein count on the membrane is fixed; the chemical potential
+    /// is the multiplier that holds it, and it is reported.
+    #[default]
+    Conserved,
+    /// Proteins bind from and unbind to a bulk at a fixed chemical
+    /// potential (`chemical_potential`); the count follows.
+    Bulk,
 }
 
 /// A pair interaction χ φ_a φ_b per area between two species (or a species
@@ -96,6 +120,12 @@ impl SpeciesSet {
         if self.species.is_empty() {
             return err("species".into(), "declare at least one species");
         }
+        if self.species.len() > MAX_SPECIES {
+            return err(
+                "species".into(),
+                &format!("at most {MAX_SPECIES} species can be declared"),
+            );
+        }
         for (k, s) in self.species.iter().enumerate() {
             if s.name.is_empty() || !s.name.chars().all(|c| c.is_alphanumeric() || c == '_') {
                 return err(
@@ -121,6 +151,27 @@ impl SpeciesSet {
                 if !v.is_finite() {
                     return err(format!("species[{k}].{field}"), "must be finite");
                 }
+            }
+            match (s.reservoir, s.chemical_potential) {
+                (Reservoir::Conserved, Some(_)) => {
+                    return err(
+                        format!("species[{k}].chemical_potential"),
+                        "a conserved species' chemical potential is the multiplier of its \
+                         count, computed, not given (declare reservoir: Bulk to bind from a \
+                         bulk at this potential)",
+                    );
+                }
+                (Reservoir::Bulk, None) => {
+                    return err(
+                        format!("species[{k}].chemical_potential"),
+                        "a species bound from a bulk needs the bulk's chemical potential \
+                         (Ē per protein)",
+                    );
+                }
+                (Reservoir::Bulk, Some(mu)) if !mu.is_finite() => {
+                    return err(format!("species[{k}].chemical_potential"), "must be finite");
+                }
+                _ => {}
             }
             if s.gradient_energy < 0.0 {
                 return err(
@@ -190,6 +241,8 @@ mod tests {
             rigidity_change: 0.0,
             binding_energy: 0.0,
             gradient_energy: 0.0,
+            reservoir: Reservoir::Conserved,
+            chemical_potential: None,
         }
     }
 
@@ -219,6 +272,18 @@ mod tests {
         assert_eq!(e.field, "interactions[0].species");
         assert!(e.reason.contains("dynamin"), "{e}");
         set.interactions[0].species.1 = "epsin".into();
+        set.species[1].chemical_potential = Some(-0.3);
+        assert_eq!(
+            set.validate().unwrap_err().field,
+            "species[1].chemical_potential"
+        );
+        set.species[1].reservoir = Reservoir::Bulk;
+        assert_eq!(set.validate(), Ok(()));
+        set.species[1].chemical_potential = None;
+        let e = set.validate().unwrap_err();
+        assert_eq!(e.field, "species[1].chemical_potential");
+        assert!(e.reason.contains("bulk"), "{e}");
+        set.species[1].chemical_potential = Some(-0.3);
         assert_eq!(set.validate(), Ok(()));
         assert_eq!(set.solvent_area(), 0.01);
         assert_eq!(

@@ -1,0 +1,657 @@
+//! The fields at a fixed shape: the fractions φ that minimise the species'
+//! free energy ([`crate::species::free_energy`]) with every conserved
+//! species' protein count N_s = Σ_i A_i φ_s,i / a_s held exactly and every
+//! bulk species exchanging proteins at its chemical potential μ_s, that is
+//! the minimum of the grand potential Ω = F − Σ_{bulk s} μ_s N_s.
+//!
+//! Newton's method on per-vertex blocks: each vertex's S×S Hessian of the
+//! local free energy (entropy, interactions, coupled bending) plus the
+//! diagonal of the gradient energies, factorised by a dense Cholesky
+//! (shifted where the local energy is not convex: a demixing χ); the counts
+//! enter as multipliers λ_c, found each step from a |C|×|C| system so that
+//! Σ_i w_i δφ_c,i = 0 exactly. Steps stay a fraction of the way to the
+//! bounds φ > 0, Σφ < 1 and decrease Ω (Armijo backtracking). Without
+//! gradient energies the blocks are the exact Hessian and the convergence
+//! is quadratic. At the end λ_c is the conserved species' chemical
+//! potential (Ē per protein), and every vertex satisfies a_s ∂f/∂φ_s = μ_s
+//! (for one species the Fermi-Dirac relation
+//! φ_i = 1/(1 + e^{(ε_i − μ)/k_BT}), ε_i = −a_p κ c (h_i − c φ_i)).
+
+use crate::mesh::geometry::{Corners, vertex_curvature_terms};
+use crate::species::free_energy::{
+    BaseBending, Derivatives, FreeEnergyScratch, Hold, free_energy, signed_curvature,
+};
+use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
+use glam::DVec3;
+
+/// The fixed surface the fields relax on.
+#[derive(Clone, Copy)]
+pub struct FixedShape<'a> {
+    /// Faces by dense vertex slot.
+    pub faces: &'a [[u32; 3]],
+    /// Per-face geometry at the shape.
+    pub geometry: &'a [Corners],
+    /// The number of vertices.
+    pub vertex_count: usize,
+    /// The rim vertices of an open mesh (no bending), or `None`.
+    pub boundary: Option<&'a [bool]>,
+}
+
+/// When the relaxation stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RelaxSettings {
+    /// The largest residual a_s-free chemical-potential imbalance per area
+    /// |∂F/∂φ_s,i − μ_s A_i/a_s| / A_i (Ē/l̄²) accepted.
+    pub tolerance: f64,
+    /// The most Newton steps.
+    pub max_iterations: usize,
+}
+
+/// What the relaxation reached.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Relaxed {
+    /// Newton steps taken.
+    pub iterations: usize,
+    /// The residual (Ē/l̄², as [`RelaxSettings::tolerance`]) at the end.
+    pub residual: f64,
+    /// Each species' chemical potential μ_s (Ē per protein): the
+    /// multiplier of a conserved species' count, the bulk's for the others.
+    pub chemical_potentials: Vec<f64>,
+    /// The grand potential Ω at the end (Ē).
+    pub grand_potential: f64,
+}
+
+/// Why the relaxation failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RelaxError {
+    /// A field starts outside φ > 0, Σφ < 1.
+    #[error(
+        "species {species}: φ = {value} at vertex {vertex} is outside (0, 1) or the fractions sum to 1 or more"
+    )]
+    Outside {
+        /// The species' index.
+        species: usize,
+        /// The dense vertex slot.
+        vertex: usize,
+        /// The value found.
+        value: f64,
+    },
+    /// No step lowered the grand potential before the residual reached the
+    /// tolerance, or the step cap came first.
+    #[error(
+        "the fields did not relax: residual {residual:e} Ē/l̄² after {iterations} Newton steps (tolerance {tolerance:e})"
+    )]
+    NotConverged {
+        /// Steps taken.
+        iterations: usize,
+        /// The residual reached.
+        residual: f64,
+        /// The tolerance asked for.
+        tolerance: f64,
+    },
+}
+
+/// Fraction of the distance to a bound a step may go.
+const TO_BOUNDARY: f64 = 0.9;
+
+/// The per-vertex quantities of the fixed shape.
+struct Vertices {
+    areas: Vec<f64>,
+    curvature: Vec<f64>,
+    interior: Vec<bool>,
+    /// Σ of ½cot over the face edges at each vertex (the Dirichlet
+    /// energy's diagonal per unit η), at least 0.
+    dirichlet: Vec<f64>,
+}
+
+impl Vertices {
+    fn measure(shape: FixedShape<'_>) -> Self {
+        let n = shape.vertex_count;
+        let (mut areas, mut laplacians, mut normals) = (Vec::new(), Vec::new(), Vec::new());
+        vertex_curvature_terms(
+            shape.faces,
+            shape.geometry,
+            &mut areas,
+            &mut laplacians,
+            Some(&mut normals),
+            n,
+        );
+        let curvature = (0..n)
+            .map(|i| signed_curvature(laplacians[i], normals[i], areas[i]).0)
+            .collect();
+        let interior = (0..n)
+            .map(|i| !shape.boundary.is_some_and(|b| b[i]))
+            .collect();
+        let mut dirichlet = vec![0.0; n];
+        for (face, c) in shape.faces.iter().zip(shape.geometry) {
+            for k in 0..3 {
+                for v in [face[(k + 1) % 3], face[(k + 2) % 3]] {
+                    dirichlet[v as usize] += 0.5 * c.cot[k];
+                }
+            }
+        }
+        for d in &mut dirichlet {
+            *d = d.max(0.0);
+        }
+        Self {
+            areas,
+            curvature,
+            interior,
+            dirichlet,
+        }
+    }
+}
+
+/// A dense symmetric S×S block, S ≤ [`MAX_SPECIES`].
+type Block = [[f64; MAX_SPECIES]; MAX_SPECIES];
+
+/// The lower Cholesky factor of `a` (S×S) in place; false if `a` is not
+/// positive definite.
+fn cholesky(a: &mut Block, s: usize) -> bool {
+    for j in 0..s {
+        let mut d = a[j][j];
+        for k in 0..j {
+            d -= a[j][k] * a[j][k];
+        }
+        if d <= 0.0 || !d.is_finite() {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j][j] = d;
+        for i in j + 1..s {
+            let mut x = a[i][j];
+            for k in 0..j {
+                x -= a[i][k] * a[j][k];
+            }
+            a[i][j] = x / d;
+        }
+    }
+    true
+}
+
+/// Solves L Lᵀ x = b in place with the factor of [`cholesky`].
+fn cholesky_solve(l: &Block, s: usize, b: &mut [f64]) {
+    for i in 0..s {
+        let mut x = b[i];
+        for k in 0..i {
+            x -= l[i][k] * b[k];
+        }
+        b[i] = x / l[i][i];
+    }
+    for i in (0..s).rev() {
+        let mut x = b[i];
+        for k in i + 1..s {
+            x -= l[k][i] * b[k];
+        }
+        b[i] = x / l[i][i];
+    }
+}
+
+/// Factorises `h`, shifting its diagonal where it is not positive definite.
+fn factorise(h: &Block, s: usize) -> Block {
+    let scale = (0..s)
+        .map(|k| h[k][k].abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let mut shift = 0.0;
+    loop {
+        let mut l = *h;
+        for (k, row) in l.iter_mut().enumerate().take(s) {
+            row[k] += shift;
+        }
+        if cholesky(&mut l, s) {
+            return l;
+        }
+        shift = if shift == 0.0 {
+            1e-10 * scale
+        } else {
+            shift * 10.0
+        };
+    }
+}
+
+/// Relaxes the fractions `phi` (by species, then dense slot) on `shape` to
+/// the minimum of the grand potential, holding every conserved species'
+/// count. `phi` must be inside the bounds.
+pub fn relax_fields(
+    shape: FixedShape<'_>,
+    base: BaseBending,
+    set: &SpeciesSet,
+    phi: &mut [Vec<f64>],
+    settings: RelaxSettings,
+) -> Result<Relaxed, RelaxError> {
+    let n = shape.vertex_count;
+    let ns = set.species.len();
+    for i in 0..n {
+        let total: f64 = phi.iter().map(|p| p[i]).sum();
+        for (k, p) in phi.iter().enumerate() {
+            if !(p[i] > 0.0 && total < 1.0) {
+                return Err(RelaxError::Outside {
+                    species: k,
+                    vertex: i,
+                    value: p[i],
+                });
+            }
+        }
+    }
+    let v = Vertices::measure(shape);
+    let kbt = set.temperature;
+    let a0 = set.solvent_area();
+    let chi = set.interaction_matrix();
+    let conserved: Vec<usize> = (0..ns)
+        .filter(|&s| set.species[s].reservoir == Reservoir::Conserved)
+        .collect();
+    let bulk_mu: Vec<f64> = set
+        .species
+        .iter()
+        .map(|s| s.chemical_potential.unwrap_or(0.0))
+        .collect();
+    let weight = |i: usize, s: usize| v.areas[i] / set.species[s].area_per_protein;
+    let mut scratch = FreeEnergyScratch::default();
+    let mut force = vec![DVec3::ZERO; n];
+    let mut grad = vec![Vec::new(); ns];
+    // Ω and, with `grad`, ∂F/∂φ.
+    let mut omega = |phi: &[Vec<f64>], grad: Option<&mut Vec<Vec<f64>>>| {
+        let out = grad.map(|g| Derivatives {
+            force: &mut force,
+            phi: g,
+        });
+        let f = free_energy(
+            shape.faces,
+            shape.geometry,
+            n,
+            base,
+            set,
+            phi,
+            shape.boundary,
+            Hold::Fraction,
+            &mut scratch,
+            out,
+        );
+        let exchanged: f64 = (0..ns)
+            .filter(|s| !conserved.contains(s))
+            .map(|s| bulk_mu[s] * (0..n).map(|i| weight(i, s) * phi[s][i]).sum::<f64>())
+            .sum();
+        f - exchanged
+    };
+    let nc = conserved.len();
+    // Per vertex: the factor, H⁻¹G and H⁻¹(w e_c) for each conserved c.
+    let mut factors = vec![[[0.0; MAX_SPECIES]; MAX_SPECIES]; n];
+    let mut u = vec![0.0; n * ns];
+    let mut vc = vec![0.0; n * ns * nc];
+    let mut step = vec![vec![0.0; n]; ns];
+    let mut lambda = vec![0.0; nc];
+    let mut trial: Vec<Vec<f64>> = phi.to_vec();
+    let mut iterations = 0;
+    loop {
+        let value = omega(phi, Some(&mut grad));
+        // The local Hessian blocks and the solves.
+        for i in 0..n {
+            let a = v.areas[i];
+            let bare = 1.0 - phi.iter().map(|p| p[i]).sum::<f64>();
+            let mut h: Block = [[0.0; MAX_SPECIES]; MAX_SPECIES];
+            let (mut kappa, mut c0) = (base.kappa, base.c0);
+            for (k, sp) in set.species.iter().enumerate() {
+                kappa += sp.rigidity_change * phi[k][i];
+                c0 += sp.curvature_coupling * phi[k][i];
+            }
+            let d = v.curvature[i] - c0;
+            for s in 0..ns {
+                let ss = &set.species[s];
+                for t in 0..ns {
+                    let st = &set.species[t];
+                    let mut x = kbt / (a0 * bare);
+                    x += if s == t {
+                        kbt / (ss.area_per_protein * phi[s][i]) + 2.0 * chi[s][s]
+                    } else {
+                        chi[s.min(t)][s.max(t)]
+                    };
+                    if v.interior[i] {
+                        x += kappa * ss.curvature_coupling * st.curvature_coupling
+                            - d * (ss.rigidity_change * st.curvature_coupling
+                                + st.rigidity_change * ss.curvature_coupling);
+                    }
+                    h[s][t] = a * x;
+                }
+                h[s][s] += ss.gradient_energy * v.dirichlet[i];
+            }
+            factors[i] = factorise(&h, ns);
+            let ui = &mut u[i * ns..(i + 1) * ns];
+            for s in 0..ns {
+                ui[s] = grad[s][i]
+                    - match conserved.contains(&s) {
+                        true => 0.0,
+                        false => bulk_mu[s] * weight(i, s),
+                    };
+            }
+            cholesky_solve(&factors[i], ns, ui);
+            for (ci, &c) in conserved.iter().enumerate() {
+                let x = &mut vc[(i * nc + ci) * ns..(i * nc + ci + 1) * ns];
+                x.fill(0.0);
+                x[c] = weight(i, c);
+                cholesky_solve(&factors[i], ns, x);
+            }
+        }
+        // The multipliers: Σ_i w_i,c' δ_i,c' = 0 with δ_i = −u_i + Σ_c λ_c v^c_i.
+        if nc > 0 {
+            let mut m: Block = [[0.0; MAX_SPECIES]; MAX_SPECIES];
+            let mut b = [0.0; MAX_SPECIES];
+            for i in 0..n {
+                for (r, &cr) in conserved.iter().enumerate() {
+                    let w = weight(i, cr);
+                    b[r] += w * u[i * ns + cr];
+                    for ci in 0..nc {
+                        m[r][ci] += w * vc[(i * nc + ci) * ns + cr];
+                    }
+                }
+            }
+            let l = factorise(&m, nc);
+            cholesky_solve(&l, nc, &mut b[..nc]);
+            lambda.copy_from_slice(&b[..nc]);
+        }
+        // The residual with these multipliers, and the step.
+        let mut residual: f64 = 0.0;
+        let mut slope = 0.0;
+        for i in 0..n {
+            for s in 0..ns {
+                let mu = match conserved.iter().position(|&c| c == s) {
+                    Some(ci) => lambda[ci],
+                    None => bulk_mu[s],
+                };
+                residual = residual.max((grad[s][i] - mu * weight(i, s)).abs() / v.areas[i]);
+                let mut x = -u[i * ns + s];
+                for ci in 0..nc {
+                    x += lambda[ci] * vc[(i * nc + ci) * ns + s];
+                }
+                step[s][i] = x;
+                // (G − λw)·δ: the conserved part λ Σ w δ vanishes exactly
+                // in exact arithmetic, and left out it adds no round-off.
+                slope += (grad[s][i] - mu * weight(i, s)) * x;
+            }
+        }
+        let potentials = || {
+            let mut mu = bulk_mu.clone();
+            for (ci, &c) in conserved.iter().enumerate() {
+                mu[c] = lambda[ci];
+            }
+            mu
+        };
+        if residual <= settings.tolerance {
+            return Ok(Relaxed {
+                iterations,
+                residual,
+                chemical_potentials: potentials(),
+                grand_potential: value,
+            });
+        }
+        if iterations >= settings.max_iterations || slope.is_nan() {
+            return Err(RelaxError::NotConverged {
+                iterations,
+                residual,
+                tolerance: settings.tolerance,
+            });
+        }
+        // A fraction of the way to the bounds at most.
+        let mut alpha: f64 = 1.0;
+        for i in 0..n {
+            let mut total_step = 0.0;
+            let mut bare = 1.0;
+            for s in 0..ns {
+                let (p, dp) = (phi[s][i], step[s][i]);
+                if dp < 0.0 {
+                    alpha = alpha.min(TO_BOUNDARY * p / -dp);
+                }
+                total_step += dp;
+                bare -= p;
+            }
+            if total_step > 0.0 {
+                alpha = alpha.min(TO_BOUNDARY * bare / total_step);
+            }
+        }
+        // Armijo backtracking; a decrease below Ω's round-off is taken.
+        let roundoff = 1e-14 * value.abs().max(1.0);
+        let accepted = loop {
+            for s in 0..ns {
+                for i in 0..n {
+                    trial[s][i] = phi[s][i] + alpha * step[s][i];
+                }
+            }
+            let tried = omega(&trial, None);
+            if tried <= value + 1e-4 * alpha * slope || -alpha * slope <= roundoff {
+                // (A slope ≥ 0 is round-off near the minimum: the step is
+                // taken as it is.)
+                break true;
+            }
+            alpha *= 0.5;
+            if alpha < 1e-12 {
+                break false;
+            }
+        };
+        if !accepted {
+            return Err(RelaxError::NotConverged {
+                iterations,
+                residual,
+                tolerance: settings.tolerance,
+            });
+        }
+        for (p, t) in phi.iter_mut().zip(&trial) {
+            p.copy_from_slice(t);
+        }
+        iterations += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::ellipsoid;
+    use crate::mesh::geometry::face_geometry;
+    use crate::species::params::Species;
+
+    fn species(name: &str, c: f64, reservoir: Reservoir, mu: Option<f64>) -> Species {
+        Species {
+            name: name.into(),
+            area_per_protein: 0.05,
+            curvature_coupling: c,
+            rigidity_change: 0.0,
+            binding_energy: 0.0,
+            gradient_energy: 0.0,
+            reservoir,
+            chemical_potential: mu,
+        }
+    }
+
+    /// Relaxes `set` from uniform fractions `start` on the 2562-vertex
+    /// ellipsoid (κ = 1 Ē, C0 = 0) and checks, at every vertex, the
+    /// multi-species Fermi-Dirac relation
+    /// φ_s = x_s / (1 + Σ_t x_t), x_s = e^{(μ_s − ε_s)/k_BT},
+    /// ε_s = −a κ c_s (h − Σ_t c_t φ_t) (equal areas per protein), to 1e-8,
+    /// and every conserved count to 1e-12 relative.
+    fn check_fermi_dirac(set: &SpeciesSet, start: &[f64]) {
+        set.validate().unwrap();
+        let mesh = ellipsoid(4, [1.0, 1.3, 0.8], 0.0, 0);
+        let n = mesh.vertex_count();
+        assert_eq!(n, 2562);
+        let mut geometry = Vec::new();
+        face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
+        let shape = FixedShape {
+            faces: &mesh.faces,
+            geometry: &geometry,
+            vertex_count: n,
+            boundary: None,
+        };
+        let base = BaseBending {
+            kappa: 1.0,
+            c0: 0.0,
+        };
+        let mut phi: Vec<Vec<f64>> = start.iter().map(|&p| vec![p; n]).collect();
+        let v = Vertices::measure(shape);
+        let count = |phi: &[Vec<f64>], s: usize| -> f64 {
+            (0..n).map(|i| v.areas[i] * phi[s][i]).sum::<f64>() / 0.05
+        };
+        let before: Vec<f64> = (0..set.species.len()).map(|s| count(&phi, s)).collect();
+        let settings = RelaxSettings {
+            tolerance: 1e-11,
+            max_iterations: 100,
+        };
+        let relaxed = relax_fields(shape, base, set, &mut phi, settings).unwrap();
+        assert!(relaxed.iterations < 30, "{relaxed:?}");
+        let mu = &relaxed.chemical_potentials;
+        let kbt = set.temperature;
+        let mut spread = (f64::INFINITY, 0.0f64);
+        for i in 0..n {
+            let c: f64 = set
+                .species
+                .iter()
+                .enumerate()
+                .map(|(s, sp)| sp.curvature_coupling * phi[s][i])
+                .sum();
+            let x: Vec<f64> = set
+                .species
+                .iter()
+                .enumerate()
+                .map(|(s, sp)| {
+                    let eps = -0.05 * sp.curvature_coupling * (v.curvature[i] - c);
+                    ((mu[s] - eps) / kbt).exp()
+                })
+                .collect();
+            let sum: f64 = x.iter().sum();
+            for (s, x) in x.iter().enumerate() {
+                let expected = x / (1.0 + sum);
+                assert!(
+                    (phi[s][i] - expected).abs() <= 1e-8,
+                    "species {s}, vertex {i}: φ {} against {expected}",
+                    phi[s][i]
+                );
+            }
+            spread = (spread.0.min(phi[0][i]), spread.1.max(phi[0][i]));
+        }
+        // The curvature sorts the proteins: not a uniform field.
+        assert!(
+            spread.1 > 1.5 * spread.0,
+            "φ from {} to {}",
+            spread.0,
+            spread.1
+        );
+        for (s, sp) in set.species.iter().enumerate() {
+            if sp.reservoir == Reservoir::Conserved {
+                let after = count(&phi, s);
+                assert!(
+                    (after - before[s]).abs() <= 1e-12 * before[s],
+                    "species {s}: {} proteins before, {after} after",
+                    before[s]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn one_conserved_species_on_a_frozen_ellipsoid_follows_fermi_dirac() {
+        let set = SpeciesSet {
+            species: vec![species("bar", 4.0, Reservoir::Conserved, None)],
+            interactions: vec![],
+            temperature: 0.1,
+        };
+        check_fermi_dirac(&set, &[0.2]);
+    }
+
+    #[test]
+    fn a_conserved_and_a_bulk_species_on_a_frozen_ellipsoid_follow_fermi_dirac() {
+        let set = SpeciesSet {
+            species: vec![
+                species("bar", 4.0, Reservoir::Conserved, None),
+                species("epsin", -3.0, Reservoir::Bulk, Some(-0.05)),
+            ],
+            interactions: vec![],
+            temperature: 0.1,
+        };
+        check_fermi_dirac(&set, &[0.2, 0.1]);
+    }
+
+    /// With gradient energies, a rigidity change, binding and a demixing
+    /// interaction (the blocks then approximate the Hessian), on an open
+    /// cap: the relaxation still converges, and the point it reaches is a
+    /// minimum: count-preserving perturbations raise Ω.
+    #[test]
+    fn coupled_species_with_gradient_energies_relax_to_a_minimum() {
+        use crate::fd::perturbed_patches;
+        let mesh = perturbed_patches(5)[0].clone();
+        let n = mesh.vertex_count();
+        let mut geometry = Vec::new();
+        face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
+        let mut uses = std::collections::HashMap::new();
+        for f in &mesh.faces {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        let mut boundary = vec![false; n];
+        for ((a, b), _) in uses.into_iter().filter(|(_, c)| *c == 1) {
+            (boundary[a as usize], boundary[b as usize]) = (true, true);
+        }
+        let shape = FixedShape {
+            faces: &mesh.faces,
+            geometry: &geometry,
+            vertex_count: n,
+            boundary: Some(&boundary),
+        };
+        let mut bar = species("bar", 3.0, Reservoir::Conserved, None);
+        (bar.rigidity_change, bar.gradient_energy, bar.binding_energy) = (0.5, 0.02, -0.2);
+        let mut epsin = species("epsin", -2.0, Reservoir::Bulk, Some(-0.1));
+        (epsin.area_per_protein, epsin.gradient_energy) = (0.03, 0.01);
+        let set = SpeciesSet {
+            species: vec![bar, epsin],
+            interactions: vec![crate::species::params::Interaction {
+                species: ("bar".into(), "bar".into()),
+                chi: -1.0,
+            }],
+            temperature: 0.1,
+        };
+        set.validate().unwrap();
+        let base = BaseBending {
+            kappa: 1.0,
+            c0: 0.2,
+        };
+        let mut phi = vec![vec![0.3; n], vec![0.2; n]];
+        let settings = RelaxSettings {
+            tolerance: 1e-10,
+            max_iterations: 500,
+        };
+        let relaxed = relax_fields(shape, base, &set, &mut phi, settings).unwrap();
+        let omega = |phi: &[Vec<f64>]| {
+            let mut s = FreeEnergyScratch::default();
+            let f = free_energy(
+                shape.faces,
+                shape.geometry,
+                n,
+                base,
+                &set,
+                phi,
+                shape.boundary,
+                Hold::Fraction,
+                &mut s,
+                None,
+            );
+            let v = Vertices::measure(shape);
+            f + 0.1 * (0..n).map(|i| v.areas[i] * phi[1][i]).sum::<f64>() / 0.03
+        };
+        let at_minimum = omega(&phi);
+        assert!((at_minimum - relaxed.grand_potential).abs() <= 1e-12 * at_minimum.abs());
+        // Move protein between two vertices of equal area weight (count
+        // kept), or change the bulk species anywhere.
+        let v = Vertices::measure(shape);
+        for (i, j) in [(3, 17), (20, 41), (8, 30)] {
+            for t in [1e-4, -1e-4] {
+                let mut p = phi.clone();
+                p[0][i] += t / v.areas[i];
+                p[0][j] -= t / v.areas[j];
+                assert!(omega(&p) > at_minimum, "bar moved {i} → {j} by {t}");
+                let mut p = phi.clone();
+                p[1][i] += t;
+                assert!(omega(&p) > at_minimum, "epsin at {i} changed by {t}");
+            }
+        }
+        assert!(relaxed.iterations > 0 && relaxed.residual <= 1e-10);
+    }
+}
