@@ -2,8 +2,11 @@
 //! curvature, bind, interact and mix (SPEC §9). [`params`] declares them
 //! with their units; [`free_energy`] is their free energy on the mesh with
 //! its analytic derivatives against the shape and the fields; [`relax`]
-//! minimises it over the fields at a fixed shape.
+//! minimises it over the fields at a fixed shape. [`state`] keeps the
+//! proteins' amounts on the vertices; [`term`] is the force term.
 
 pub mod free_energy;
 pub mod params;
 pub mod relax;
+pub mod state;
+pub mod term;

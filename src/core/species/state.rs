@@ -1,0 +1,219 @@
+//! Where the species live: each species' protein amount per vertex is a
+//! component of the vertex entities ([`ProteinAmount`]), an amount carried
+//! conservatively through splits and merges (its field transfer is
+//! [`TransferPolicy::Conserve`]), so every count Σ_i n_i is exact through
+//! remeshing; flips leave the vertices, and so the amounts, as they are.
+//! The fractions are derived: φ_s,i = a_s n_s,i / A_i with the mixed
+//! Voronoi area A_i at the current shape.
+//!
+//! The dense mirror [`SpeciesAmounts`] (by species, then dense vertex slot)
+//! is published for the force terms ([`crate::engine::term_inputs`]) and
+//! refreshed from the world each tick.
+
+use crate::mesh::geometry::{Corners, vertex_curvature_terms};
+use crate::mesh::membrane::Membrane;
+use crate::mesh::topology::{Topology, TopologyError};
+use crate::mesh::vertex_field::{ScalarComponent, TransferPolicy};
+use crate::species::params::{MAX_SPECIES, SpeciesSet};
+use glam::DVec3;
+use hecs::World;
+
+/// The protein amount (number of proteins) of the `K`-th declared species
+/// at a vertex.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProteinAmount<const K: usize>(pub f64);
+
+impl<const K: usize> ScalarComponent for ProteinAmount<K> {
+    fn value(&self) -> f64 {
+        self.0
+    }
+    fn from_value(value: f64) -> Self {
+        Self(value)
+    }
+}
+
+/// Calls `$body` with `$C` the component type of species `$k`
+/// (`ProteinAmount<0>` … `ProteinAmount<7>`).
+macro_rules! with_component {
+    ($k:expr, $C:ident => $body:expr) => {
+        match $k {
+            0 => {
+                type $C = ProteinAmount<0>;
+                $body
+            }
+            1 => {
+                type $C = ProteinAmount<1>;
+                $body
+            }
+            2 => {
+                type $C = ProteinAmount<2>;
+                $body
+            }
+            3 => {
+                type $C = ProteinAmount<3>;
+                $body
+            }
+            4 => {
+                type $C = ProteinAmount<4>;
+                $body
+            }
+            5 => {
+                type $C = ProteinAmount<5>;
+                $body
+            }
+            6 => {
+                type $C = ProteinAmount<6>;
+                $body
+            }
+            7 => {
+                type $C = ProteinAmount<7>;
+                $body
+            }
+            _ => unreachable!("at most {MAX_SPECIES} species (validated)"),
+        }
+    };
+}
+
+/// The name of species `name`'s per-vertex field (its amounts).
+pub fn field_name(name: &str) -> String {
+    format!("amount_{name}")
+}
+
+/// Adds the amounts of every species of `set` to the vertices of
+/// `membrane`, `initial(k, slot, position)` proteins of species k at each,
+/// and registers their conservative transfer.
+pub fn add_amounts(
+    membrane: &mut Membrane,
+    set: &SpeciesSet,
+    initial: impl Fn(usize, usize, DVec3) -> f64,
+) -> Result<(), TopologyError> {
+    for (k, s) in set.species.iter().enumerate() {
+        let name = field_name(&s.name);
+        let values = |slot: usize, p: DVec3| initial(k, slot, p);
+        with_component!(k, C => membrane.add_vertex_field::<C>(&name, TransferPolicy::Conserve, values))?;
+    }
+    Ok(())
+}
+
+/// Species `k`'s amounts from the world, by dense slot of `topology`, into
+/// `out` (0 at a vertex without the component).
+pub fn read_amounts(world: &World, topology: &Topology, k: usize, out: &mut Vec<f64>) {
+    out.clear();
+    with_component!(k, C => out.extend(topology.vertex_entities.iter().map(|&e| {
+        world.get::<&C>(e).map_or(0.0, |c| c.0)
+    })));
+}
+
+/// Writes species `k`'s amounts `values` (by dense slot of `topology`)
+/// into the world.
+pub fn write_amounts(world: &mut World, topology: &Topology, k: usize, values: &[f64]) {
+    with_component!(k, C => for (&e, &v) in topology.vertex_entities.iter().zip(values) {
+        if let Ok(mut c) = world.get::<&mut C>(e) {
+            c.0 = v;
+        }
+    });
+}
+
+/// The dense amounts of every species (proteins; by species, then dense
+/// vertex slot), as the force terms read them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SpeciesAmounts(pub Vec<Vec<f64>>);
+
+impl SpeciesAmounts {
+    /// Reads every one of `species` species' amounts from the world.
+    pub fn gather(&mut self, world: &World, topology: &Topology, species: usize) {
+        self.0.resize(species, Vec::new());
+        for (k, out) in self.0.iter_mut().enumerate() {
+            read_amounts(world, topology, k, out);
+        }
+    }
+
+    /// Each species' protein count Σ_i n_i.
+    pub fn counts(&self) -> Vec<f64> {
+        self.0.iter().map(|n| n.iter().sum()).collect()
+    }
+}
+
+/// The vertex areas A_i of the faces `geometry` (mixed Voronoi, l̄²).
+pub fn vertex_areas(faces: &[[u32; 3]], geometry: &[Corners], n: usize) -> Vec<f64> {
+    let (mut areas, mut laplacians) = (Vec::new(), Vec::new());
+    vertex_curvature_terms(faces, geometry, &mut areas, &mut laplacians, None, n);
+    areas
+}
+
+/// The fractions φ_s,i = a_s n_s,i / A_i of the amounts `amounts` on the
+/// vertex areas `areas`.
+pub fn fractions(set: &SpeciesSet, amounts: &[Vec<f64>], areas: &[f64]) -> Vec<Vec<f64>> {
+    set.species
+        .iter()
+        .zip(amounts)
+        .map(|(s, n)| {
+            n.iter()
+                .zip(areas)
+                .map(|(n, a)| s.area_per_protein * n / a)
+                .collect()
+        })
+        .collect()
+}
+
+/// The amounts n_s,i = A_i φ_s,i / a_s of the fractions `phi`.
+pub fn amounts(set: &SpeciesSet, phi: &[Vec<f64>], areas: &[f64]) -> Vec<Vec<f64>> {
+    set.species
+        .iter()
+        .zip(phi)
+        .map(|(s, p)| {
+            p.iter()
+                .zip(areas)
+                .map(|(p, a)| a * p / s.area_per_protein)
+                .collect()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::icosphere;
+    use crate::species::params::Species;
+
+    #[test]
+    fn each_species_amounts_are_a_vertex_field_read_and_written_densely() {
+        let set = SpeciesSet {
+            species: ["a", "b", "c"]
+                .iter()
+                .map(|n| Species {
+                    name: n.to_string(),
+                    area_per_protein: 0.1,
+                    curvature_coupling: 0.0,
+                    rigidity_change: 0.0,
+                    binding_energy: 0.0,
+                    gradient_energy: 0.0,
+                    reservoir: Default::default(),
+                    chemical_potential: None,
+                })
+                .collect(),
+            interactions: vec![],
+            temperature: 0.1,
+        };
+        let mut m = Membrane::from_mesh(&icosphere(2, 1.0), false).unwrap();
+        add_amounts(&mut m, &set, |k, slot, _| {
+            (k + 1) as f64 + 0.01 * slot as f64
+        })
+        .unwrap();
+        let names: Vec<&str> = m.fields().iter().map(|f| f.name()).collect();
+        assert_eq!(names, ["amount_a", "amount_b", "amount_c"]);
+        let mut dense = SpeciesAmounts::default();
+        m.topology().unwrap();
+        dense.gather(&m.world, m.cached_topology(), 3);
+        let before = dense.counts();
+        assert_eq!(dense.0[2][5], 3.05);
+        // Species 1 written back doubled, the others untouched.
+        let doubled: Vec<f64> = dense.0[1].iter().map(|x| 2.0 * x).collect();
+        let t = m.cached_topology().clone();
+        write_amounts(&mut m.world, &t, 1, &doubled);
+        dense.gather(&m.world, m.cached_topology(), 3);
+        assert_eq!(dense.0[1], doubled);
+        assert_eq!(dense.counts()[0], before[0]);
+        assert_eq!(dense.counts()[2], before[2]);
+    }
+}

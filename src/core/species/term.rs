@@ -1,0 +1,155 @@
+//! The species' force term: their free energy
+//! ([`crate::species::free_energy`]) at the proteins' current amounts, and
+//! the shape force at fixed amounts (the surface carries its proteins: as
+//! a vertex area grows, its fractions dilute).
+//!
+//! Reads the dense amounts [`SpeciesAmounts`] from the term inputs (the
+//! `species_gather` system refreshes them each tick), or from the world
+//! outside the schedule (finite differences, flip proposals).
+
+use crate::engine::force::{ForceContext, ForceTerm};
+use crate::species::free_energy::{BaseBending, Derivatives, FreeEnergyScratch, Hold, free_energy};
+use crate::species::params::SpeciesSet;
+use crate::species::state::{SpeciesAmounts, fractions, vertex_areas};
+use glam::DVec3;
+
+/// The species term.
+pub struct SpeciesForces {
+    set: SpeciesSet,
+    base: BaseBending,
+    scratch: FreeEnergyScratch,
+    amounts: SpeciesAmounts,
+    phi: Vec<Vec<f64>>,
+    dphi: Vec<Vec<f64>>,
+    boundary: Vec<bool>,
+}
+
+impl SpeciesForces {
+    /// The term of the species `set` on a membrane of bending `base`.
+    pub fn new(set: SpeciesSet, base: BaseBending) -> Self {
+        Self {
+            set,
+            base,
+            scratch: FreeEnergyScratch::default(),
+            amounts: SpeciesAmounts::default(),
+            phi: Vec::new(),
+            dphi: Vec::new(),
+            boundary: Vec::new(),
+        }
+    }
+
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        let t = ctx.topology;
+        let n = ctx.positions.len();
+        let amounts = match ctx.inputs.get::<SpeciesAmounts>() {
+            Some(a) if a.0.first().is_some_and(|x| x.len() == n) => a,
+            _ => {
+                self.amounts.gather(ctx.world, t, self.set.species.len());
+                &self.amounts
+            }
+        };
+        let areas = vertex_areas(&t.faces, ctx.face_geometry, n);
+        self.phi = fractions(&self.set, &amounts.0, &areas);
+        self.boundary.clear();
+        if t.is_open() {
+            self.boundary = t.boundary_mask();
+        }
+        self.dphi.resize(self.set.species.len(), Vec::new());
+        let out = force.map(|f| Derivatives {
+            force: f,
+            phi: &mut self.dphi,
+        });
+        free_energy(
+            &t.faces,
+            ctx.face_geometry,
+            n,
+            self.base,
+            &self.set,
+            &self.phi,
+            (!self.boundary.is_empty()).then_some(&self.boundary[..]),
+            Hold::Amount,
+            &mut self.scratch,
+            out,
+        )
+    }
+}
+
+impl ForceTerm for SpeciesForces {
+    fn name(&self) -> &str {
+        "species"
+    }
+
+    fn uses_face_geometry(&self) -> bool {
+        true
+    }
+
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        self.evaluate(ctx, None)
+    }
+
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        self.evaluate(ctx, Some(force))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fd::{FdOptions, check_force_term, perturbed_icosphere, perturbed_patches};
+    use crate::mesh::membrane::Membrane;
+    use crate::species::params::{Reservoir, Species};
+    use crate::species::state::add_amounts;
+
+    fn set() -> SpeciesSet {
+        let sp = |name: &str, a: f64, c: f64, dk: f64, eta: f64| Species {
+            name: name.into(),
+            area_per_protein: a,
+            curvature_coupling: c,
+            rigidity_change: dk,
+            binding_energy: -0.1,
+            gradient_energy: eta,
+            reservoir: Reservoir::Conserved,
+            chemical_potential: None,
+        };
+        SpeciesSet {
+            species: vec![
+                sp("bar", 0.05, 1.5, 2.0, 0.7),
+                sp("epsin", 0.02, -0.8, 0.0, 0.0),
+            ],
+            interactions: vec![],
+            temperature: 0.1,
+        }
+    }
+
+    /// The term's force, with the amounts read from the world, against
+    /// fourth-order central differences of its energy at fixed amounts, on
+    /// the perturbed icosphere and the open cap and disc.
+    #[test]
+    fn the_force_at_fixed_amounts_matches_finite_differences() {
+        let mut meshes = vec![perturbed_icosphere(1, 3)];
+        meshes.extend(perturbed_patches(9));
+        for mesh in meshes {
+            let mut m = Membrane::from_mesh(&mesh, false).unwrap();
+            // 0.1-0.3 of the area at the start (vertex areas are ~0.4 l̄²).
+            add_amounts(&mut m, &set(), |k, slot, _| {
+                (1.0 + (slot % 5) as f64) * [0.8, 2.0][k]
+            })
+            .unwrap();
+            let t = m.topology().unwrap().clone();
+            let mut term = SpeciesForces::new(
+                set(),
+                BaseBending {
+                    kappa: 2.0,
+                    c0: 0.1,
+                },
+            );
+            let options = FdOptions {
+                step: 1e-5,
+                ..FdOptions::default()
+            };
+            let report =
+                check_force_term(&mut term, &m.world, &t, &mesh.positions, &[], None, options);
+            assert!(report.passed(), "{report:?}");
+        }
+    }
+}
