@@ -66,7 +66,7 @@
 //!   built-in systems publish for each other, [`shared_resources`](engine::shared_resources))
 //!   → [`energy`] (one file per term) → [`remesh`] (split/merge events, relaxation, flips),
 //!   with [`params`] (the scene's parameters by part), [`constraint`], [`fluid`],
-//!   [`minimise`], [`timestep`], [`diffusion`] and [`fd`]. The built-in systems are the crate
+//!   [`minimise`], [`timestep`], [`diffusion`], [`species`] and [`fd`]. The built-in systems are the crate
 //!   `remembrane_systems` (`systems/`, one system per file and nothing else), which depends
 //!   on the core's public API only, as a user's plugin does; the core never imports it, and
 //!   no system imports another. This crate (`src/`) sits on both: [`analysis`] (measuring a run's
@@ -85,12 +85,12 @@
 //! | stage | systems | resources written |
 //! |---|---|---|
 //! | Prepare | [`control_point_schedule`](systems::control_point_schedule) (when scheduled) | control points in [`Membrane`] |
-//! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in), [`vertex_normals`](systems::vertex_normals) (the fluid model) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`TermInputs`] (what is measured once for the terms: with V_in its [`VinEdgeSamples`], each edge's vector, length and V_in segment, read by the V_in force and the time step), [`VertexNormals`] |
+//! | Gather | [`gather_state`](systems::gather_state), [`face_geometry`](systems::face_geometry), [`vin_edge_samples`](energy::vin_edge_samples) (with V_in), [`vertex_normals`](systems::vertex_normals) (the fluid model), [`species_gather`](systems::species_gather) (with species) | [`Membrane`] (topology cache), [`DensePositions`], [`DenseLipid`], [`FaceGeometry`], zeroed [`ForceBuffers`], [`TermInputs`] (what is measured once for the terms: with V_in its [`VinEdgeSamples`], each edge's vector, length and V_in segment, read by the V_in force and the time step), [`VertexNormals`] |
 //! | Forces | `force_terms` (every term: `vin`, `bending`, `volume`, `area`, `local_tension`, `springs`, plugins' terms, each timed under its name), [`fluid_projection`](systems::fluid_projection) (the fluid model: the physical forces' tangential parts), then [`force_total`](systems::force_total), then [`pin_forces`](systems::pin_forces) (with held boundary vertices) and [`constraint_reactions`](systems::constraint_reactions) (with `constraints`: also the constraint gradients the minimiser uses) | [`ForceBuffers`] only |
 //! | Observe | `frame_clock`, then the recorders (`record_state_columns`, `record_force`, …) | [`FrameSchedule`], [`CurrentFrame`] |
 //! | Output | `frames` ([`FrameWriter`]: only when a run opened an output directory) | [`OpenOutput`] |
 //! | TimeStep | [`adaptive_time_step`](systems::adaptive_time_step) | [`TimeStepChoice`] |
-//! | Integrate | [`langevin_integration`](systems::langevin_integration) (fold and inside-out checks), or [`fire_minimiser`](systems::fire_minimiser) with `method: Minimise`; then [`pin_positions`](systems::pin_positions) (with held boundary vertices) and [`constraint_projection`](systems::constraint_projection) (with `constraints`) | [`DensePositions`], [`Membrane`] (positions, forces), [`Clock`]; the minimiser also [`MinimiserStatus`], [`StopRequest`] |
+//! | Integrate | [`langevin_integration`](systems::langevin_integration) (fold and inside-out checks), or [`fire_minimiser`](systems::fire_minimiser) with `method: Minimise`; then [`pin_positions`](systems::pin_positions) (with held boundary vertices) and [`constraint_projection`](systems::constraint_projection) (with `constraints`), [`species_relaxation`](systems::species_relaxation) (species with the minimiser: their fields relax at the new shape) | [`DensePositions`], [`Membrane`] (positions, forces), [`Clock`]; the minimiser also [`MinimiserStatus`], [`StopRequest`] |
 //! | BarrierCheck | [`barrier_check`](systems::barrier_check) | [`AbnormalEdges`] |
 //! | Remesh | [`maintenance_flips`](systems::maintenance_flips) (the fluid model's Delaunay flips; before `remesh`) | [`Membrane`] (faces and edges only), [`MaintenanceFlipStats`] |
 //! | Remesh | [`remesh`](systems::remesh) (when declared) | [`Membrane`], [`DensePositions`], [`DenseLipid`], [`AbnormalEdges`], [`RemeshStats`], [`RemeshTriggered`] |
@@ -112,6 +112,7 @@
 //! | `remesh` | [`ValenceRange`], [`RemeshStats`], [`RemeshTriggered`] | `remesh` |
 //! | `edge_flips` | [`ValenceRange`], [`FlipStats`] | `edge_flips` |
 //! | `diffusion` | — | `lipid_diffusion` |
+//! | `species` ([`species`]) | `ProteinAmount` components, [`SpeciesAmounts`](species::state::SpeciesAmounts) in [`TermInputs`], [`SpeciesModel`](species::model::SpeciesModel), [`SpeciesStatus`](species::model::SpeciesStatus) | `species_gather`, term `species`, `species_relaxation` (with the minimiser), recorder `species` |
 //! | `recorders` | [`FrameSchedule`], [`CurrentFrame`] | `frame_clock`, a `record_<name>` system per recorder (Observe) |
 //! | `frame_output` ([`io::output::frame_output`]) | [`OpenOutput`] | `frames` (Output) |
 //!
@@ -175,8 +176,8 @@ pub mod workflow;
 // path, `remembrane::…`, names every public item.
 pub use remembrane_core::{atomic_write, atomic_write_with};
 pub use remembrane_core::{
-    constraint, diffusion, energy, engine, fd, fluid, mesh, minimise, params, remesh, timestep,
-    util,
+    constraint, diffusion, energy, engine, fd, fluid, mesh, minimise, params, remesh, species,
+    timestep, util,
 };
 pub use remembrane_systems as systems;
 

@@ -33,4 +33,6 @@ pub mod maintenance_flips;
 pub mod pin_forces;
 pub mod pin_positions;
 pub mod remesh;
+pub mod species_gather;
+pub mod species_relaxation;
 pub mod vertex_normals;

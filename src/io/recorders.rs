@@ -148,6 +148,69 @@ impl Recorder for LipidDensityField {
     }
 }
 
+/// The protein species: per species the columns `count_<name>`,
+/// `mu_<name>` (Ē per protein; `NaN` for a conserved species before its
+/// first relaxation), `phi_min_<name>`, `phi_mean_<name>` (area-weighted)
+/// and `phi_max_<name>`, and the point data `phi_<name>` (area fractions).
+pub struct SpeciesColumns;
+
+impl Recorder for SpeciesColumns {
+    type Data<'a> = (
+        Res<'a, Membrane>,
+        Res<'a, DensePositions>,
+        Res<'a, crate::engine::term_inputs::TermInputs>,
+        Res<'a, crate::species::model::SpeciesModel>,
+        Res<'a, crate::species::model::SpeciesStatus>,
+    );
+
+    fn name(&self) -> &str {
+        "species"
+    }
+
+    fn record(
+        &mut self,
+        (membrane, positions, inputs, model, status): Self::Data<'_>,
+        frame: &mut FrameData,
+    ) -> Result<(), SimError> {
+        use crate::species::params::Reservoir;
+        use crate::species::state::{SpeciesAmounts, fractions_at};
+        let Some(amounts) = inputs.get::<SpeciesAmounts>() else {
+            return Ok(());
+        };
+        let set = &model.set;
+        let faces = &membrane.cached_topology().faces;
+        let phi = fractions_at(set, &amounts.0, &positions.0, faces);
+        // The mixed areas partition the faces: Σ A_i φ_i / Σ A_i = a_s N / A.
+        let area = crate::mesh::geometry::total_area(&positions.0, faces);
+        for (k, s) in set.species.iter().enumerate() {
+            let name = &s.name;
+            let count: f64 = amounts.0[k].iter().sum();
+            let unrelaxed = s.reservoir == Reservoir::Conserved && status.relaxations == 0;
+            let mu = if unrelaxed {
+                f64::NAN
+            } else {
+                status.chemical_potentials[k]
+            };
+            let p = &phi[k];
+            let (lo, hi) = p
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            frame.column(format!("count_{name}"), count);
+            frame.column(format!("mu_{name}"), mu);
+            frame.column(format!("phi_min_{name}"), lo);
+            frame.column(
+                format!("phi_mean_{name}"),
+                count * s.area_per_protein / area,
+            );
+            frame.column(format!("phi_max_{name}"), hi);
+            frame.scalars(format!("phi_{name}"), phi[k].clone());
+        }
+        Ok(())
+    }
+}
+
 /// The radius of one tube by circle fits on its planes.
 pub struct TubeRadius {
     probe: TubeProbe,

@@ -209,6 +209,40 @@ impl Scene {
             ))
             .map_err(build_err)?;
         let spring_stiffness = self.add_energy_terms(&mut builder, scene_path)?;
+        if let Some(set) = &self.species {
+            let base = self
+                .energy
+                .iter()
+                .find_map(|t| match t {
+                    EnergyTerm::Bending(p) => Some(crate::species::free_energy::BaseBending {
+                        kappa: p.kappa,
+                        c0: p.c0,
+                    }),
+                    _ => None,
+                })
+                .unwrap_or(crate::species::free_energy::BaseBending {
+                    kappa: 0.0,
+                    c0: 0.0,
+                });
+            let tolerance = match self.dynamics_resolved().method {
+                crate::params::Method::Minimise(m) => m.field_tolerance,
+                _ => crate::params::MinimiserParams::default().field_tolerance,
+            };
+            let relax = crate::species::relax::RelaxSettings {
+                tolerance,
+                max_iterations: 100,
+            };
+            builder
+                .add_plugin(plugins::species(set.clone(), base, relax))
+                .map_err(|e| match e {
+                    BuildError::Invalid { field, reason } => SceneError::Invalid {
+                        path: scene_path.to_owned(),
+                        field: format!("species.{field}"),
+                        reason,
+                    },
+                    e => invalid_at("species".into(), e),
+                })?;
+        }
         let points = self
             .control_points
             .iter()

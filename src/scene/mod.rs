@@ -72,6 +72,11 @@ pub struct Scene {
     /// Barrier-crossing remeshing.
     #[serde(default)]
     pub remesh: RemeshParams,
+    /// Protein species on the membrane: area fractions that couple to the
+    /// curvature, bind, interact and mix (default none; see
+    /// `docs/proteins.md`). Their fields relax with the minimiser.
+    #[serde(default)]
+    pub species: Option<crate::species::params::SpeciesSet>,
     /// Lipid diffusion (needs `lipid_density: true`; default none).
     #[serde(default)]
     pub diffusion: Option<crate::params::DiffusionParams>,

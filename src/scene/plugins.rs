@@ -382,3 +382,106 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
         Ok(())
     }
 }
+
+/// Protein species: their amounts on the vertices (from each species'
+/// initial field), the species force term, the gather system (Gather) and,
+/// with the minimiser, the fields' relaxation (Integrate, after
+/// `fire_minimiser`), the `species` recorder and summary section.
+pub fn species(
+    set: crate::species::params::SpeciesSet,
+    base: crate::species::free_energy::BaseBending,
+    relax: crate::species::relax::RelaxSettings,
+) -> impl Plugin {
+    move |b: &mut SimBuilder| {
+        use crate::species::model::{SpeciesModel, SpeciesStatus};
+        use crate::species::params::{Initial, Reservoir};
+        use crate::species::state::{SpeciesAmounts, add_amounts, vertex_areas};
+        let membrane = b
+            .resource_mut::<Membrane>()
+            .ok_or_else(|| BuildError::Requires {
+                what: "species".into(),
+                resource: "Membrane",
+                plugin: "SimBuilder::new",
+            })?;
+        let invalid = |field: String, reason: String| BuildError::Invalid { field, reason };
+        let t = membrane
+            .topology()
+            .map_err(|e| invalid("membrane".into(), e.to_string()))?
+            .clone();
+        let mut positions = Vec::new();
+        membrane.gather_positions(&mut positions);
+        let mut geometry = Vec::new();
+        crate::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
+        let areas = vertex_areas(&t.faces, &geometry, positions.len());
+        let area: f64 = areas.iter().sum();
+        // Each species' uniform initial fraction.
+        let mut fractions = Vec::new();
+        for (k, s) in set.species.iter().enumerate() {
+            let phi = match s.initial {
+                Initial::Fraction(x) => x,
+                Initial::Count(c) => c * s.area_per_protein / area,
+            };
+            fractions.push(phi);
+            let total: f64 = fractions.iter().sum();
+            if total >= 1.0 {
+                return Err(invalid(
+                    format!("species[{k}].initial"),
+                    format!(
+                        "the membrane (area {area:.4} l̄²) cannot carry it: with the species \
+                         before it, the proteins would cover {:.4} of the area (must stay \
+                         below 1)",
+                        total
+                    ),
+                ));
+            }
+        }
+        add_amounts(membrane, &set, |k, slot, _| {
+            areas[slot] * fractions[k] / set.species[k].area_per_protein
+        })
+        .map_err(|e| invalid("membrane".into(), e.to_string()))?;
+        // Adding the components changed the structure: the cache is rebuilt.
+        let t = membrane
+            .topology()
+            .map_err(|e| invalid("membrane".into(), e.to_string()))?
+            .clone();
+        let mut amounts = SpeciesAmounts::default();
+        amounts.gather(&membrane.world, &t, set.species.len());
+        let counts = amounts.counts();
+        let status = SpeciesStatus {
+            names: set.species.iter().map(|s| s.name.clone()).collect(),
+            chemical_potentials: set
+                .species
+                .iter()
+                .map(|s| match s.reservoir {
+                    Reservoir::Conserved => 0.0,
+                    Reservoir::Bulk => s.chemical_potential.unwrap_or(0.0),
+                })
+                .collect(),
+            initial_counts: counts.clone(),
+            counts,
+            ..Default::default()
+        };
+        let minimiser = b.resources().contains::<crate::minimise::MinimiserStatus>();
+        b.publish_term_input(amounts);
+        b.insert_resource(SpeciesModel {
+            set: set.clone(),
+            base,
+            relax,
+        })
+        .insert_resource(status)
+        .persist_resource::<SpeciesStatus>();
+        b.add_force_term(crate::species::term::SpeciesForces::new(set.clone(), base))?;
+        b.add_system(Stage::Gather, crate::systems::species_gather::SpeciesGather)
+            .after("gather_state");
+        if minimiser {
+            b.add_system(
+                Stage::Integrate,
+                crate::systems::species_relaxation::SpeciesRelaxation::default(),
+            )
+            .after(crate::systems::fire_minimiser::FIRE_MINIMISER);
+        }
+        b.add_recorder(crate::io::recorders::SpeciesColumns);
+        b.add_summary_section(ResourceSection::<SpeciesStatus>::new("species"))?;
+        Ok(())
+    }
+}

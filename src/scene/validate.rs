@@ -37,6 +37,26 @@ impl Scene {
             .map(|(i, t)| (i, t.kind()))
     }
 
+    /// The species: their parameters, and a minimiser to relax their
+    /// fields.
+    fn validate_species(&self, path: &Path) -> Result<(), SceneError> {
+        let Some(set) = &self.species else {
+            return Ok(());
+        };
+        set.validate()
+            .map_err(|e| invalid_field(path, &format!("species.{}", e.field), e.reason))?;
+        if !matches!(self.dynamics.method, crate::params::Method::Minimise(_)) {
+            return Err(invalid_field(
+                path,
+                "species",
+                "the species' fields relax with the minimiser (dynamics: (method: \
+                 Minimise(...))); their transport in overdamped dynamics is not built yet"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// Every check, in order; the first that fails is the error.
     pub(crate) fn validate(&self, path: &Path) -> Result<(), SceneError> {
         self.validate_membrane(path)?;
@@ -49,6 +69,7 @@ impl Scene {
         self.validate_method(path)?;
         self.validate_constraints(path)?;
         self.validate_model(path)?;
+        self.validate_species(path)?;
         for (i, c) in self.boundary.iter().enumerate() {
             c.held().map_err(|reason| {
                 invalid(&format!("boundary[{i}].direction"), reason.to_string())

@@ -44,6 +44,7 @@ mod scene_errors;
 mod self_avoidance;
 mod shape_and_render;
 mod shape_diagram;
+mod species;
 mod spectrum;
 mod study;
 mod sweep;

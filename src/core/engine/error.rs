@@ -116,6 +116,14 @@ pub enum SimError {
         /// What failed.
         source: crate::minimise::sobolev::MetricError,
     },
+    /// The protein species' fields could not be relaxed at the shape.
+    #[error("species at iteration {iteration}: {source}")]
+    Species {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// What failed.
+        source: crate::species::relax::RelaxError,
+    },
     /// An output could not be written.
     #[error("{0}")]
     Output(String),

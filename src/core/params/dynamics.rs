@@ -128,6 +128,11 @@ pub struct MinimiserParams {
     /// convergence criteria are unchanged. Default `None`.
     #[serde(deserialize_with = "crate::util::validate::optional_direction")]
     pub axisymmetric: Option<(f64, f64, f64)>,
+    /// With protein species: their fields are relaxed at every iteration
+    /// until each vertex's chemical-potential imbalance per area
+    /// |∂F/∂φ − μ A/a_p| / A is below this (Ē/l̄²; default 1e-9).
+    #[serde(deserialize_with = "crate::util::validate::positive")]
+    pub field_tolerance: f64,
 }
 
 impl Default for MinimiserParams {
@@ -142,6 +147,7 @@ impl Default for MinimiserParams {
             dt_max: 0.2,
             preconditioner: Preconditioner::None,
             axisymmetric: None,
+            field_tolerance: 1e-9,
         }
     }
 }

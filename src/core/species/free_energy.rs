@@ -231,6 +231,7 @@ mod tests {
             rigidity_change: dk,
             binding_energy: eps,
             gradient_energy: eta,
+            initial: crate::species::params::Initial::Fraction(0.1),
             reservoir: Default::default(),
             chemical_potential: None,
         };

@@ -3,9 +3,11 @@
 //! with their units; [`free_energy`] is their free energy on the mesh with
 //! its analytic derivatives against the shape and the fields; [`relax`]
 //! minimises it over the fields at a fixed shape. [`state`] keeps the
-//! proteins' amounts on the vertices; [`term`] is the force term.
+//! proteins' amounts on the vertices; [`term`] is the force term;
+//! [`model`] holds the resources of a simulation with species.
 
 pub mod free_energy;
+pub mod model;
 pub mod params;
 pub mod relax;
 pub mod state;

@@ -45,6 +45,8 @@ pub struct Species {
     /// covered and bare membrane.
     #[serde(default)]
     pub gradient_energy: f64,
+    /// The field it starts from.
+    pub initial: Initial,
     /// Where its proteins come from (default [`Reservoir::Conserved`]).
     #[serde(default)]
     pub reservoir: Reservoir,
@@ -53,6 +55,17 @@ pub struct Species {
     /// multiplier of its count), so it is not given.
     #[serde(default)]
     pub chemical_potential: Option<f64>,
+}
+
+/// The field a species starts from.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Initial {
+    /// A uniform area fraction φ, in (0, 1) (the mixing entropy's chemical
+    /// potential diverges at 0 and 1).
+    Fraction(f64),
+    /// A protein count N, spread uniformly: φ = N a_p / A on a membrane of
+    /// area A, which must be below 1.
+    Count(f64),
 }
 
 /// Where a species' proteins come from.
@@ -152,6 +165,25 @@ impl SpeciesSet {
                     return err(format!("species[{k}].{field}"), "must be finite");
                 }
             }
+            match s.initial {
+                Initial::Fraction(x) if !(x > 0.0 && x < 1.0) => {
+                    return err(
+                        format!("species[{k}].initial"),
+                        &format!(
+                            "the fraction {x} is outside (0, 1): the mixing entropy's chemical \
+                             potential diverges at 0 and 1 (start an absent species at a small \
+                             fraction)"
+                        ),
+                    );
+                }
+                Initial::Count(c) if !(c > 0.0 && c.is_finite()) => {
+                    return err(
+                        format!("species[{k}].initial"),
+                        &format!("the count {c} must be positive and finite (proteins)"),
+                    );
+                }
+                _ => {}
+            }
             match (s.reservoir, s.chemical_potential) {
                 (Reservoir::Conserved, Some(_)) => {
                     return err(
@@ -179,6 +211,20 @@ impl SpeciesSet {
                     "must not be negative (the energy would favour sharp fronts)",
                 );
             }
+        }
+        let total: f64 = self
+            .species
+            .iter()
+            .filter_map(|s| match s.initial {
+                Initial::Fraction(x) => Some(x),
+                Initial::Count(_) => None,
+            })
+            .sum();
+        if total >= 1.0 {
+            return err(
+                "species".into(),
+                &format!("the initial fractions sum to {total}, not below 1"),
+            );
         }
         for (k, i) in self.interactions.iter().enumerate() {
             for name in [&i.species.0, &i.species.1] {
@@ -241,6 +287,7 @@ mod tests {
             rigidity_change: 0.0,
             binding_energy: 0.0,
             gradient_energy: 0.0,
+            initial: Initial::Fraction(0.1),
             reservoir: Reservoir::Conserved,
             chemical_potential: None,
         }

@@ -456,6 +456,7 @@ mod tests {
             rigidity_change: 0.0,
             binding_energy: 0.0,
             gradient_energy: 0.0,
+            initial: crate::species::params::Initial::Fraction(0.1),
             reservoir,
             chemical_potential: mu,
         }

@@ -156,6 +156,20 @@ pub fn fractions(set: &SpeciesSet, amounts: &[Vec<f64>], areas: &[f64]) -> Vec<V
         .collect()
 }
 
+/// The fractions of the amounts `amounts` on the mesh of `faces` at
+/// `positions` (its vertex areas measured here).
+pub fn fractions_at(
+    set: &SpeciesSet,
+    amounts: &[Vec<f64>],
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+) -> Vec<Vec<f64>> {
+    let mut geometry = Vec::new();
+    crate::mesh::geometry::face_geometry(positions, faces, &mut geometry);
+    let areas = vertex_areas(faces, &geometry, positions.len());
+    fractions(set, amounts, &areas)
+}
+
 /// The amounts n_s,i = A_i φ_s,i / a_s of the fractions `phi`.
 pub fn amounts(set: &SpeciesSet, phi: &[Vec<f64>], areas: &[f64]) -> Vec<Vec<f64>> {
     set.species
@@ -188,6 +202,7 @@ mod tests {
                     rigidity_change: 0.0,
                     binding_energy: 0.0,
                     gradient_energy: 0.0,
+                    initial: crate::species::params::Initial::Fraction(0.1),
                     reservoir: Default::default(),
                     chemical_potential: None,
                 })

@@ -108,6 +108,7 @@ mod tests {
             rigidity_change: dk,
             binding_energy: -0.1,
             gradient_energy: eta,
+            initial: crate::species::params::Initial::Fraction(0.1),
             reservoir: Reservoir::Conserved,
             chemical_potential: None,
         };

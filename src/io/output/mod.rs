@@ -259,24 +259,31 @@ impl RunOutput {
         self.write("events.vtp", &out)
     }
 
-    /// Writes `final.ply`, `final.png`, `state.json` (if given) and
-    /// `summary.json`, then moves the run into place.
+    /// Writes `final.ply` (with the lipid density as `density` and the
+    /// per-vertex `fields`, each a name and its values), `final.png`,
+    /// `state.json` (if given) and `summary.json`, then moves the run into
+    /// place.
     pub fn finish(
         self,
         summary_json: &str,
         final_mesh: &SurfaceMesh,
         lipid: &[f64],
+        fields: &[(String, Vec<f64>)],
         state_json: Option<&str>,
     ) -> Result<PathBuf, OutputError> {
         let mut ply = Vec::new();
-        let scalars: Vec<VertexScalar<'_>> = if lipid.is_empty() {
-            Vec::new()
-        } else {
-            vec![VertexScalar {
+        let mut scalars: Vec<VertexScalar<'_>> = Vec::new();
+        if !lipid.is_empty() {
+            scalars.push(VertexScalar {
                 name: "density",
                 values: lipid,
-            }]
-        };
+            });
+        }
+        scalars.extend(
+            fields
+                .iter()
+                .map(|(name, values)| VertexScalar { name, values }),
+        );
         write_ply_to(
             &mut ply,
             final_mesh,

@@ -609,11 +609,36 @@ fn finish_run(
         )
         .to_json()
     });
-    let dir = out.finish(&json, &mesh, &lipid, state.as_deref())?;
+    let fields = species_fields(sim, &mesh);
+    let dir = out.finish(&json, &mesh, &lipid, &fields, state.as_deref())?;
     match stop {
         None => Ok(summary),
         Some(source) => Err(RunError::Stopped { source, dir }),
     }
+}
+
+/// The protein species' area fractions on the final mesh, as `phi_<name>`
+/// (none without species).
+fn species_fields(sim: &Simulation, mesh: &crate::mesh::SurfaceMesh) -> Vec<(String, Vec<f64>)> {
+    use crate::species::model::SpeciesModel;
+    use crate::species::state::{SpeciesAmounts, fractions_at};
+    let Ok(model) = sim.resources().get::<SpeciesModel>() else {
+        return Vec::new();
+    };
+    let membrane = sim.membrane();
+    let mut amounts = SpeciesAmounts::default();
+    let set = &model.set;
+    amounts.gather(
+        &membrane.world,
+        membrane.cached_topology(),
+        set.species.len(),
+    );
+    let phi = fractions_at(set, &amounts.0, &mesh.positions, &mesh.faces);
+    set.species
+        .iter()
+        .zip(phi)
+        .map(|(s, p)| (format!("phi_{}", s.name), p))
+        .collect()
 }
 
 fn progress_bar(progress: Progress, iterations: u64) -> Option<indicatif::ProgressBar> {

@@ -1,0 +1,102 @@
+//! Relaxes the protein species' fields at the shape the minimiser reached:
+//! with `dynamics: (method: Minimise(...))` the fields join the degrees of
+//! freedom, the shape stepping at fixed amounts (the species force term)
+//! and the fields then minimising the grand potential at that shape
+//! ([`remembrane_core::species::relax`]) with every conserved count held.
+//! At a fixed point both the shape force and the fields' residual vanish:
+//! the joint minimum.
+//!
+//! Stage: Integrate, after `fire_minimiser`. Reads: [`DensePositions`],
+//! the topology (in [`Membrane`]), [`SpeciesModel`], [`Clock`]. Writes:
+//! the [`SpeciesAmounts`] in [`TermInputs`] and the world's
+//! `ProteinAmount` components (in [`Membrane`]), [`SpeciesStatus`]. The
+//! conserved counts are rescaled to their initial values after each
+//! relaxation, so round-off does not accumulate over iterations.
+
+use remembrane_core::engine::resources::{Res, ResMut};
+use remembrane_core::engine::schedule::System;
+use remembrane_core::engine::simulation::{Clock, DensePositions, SimError};
+use remembrane_core::engine::term_inputs::TermInputs;
+use remembrane_core::mesh::geometry::{Corners, face_geometry};
+use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
+use remembrane_core::species::params::Reservoir;
+use remembrane_core::species::relax::{FixedShape, relax_fields};
+use remembrane_core::species::state::{
+    SpeciesAmounts, amounts, fractions, vertex_areas, write_amounts,
+};
+
+/// Its name in the schedule.
+pub const SPECIES_RELAXATION: &str = "species_relaxation";
+
+/// The relaxation system of the species.
+#[derive(Default)]
+pub struct SpeciesRelaxation {
+    geometry: Vec<Corners>,
+    boundary: Vec<bool>,
+}
+
+impl System for SpeciesRelaxation {
+    type Data<'a> = (
+        Res<'a, DensePositions>,
+        Res<'a, SpeciesModel>,
+        Res<'a, Clock>,
+        ResMut<'a, Membrane>,
+        ResMut<'a, TermInputs>,
+        ResMut<'a, SpeciesStatus>,
+    );
+
+    fn name(&self) -> &str {
+        SPECIES_RELAXATION
+    }
+
+    fn run(
+        &mut self,
+        (positions, model, clock, mut membrane, mut inputs, mut status): Self::Data<'_>,
+    ) -> Result<(), SimError> {
+        let Some(dense) = inputs.get_mut::<SpeciesAmounts>() else {
+            return Ok(());
+        };
+        let positions = &positions.0;
+        let n = positions.len();
+        let topology = membrane.cached_topology().clone();
+        face_geometry(positions, &topology.faces, &mut self.geometry);
+        self.boundary.clear();
+        if topology.is_open() {
+            self.boundary = topology.boundary_mask();
+        }
+        let shape = FixedShape {
+            faces: &topology.faces,
+            geometry: &self.geometry,
+            vertex_count: n,
+            boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
+        };
+        let areas = vertex_areas(&topology.faces, &self.geometry, n);
+        let set = &model.set;
+        let mut phi = fractions(set, &dense.0, &areas);
+        let relaxed =
+            relax_fields(shape, model.base, set, &mut phi, model.relax).map_err(|source| {
+                SimError::Species {
+                    iteration: clock.iteration,
+                    source,
+                }
+            })?;
+        dense.0 = amounts(set, &phi, &areas);
+        for (k, s) in set.species.iter().enumerate() {
+            if s.reservoir == Reservoir::Conserved {
+                let target = status.initial_counts[k];
+                let count: f64 = dense.0[k].iter().sum();
+                if count > 0.0 {
+                    dense.0[k].iter_mut().for_each(|x| *x *= target / count);
+                }
+            }
+            write_amounts(&mut membrane.world, &topology, k, &dense.0[k]);
+        }
+        status.counts = dense.counts();
+        status.chemical_potentials = relaxed.chemical_potentials;
+        status.relaxations += 1;
+        status.newton_steps += relaxed.iterations as u64;
+        status.residual = relaxed.residual;
+        Ok(())
+    }
+}
