@@ -18,7 +18,7 @@
 //! ∂φ_i/∂A_i = −φ_i/A_i).
 
 use crate::mesh::geometry::{Corners, vertex_curvature_terms};
-use crate::species::params::SpeciesSet;
+use crate::species::params::{MAX_SPECIES, SpeciesSet};
 use glam::DVec3;
 
 /// What stays fixed when the shape moves.
@@ -71,6 +71,102 @@ fn x_ln_x(x: f64) -> f64 {
     if x > 0.0 { x * x.ln() } else { 0.0 }
 }
 
+/// The local free energy per area of one vertex, f_loc(φ) plus, on an
+/// interior vertex, the coupled bending at its curvature h, with the
+/// constants of a species set.
+pub(crate) struct LocalEnergy<'a> {
+    set: &'a SpeciesSet,
+    base: BaseBending,
+    kbt: f64,
+    a0: f64,
+    chi: Vec<Vec<f64>>,
+}
+
+impl<'a> LocalEnergy<'a> {
+    pub(crate) fn new(set: &'a SpeciesSet, base: BaseBending) -> Self {
+        Self {
+            set,
+            base,
+            kbt: set.temperature,
+            a0: set.solvent_area(),
+            chi: set.interaction_matrix(),
+        }
+    }
+
+    /// f (Ē/l̄²) at the fractions `phi` (one per species) and, on an
+    /// interior vertex, the curvature `h`; writes ∂f/∂φ_s into `dphi` and
+    /// returns (f, ∂f/∂h).
+    pub(crate) fn at(&self, phi: &[f64], h: Option<f64>, dphi: &mut [f64]) -> (f64, f64) {
+        let species = &self.set.species;
+        let kbt = self.kbt;
+        let bare = 1.0 - phi.iter().sum::<f64>();
+        let mut f = kbt / self.a0 * x_ln_x(bare);
+        let solvent = kbt / self.a0 * (bare.ln() + 1.0);
+        for (k, sp) in species.iter().enumerate() {
+            let p = phi[k];
+            f += sp.binding_energy * p + kbt / sp.area_per_protein * x_ln_x(p);
+            dphi[k] = sp.binding_energy + kbt / sp.area_per_protein * (p.ln() + 1.0) - solvent;
+        }
+        for (k, row) in self.chi.iter().enumerate() {
+            for (l, c) in row.iter().enumerate().skip(k) {
+                f += c * phi[k] * phi[l];
+                dphi[k] += c * phi[l];
+                dphi[l] += c * phi[k];
+            }
+        }
+        let Some(h) = h else {
+            return (f, 0.0);
+        };
+        let base = self.base;
+        let (mut kappa, mut c0) = (base.kappa, base.c0);
+        for (k, sp) in species.iter().enumerate() {
+            kappa += sp.rigidity_change * phi[k];
+            c0 += sp.curvature_coupling * phi[k];
+        }
+        let (d, d0) = (h - c0, h - base.c0);
+        f += 0.5 * kappa * d * d - 0.5 * base.kappa * d0 * d0;
+        for (k, sp) in species.iter().enumerate() {
+            dphi[k] += 0.5 * sp.rigidity_change * d * d - kappa * d * sp.curvature_coupling;
+        }
+        (f, kappa * d - base.kappa * d0)
+    }
+}
+
+/// The gradient energies Σ_s ½η_s Σ_faces Σ_k ½cot_k (φ_s,a − φ_s,b)²
+/// (Ē); with `dphi`, adds their ∂/∂φ; with `cot_adjoints`, adds their
+/// ∂/∂cot_k per face.
+pub(crate) fn gradient_energy(
+    faces: &[[u32; 3]],
+    geometry: &[Corners],
+    set: &SpeciesSet,
+    phi: &[Vec<f64>],
+    mut dphi: Option<&mut [Vec<f64>]>,
+    mut cot_adjoints: Option<&mut Vec<[f64; 3]>>,
+) -> f64 {
+    let mut energy = 0.0;
+    for (fi, (face, c)) in faces.iter().zip(geometry).enumerate() {
+        for k in 0..3 {
+            let (va, vb) = (face[(k + 1) % 3] as usize, face[(k + 2) % 3] as usize);
+            for (sk, sp) in set.species.iter().enumerate() {
+                if sp.gradient_energy == 0.0 {
+                    continue;
+                }
+                let diff = phi[sk][va] - phi[sk][vb];
+                let w = 0.25 * sp.gradient_energy;
+                energy += w * c.cot[k] * diff * diff;
+                if let Some(g) = cot_adjoints.as_deref_mut() {
+                    g[fi][k] += w * diff * diff;
+                }
+                if let Some(d) = dphi.as_deref_mut() {
+                    d[sk][va] += 2.0 * w * c.cot[k] * diff;
+                    d[sk][vb] -= 2.0 * w * c.cot[k] * diff;
+                }
+            }
+        }
+    }
+    energy
+}
+
 /// The species' free energy (Ē) of the mesh `faces` with per-face
 /// `geometry` and `n` vertices, for the fractions `phi` (by species, then
 /// dense slot; each in (0, 1), their sum below 1). `boundary` marks the
@@ -92,9 +188,7 @@ pub fn free_energy(
 ) -> f64 {
     let s = scratch;
     let species = &set.species;
-    let kbt = set.temperature;
-    let a0 = set.solvent_area();
-    let chi = set.interaction_matrix();
+    let local = LocalEnergy::new(set, base);
     let (areas, laplacians) = (&mut s.areas, &mut s.laplacians);
     vertex_curvature_terms(faces, geometry, areas, laplacians, Some(&mut s.normals), n);
     s.g_lap.clear();
@@ -108,44 +202,19 @@ pub fn free_energy(
         }
     }
     let mut energy = 0.0;
-    let mut dphi = vec![0.0; species.len()];
+    let mut at = [0.0; MAX_SPECIES];
+    let mut dphi = [0.0; MAX_SPECIES];
     for i in 0..n {
         let a = s.areas[i];
-        // f_loc and ∂f_loc/∂φ_s (per area).
-        let bare = 1.0 - phi.iter().map(|p| p[i]).sum::<f64>();
-        let mut f = kbt / a0 * x_ln_x(bare);
-        let solvent = kbt / a0 * (bare.ln() + 1.0);
-        for (k, sp) in species.iter().enumerate() {
-            let p = phi[k][i];
-            f += sp.binding_energy * p + kbt / sp.area_per_protein * x_ln_x(p);
-            dphi[k] = sp.binding_energy + kbt / sp.area_per_protein * (p.ln() + 1.0) - solvent;
+        for (k, p) in phi.iter().enumerate() {
+            at[k] = p[i];
         }
-        for (k, row) in chi.iter().enumerate() {
-            let p = phi[k][i];
-            for (l, c) in row.iter().enumerate().skip(k) {
-                let q = phi[l][i];
-                f += c * p * q;
-                dphi[k] += c * q;
-                dphi[l] += c * p;
-            }
-        }
-        // The coupled bending, interior vertices only.
+        // The coupled bending on interior vertices only.
         let interior = !boundary.is_some_and(|b| b[i]);
-        let mut df_dh = 0.0;
+        let l = s.laplacians[i];
+        let (h, sign, len) = signed_curvature(l, s.normals[i], a);
+        let (f, mut df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
         if interior {
-            let l = s.laplacians[i];
-            let (h, sign, len) = signed_curvature(l, s.normals[i], a);
-            let (mut kappa, mut c0) = (base.kappa, base.c0);
-            for (k, sp) in species.iter().enumerate() {
-                kappa += sp.rigidity_change * phi[k][i];
-                c0 += sp.curvature_coupling * phi[k][i];
-            }
-            let (d, d0) = (h - c0, h - base.c0);
-            f += 0.5 * kappa * d * d - 0.5 * base.kappa * d0 * d0;
-            df_dh = kappa * d - base.kappa * d0;
-            for (k, sp) in species.iter().enumerate() {
-                dphi[k] += 0.5 * sp.rigidity_change * d * d - kappa * d * sp.curvature_coupling;
-            }
             // h = s|L|/(2A): ∂(A f)/∂L = ½ f'(h) s L/|L|; ∂(A f)/∂A gets −h f'(h).
             if len > 0.0 {
                 s.g_lap[i] = l * (0.5 * df_dh * sign / len);
@@ -155,33 +224,23 @@ pub fn free_energy(
         energy += a * f;
         s.g_area[i] = f - df_dh;
         if let Some(o) = out.as_mut() {
-            for (k, d) in dphi.iter().enumerate() {
+            for (k, d) in dphi.iter().take(species.len()).enumerate() {
                 o.phi[k][i] = a * d;
             }
         }
     }
-    // The gradient energies: ½η Σ_k ½cot_k (Δφ_k)² per face.
+    // The gradient energies.
     let mut cot_adjoints = Vec::new();
     if species.iter().any(|sp| sp.gradient_energy != 0.0) {
         cot_adjoints.resize(faces.len(), [0.0; 3]);
-        for (fi, (face, c)) in faces.iter().zip(geometry).enumerate() {
-            for k in 0..3 {
-                let (va, vb) = (face[(k + 1) % 3] as usize, face[(k + 2) % 3] as usize);
-                for (sk, sp) in species.iter().enumerate() {
-                    if sp.gradient_energy == 0.0 {
-                        continue;
-                    }
-                    let diff = phi[sk][va] - phi[sk][vb];
-                    let w = 0.25 * sp.gradient_energy;
-                    energy += w * c.cot[k] * diff * diff;
-                    cot_adjoints[fi][k] += w * diff * diff;
-                    if let Some(o) = out.as_mut() {
-                        o.phi[sk][va] += 2.0 * w * c.cot[k] * diff;
-                        o.phi[sk][vb] -= 2.0 * w * c.cot[k] * diff;
-                    }
-                }
-            }
-        }
+        energy += gradient_energy(
+            faces,
+            geometry,
+            set,
+            phi,
+            out.as_mut().map(|o| &mut *o.phi),
+            Some(&mut cot_adjoints),
+        );
     }
     let Some(o) = out else {
         return energy;

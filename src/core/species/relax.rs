@@ -18,11 +18,8 @@
 //! φ_i = 1/(1 + e^{(ε_i − μ)/k_BT}), ε_i = −a_p κ c (h_i − c φ_i)).
 
 use crate::mesh::geometry::{Corners, vertex_curvature_terms};
-use crate::species::free_energy::{
-    BaseBending, Derivatives, FreeEnergyScratch, Hold, free_energy, signed_curvature,
-};
+use crate::species::free_energy::{BaseBending, LocalEnergy, gradient_energy, signed_curvature};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
-use glam::DVec3;
 
 /// The fixed surface the fields relax on.
 #[derive(Clone, Copy)]
@@ -247,27 +244,35 @@ pub fn relax_fields(
         .map(|s| s.chemical_potential.unwrap_or(0.0))
         .collect();
     let weight = |i: usize, s: usize| v.areas[i] / set.species[s].area_per_protein;
-    let mut scratch = FreeEnergyScratch::default();
-    let mut force = vec![DVec3::ZERO; n];
-    let mut grad = vec![Vec::new(); ns];
-    // Ω and, with `grad`, ∂F/∂φ.
-    let mut omega = |phi: &[Vec<f64>], grad: Option<&mut Vec<Vec<f64>>>| {
-        let out = grad.map(|g| Derivatives {
-            force: &mut force,
-            phi: g,
-        });
-        let f = free_energy(
-            shape.faces,
-            shape.geometry,
-            n,
-            base,
-            set,
-            phi,
-            shape.boundary,
-            Hold::Fraction,
-            &mut scratch,
-            out,
-        );
+    let local = LocalEnergy::new(set, base);
+    let mut grad = vec![vec![0.0; n]; ns];
+    // Ω and, with `grad`, ∂F/∂φ: the local energies at the vertices'
+    // areas and curvatures, measured once, and the gradient energies.
+    let omega = |phi: &[Vec<f64>], mut grad: Option<&mut Vec<Vec<f64>>>| {
+        let (mut at, mut d) = ([0.0; MAX_SPECIES], [0.0; MAX_SPECIES]);
+        let mut f = 0.0;
+        for i in 0..n {
+            for (k, p) in phi.iter().enumerate() {
+                at[k] = p[i];
+            }
+            let h = v.interior[i].then_some(v.curvature[i]);
+            f += v.areas[i] * local.at(&at[..ns], h, &mut d).0;
+            if let Some(g) = grad.as_deref_mut() {
+                for (k, g) in g.iter_mut().enumerate() {
+                    g[i] = v.areas[i] * d[k];
+                }
+            }
+        }
+        if set.species.iter().any(|s| s.gradient_energy != 0.0) {
+            f += gradient_energy(
+                shape.faces,
+                shape.geometry,
+                set,
+                phi,
+                grad.map(|g| &mut g[..]),
+                None,
+            );
+        }
         let exchanged: f64 = (0..ns)
             .filter(|s| !conserved.contains(s))
             .map(|s| bulk_mu[s] * (0..n).map(|i| weight(i, s) * phi[s][i]).sum::<f64>())
@@ -446,6 +451,7 @@ mod tests {
     use super::*;
     use crate::mesh::ellipsoid;
     use crate::mesh::geometry::face_geometry;
+    use crate::species::free_energy::{FreeEnergyScratch, Hold, free_energy};
     use crate::species::params::Species;
 
     fn species(name: &str, c: f64, reservoir: Reservoir, mu: Option<f64>) -> Species {
