@@ -148,3 +148,115 @@ fn bad_species_are_refused_naming_the_file_the_field_and_the_reason() {
         "{msg}"
     );
 }
+
+/// 10⁴ splits, merges and flips of edges of a jittered 642-vertex sphere
+/// carrying two species in smooth fields, chosen as remeshing does (a
+/// non-Delaunay edge flips, a long one splits, a short one merges): each
+/// protein count is held to 1e-12 relative after every edit, and every
+/// mesh invariant holds at the end.
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn ten_thousand_remesh_edits_and_flips_hold_every_count() {
+    use rand::{RngExt, SeedableRng};
+    use remembrane::mesh::flip::{Flip, is_non_delaunay, keeps_surface_unfolded};
+    use remembrane::mesh::geometry::vertex_cells;
+    use remembrane::mesh::membrane::Membrane;
+    use remembrane::mesh::{ValenceRange, check_mesh, icosphere};
+    use remembrane::remesh::{merge_edge, split_edge};
+    use remembrane::species::params::{Initial, Reservoir, Species, SpeciesSet};
+    use remembrane::species::state::{SpeciesAmounts, add_amounts};
+    let range = ValenceRange { min: 4, max: 9 };
+    let sp = |name: &str, a: f64| Species {
+        name: name.into(),
+        area_per_protein: a,
+        curvature_coupling: 0.0,
+        rigidity_change: 0.0,
+        binding_energy: 0.0,
+        gradient_energy: 0.0,
+        initial: Initial::Fraction(0.2),
+        reservoir: Reservoir::Conserved,
+        chemical_potential: None,
+    };
+    let set = SpeciesSet {
+        species: vec![sp("bar", 0.05), sp("epsin", 0.02)],
+        interactions: vec![],
+        temperature: 0.1,
+    };
+    let mut mesh = icosphere(3, 1.0);
+    mesh.jitter(0.2, 48);
+    let radius = mesh.positions[0].length();
+    // Smooth fields: a gradient along z for one species, along x for the other.
+    let field = |k: usize, p: glam::DVec3| match k {
+        0 => 0.2 + 0.1 * p.z / radius,
+        _ => 0.1 + 0.05 * p.x / radius,
+    };
+    let mut m = Membrane::from_mesh(&mesh, false).unwrap();
+    // Each cell holds the field's average over it: its value at the
+    // cell's centroid.
+    let (areas, centroids) = vertex_cells(&mesh.positions, &mesh.faces);
+    add_amounts(&mut m, &set, |k, slot, _| {
+        areas[slot] * field(k, centroids[slot]) / set.species[k].area_per_protein
+    })
+    .unwrap();
+    let counts = |m: &mut Membrane| {
+        let mut a = SpeciesAmounts::default();
+        let t = m.topology().unwrap().clone();
+        a.gather(&m.world, &t, 2);
+        a
+    };
+    let initial = counts(&mut m).counts();
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(48);
+    let mut done = [0u32; 3];
+    // As remeshing does on a jittered mesh: a non-Delaunay edge flips, a
+    // long one splits, a short one merges (its survivor moves by less than
+    // half an edge).
+    let mut attempts = 0;
+    while done.iter().sum::<u32>() < 10_000 {
+        attempts += 1;
+        assert!(attempts < 200_000, "{done:?} edits in {attempts} attempts");
+        let t = m.topology().unwrap().clone();
+        let e = rng.random_range(0..t.edges.len() as u32);
+        let [a, b] = t.edges[e as usize];
+        let mut positions = Vec::new();
+        m.gather_positions(&mut positions);
+        let length = positions[a as usize].distance(positions[b as usize]);
+        let flip = Flip::of(&t, e);
+        let op = match (flip, length) {
+            (Some(f), _) if is_non_delaunay(&f, &positions) => 2,
+            (_, l) if l > 1.1 => 0,
+            (_, l) if l < 0.75 => 1,
+            _ => continue,
+        };
+        let ok = match op {
+            0 => split_edge(&mut m, e, range).is_ok(),
+            1 => merge_edge(&mut m, e, range).is_ok(),
+            _ => match flip {
+                Some(f)
+                    if t.valence(f.a as usize) > range.min as usize
+                        && t.valence(f.b as usize) > range.min as usize
+                        && t.valence(f.c as usize) < range.max as usize
+                        && t.valence(f.d as usize) < range.max as usize
+                        && t.edge_between(f.c, f.d).is_none()
+                        && keeps_surface_unfolded(&f, &positions) =>
+                {
+                    m.apply_patch(&f.edit(&t), range).is_ok()
+                }
+                _ => false,
+            },
+        };
+        done[op] += u32::from(ok);
+        let now = counts(&mut m).counts();
+        for (n, n0) in now.iter().zip(&initial) {
+            assert!(
+                (n - n0).abs() <= 1e-12 * n0,
+                "{n0} proteins at the start, {n} now"
+            );
+        }
+    }
+    let mesh = m.to_mesh().unwrap();
+    check_mesh(&mesh.positions, &mesh.faces, Some(range)).unwrap();
+    assert!(
+        done.iter().all(|&d| d > 1000),
+        "splits, merges, flips: {done:?}"
+    );
+}

@@ -26,6 +26,7 @@
 //! cache for its patch only ([`crate::mesh::topology_update`]).
 
 mod check;
+mod density_transfer;
 
 use crate::mesh::ValenceRange;
 use crate::mesh::components::{Edge, Face, Force, Position};
@@ -165,6 +166,7 @@ impl Membrane {
             self.validate_patch(edit, valence, true).is_ok(),
             "an edit applied as checked fails its check"
         );
+        let densities = density_transfer::DensitySnapshot::before(self, edit);
         let (keys, edge_entity) = self.patch_edges(edit);
         let new_face_entities: Vec<Entity> = edit
             .add_faces
@@ -206,6 +208,9 @@ impl Membrane {
         }
         self.update_topology(&changes)
             .expect("a checked edit keeps the topology valid");
+        if let Some(d) = densities {
+            d.transfer(self, edit);
+        }
         outcome
     }
 

@@ -103,6 +103,37 @@ impl Corners {
         [w1 - w2, w2 - w0, w0 - w1]
     }
 
+    /// ∫ x dA over corner `k`'s part of the mixed (Meyer) cell of the
+    /// triangle `p` (whose geometry this is): the Voronoi quadrilateral (corner, edge
+    /// midpoints, circumcentre) of a non-obtuse triangle; in an obtuse one the
+    /// corner triangle of the two edge midpoints (a quarter of the area), and
+    /// the rest for the obtuse corner (half). Its area is
+    /// [`Corners::mixed_area`]'s (up to round-off).
+    pub fn mixed_cell_moment(&self, p: [DVec3; 3], k: usize) -> DVec3 {
+        let tri =
+            |a: DVec3, b: DVec3, d: DVec3| 0.5 * (b - a).cross(d - a).length() * (a + b + d) / 3.0;
+        let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+        let (ma, mb) = (0.5 * (p[k] + p[a]), 0.5 * (p[k] + p[b]));
+        match self.obtuse_corner() {
+            None => {
+                let (u, v) = (p[1] - p[0], p[2] - p[0]);
+                let n = u.cross(v);
+                let o = p[0]
+                    + (u.length_squared() * v.cross(n) + v.length_squared() * n.cross(u))
+                        / (2.0 * n.length_squared());
+                tri(p[k], ma, o) + tri(p[k], o, mb)
+            }
+            Some(o) if o == k => {
+                let corner = |j: usize| {
+                    let (x, y) = ((j + 1) % 3, (j + 2) % 3);
+                    tri(p[j], 0.5 * (p[j] + p[x]), 0.5 * (p[j] + p[y]))
+                };
+                tri(p[0], p[1], p[2]) - corner(a) - corner(b)
+            }
+            Some(_) => tri(p[k], ma, mb),
+        }
+    }
+
     /// Corner `k`'s entry of [`Corners::mixed_areas`], by the same
     /// expressions (the same bits) without the other two.
     #[inline(always)]
@@ -328,6 +359,28 @@ fn accumulate_curvature_terms(
     }
 }
 
+/// The mixed Voronoi area A_i of every vertex of the mesh `faces` at
+/// `positions` and the centroid of its cell (the point whose value a cell
+/// average holds to second order).
+pub fn vertex_cells(positions: &[DVec3], faces: &[[u32; 3]]) -> (Vec<f64>, Vec<DVec3>) {
+    let n = positions.len();
+    let (mut areas, mut moments) = (vec![0.0; n], vec![DVec3::ZERO; n]);
+    for f in faces {
+        let p = f.map(|v| positions[v as usize]);
+        let c = Corners::new(p[0], p[1], p[2]);
+        for k in 0..3 {
+            areas[f[k] as usize] += c.mixed_area(k);
+            moments[f[k] as usize] += c.mixed_cell_moment(p, k);
+        }
+    }
+    let centroids = moments
+        .iter()
+        .zip(&areas)
+        .map(|(m, a)| if *a > 0.0 { *m / *a } else { DVec3::ZERO })
+        .collect();
+    (areas, centroids)
+}
+
 /// Mean-curvature vector K_i = L_i / (2 A_i) of every vertex.
 /// Each face's geometry is computed as its turn comes, not stored: a frame
 /// of a large mesh does not hold a second copy of every face's [`Corners`].
@@ -353,4 +406,26 @@ pub struct EdgeSample {
     /// The potential's segment of the length
     /// ([`crate::energy::vin::Segmentation::segment_of`]).
     pub segment: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The three mixed cells partition the triangle: their moments add up
+    /// to ∫ x dA = A (p0 + p1 + p2)/3, for an acute, a right and an obtuse
+    /// triangle.
+    #[test]
+    fn the_mixed_cells_partition_the_triangle() {
+        for p in [
+            [DVec3::ZERO, DVec3::new(1.0, 0.1, 0.0), DVec3::new(0.4, 0.9, 0.2)],
+            [DVec3::ZERO, DVec3::X, DVec3::Y],
+            [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.3, 0.2, 0.1)],
+        ] {
+            let c = Corners::new(p[0], p[1], p[2]);
+            let moment: DVec3 = (0..3).map(|k| c.mixed_cell_moment(p, k)).sum();
+            let expected = c.area() * (p[0] + p[1] + p[2]) / 3.0;
+            assert!((moment - expected).length() <= 1e-14, "{moment:?} {expected:?}");
+        }
+    }
 }

@@ -12,7 +12,11 @@
 //! | [`TransferPolicy::Conserve`] (an amount, e.g. lipid) | f_i1, f_i2 ×= 2/3; f_n = (f_i1 + f_i2)/3 | f_i = f_i1 + f_i2 |
 //! | [`TransferPolicy::Interpolate`] (an intensive value, e.g. coverage) | f_n = (f_i1 + f_i2)/2 | f_i = (f_i1 + f_i2)/2 |
 //!
-//! Conserve keeps Σf exactly (lipid density: SPEC §5).
+//! | [`TransferPolicy::Density`] (an amount whose density per area is the field, e.g. proteins) | every vertex of the edited patch keeps its density f/A; a new one gets its old neighbours' mean; the patch's Σf is kept | the same |
+//!
+//! Conserve keeps Σf exactly (lipid density: SPEC §5); Density keeps Σf and,
+//! on any triangulation, the field f/A (also through flips, which the other
+//! two leave alone).
 
 use hecs::{Entity, EntityBuilder, World};
 use std::marker::PhantomData;
@@ -24,6 +28,11 @@ pub enum TransferPolicy {
     Conserve,
     /// The field is intensive: new values are the mean of the edge's ends.
     Interpolate,
+    /// The field is an amount whose density per vertex area is the smooth
+    /// field (protein amounts): every edit, flips included, keeps the
+    /// density of the vertices it touches and the sum of the amounts
+    /// (`crate::mesh::edit`'s density transfer).
+    Density,
 }
 
 /// A per-vertex scalar stored as a hecs component.

@@ -127,6 +127,8 @@ impl EdgeValues {
                     f.set(&mut m.world, i2, b * 2.0 / 3.0);
                 }
                 TransferPolicy::Interpolate => f.set(&mut m.world, n, 0.5 * (a + b)),
+                // Set by the edit itself.
+                TransferPolicy::Density => {}
             }
         }
     }
@@ -138,6 +140,8 @@ impl EdgeValues {
             let value = match f.policy() {
                 TransferPolicy::Conserve => a + b,
                 TransferPolicy::Interpolate => 0.5 * (a + b),
+                // Set by the edit itself.
+                TransferPolicy::Density => continue,
             };
             f.set(&mut m.world, survivor, value);
         }

@@ -1,8 +1,8 @@
 //! Where the species live: each species' protein amount per vertex is a
 //! component of the vertex entities ([`ProteinAmount`]), an amount carried
-//! conservatively through splits and merges (its field transfer is
-//! [`TransferPolicy::Conserve`]), so every count Σ_i n_i is exact through
-//! remeshing; flips leave the vertices, and so the amounts, as they are.
+//! through splits, merges and flips with its density per vertex area kept
+//! (its field transfer is [`TransferPolicy::Density`]), so every count
+//! Σ_i n_i is exact through remeshing and a smooth field stays smooth.
 //! The fractions are derived: φ_s,i = a_s n_s,i / A_i with the mixed
 //! Voronoi area A_i at the current shape.
 //!
@@ -90,7 +90,7 @@ pub fn add_amounts(
     for (k, s) in set.species.iter().enumerate() {
         let name = field_name(&s.name);
         let values = |slot: usize, p: DVec3| initial(k, slot, p);
-        with_component!(k, C => membrane.add_vertex_field::<C>(&name, TransferPolicy::Conserve, values))?;
+        with_component!(k, C => membrane.add_vertex_field::<C>(&name, TransferPolicy::Density, values))?;
     }
     Ok(())
 }
