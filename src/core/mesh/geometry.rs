@@ -418,14 +418,25 @@ mod tests {
     #[test]
     fn the_mixed_cells_partition_the_triangle() {
         for p in [
-            [DVec3::ZERO, DVec3::new(1.0, 0.1, 0.0), DVec3::new(0.4, 0.9, 0.2)],
+            [
+                DVec3::ZERO,
+                DVec3::new(1.0, 0.1, 0.0),
+                DVec3::new(0.4, 0.9, 0.2),
+            ],
             [DVec3::ZERO, DVec3::X, DVec3::Y],
-            [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.3, 0.2, 0.1)],
+            [
+                DVec3::ZERO,
+                DVec3::new(2.0, 0.0, 0.0),
+                DVec3::new(0.3, 0.2, 0.1),
+            ],
         ] {
             let c = Corners::new(p[0], p[1], p[2]);
             let moment: DVec3 = (0..3).map(|k| c.mixed_cell_moment(p, k)).sum();
             let expected = c.area() * (p[0] + p[1] + p[2]) / 3.0;
-            assert!((moment - expected).length() <= 1e-14, "{moment:?} {expected:?}");
+            assert!(
+                (moment - expected).length() <= 1e-14,
+                "{moment:?} {expected:?}"
+            );
         }
     }
 }

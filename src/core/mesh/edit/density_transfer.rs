@@ -1,12 +1,17 @@
 //! The transfer of density fields ([`TransferPolicy::Density`]) through an
 //! edit: a field whose value is an amount at a vertex and whose amount per
 //! vertex area (its density, e.g. a protein fraction) is the smooth field
-//! on the surface. Every vertex whose faces the edit changes (the vertices
-//! of its removed and added faces; no other vertex's mixed area changes)
-//! keeps its density: its new amount is the density times its new area; a
-//! new vertex gets the mean density of its neighbours that existed before;
-//! then the amounts of the patch are scaled so that their sum is what it
-//! was. The sum over the mesh is kept to round-off, and a smooth field
+//! on the surface, each vertex's value the average over its mixed cell.
+//!
+//! The patch is every vertex whose cell the edit changes: the vertices of
+//! its removed and added faces, and the neighbours of a vertex it moves (a
+//! merge's survivor deforms the faces the edit keeps around it too); no
+//! other cell changes. Over the patch the density is fitted as a linear
+//! field (least squares in the patch's plane, at the old cells' centroids).
+//! A vertex that stays keeps its density, shifted along the fit to its new
+//! cell's centroid; a new or moved vertex takes the fit at its cell's
+//! centroid; then the patch's amounts are scaled so that their sum is what
+//! it was. The sum over the mesh is kept to round-off, and a smooth field
 //! stays smooth under splits, merges and flips on any triangulation
 //! (unlike [`TransferPolicy::Conserve`]'s fixed shares, which hold the
 //! density only on regular meshes).
@@ -24,7 +29,8 @@ use hecs::Entity;
 pub(super) struct DensitySnapshot {
     /// The density fields, by index in the membrane's field list.
     fields: Vec<usize>,
-    /// The vertices of the removed faces.
+    /// The vertices whose cells the edit changes: those of the removed
+    /// faces and of the faces around a moved vertex.
     vertices: Vec<Entity>,
     /// Their amounts, by field then vertex.
     amounts: Vec<Vec<f64>>,
@@ -121,6 +127,18 @@ impl DensitySnapshot {
                 }
             }
         }
+        // A moved vertex deforms every face around it, also those the edit
+        // keeps: its neighbours' cells change too.
+        for &(v, _) in &edit.move_vertices {
+            if let Some(slot) = t.vertex_slot(v) {
+                for &u in std::iter::once(&slot).chain(t.neighbours(slot as usize)) {
+                    let e = t.vertex_entities[u as usize];
+                    if !vertices.contains(&e) {
+                        vertices.push(e);
+                    }
+                }
+            }
+        }
         let amounts = fields
             .iter()
             .map(|&k| {
@@ -156,7 +174,10 @@ impl DensitySnapshot {
     /// Sets the density fields on the patch of `edit`, now applied to `m`
     /// (its topology cache updated).
     pub(super) fn transfer(self, m: &mut Membrane, edit: &PatchEdit) {
-        let mut after: Vec<Entity> = Vec::with_capacity(16);
+        let mut after: Vec<Entity> = (self.vertices.iter())
+            .filter(|v| !edit.remove_vertices.contains(v))
+            .copied()
+            .collect();
         for f in &edit.add_faces {
             for &v in f {
                 if !after.contains(&v) {
