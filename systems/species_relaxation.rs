@@ -1,12 +1,15 @@
 //! Relaxes the protein species' fields at the shape the minimiser reached:
 //! with `dynamics: (method: Minimise(...))` the fields join the degrees of
-//! freedom, the shape stepping at fixed amounts (the species force term)
-//! and the fields then minimising the grand potential at that shape
-//! ([`remembrane_core::species::relax`]) with every conserved count held.
-//! At a fixed point both the shape force and the fields' residual vanish:
-//! the joint minimum.
+//! freedom. Each tick first minimises the grand potential over the fields
+//! at the current shape ([`remembrane_core::species::relax`]) with every
+//! conserved count held, then the forces are evaluated and the shape steps
+//! at fixed amounts (the species force term). At a fixed point both the
+//! shape force and the fields' residual vanish: the joint minimum. (Relaxed
+//! after the step instead, the fields lag the constraint projection and the
+//! minimiser measured on the 642-vertex red blood cell with one species
+//! stalls at a residual of 1.8e-2 Ē/l̄ with a creeping energy.)
 //!
-//! Stage: Integrate, after `fire_minimiser`. Reads: [`DensePositions`],
+//! Stage: Gather, after `species_gather`. Reads: [`DensePositions`],
 //! the topology (in [`Membrane`]), [`SpeciesModel`], [`Clock`]. Writes:
 //! the [`SpeciesAmounts`] in [`TermInputs`] and the world's
 //! `ProteinAmount` components (in [`Membrane`]), [`SpeciesStatus`]. The
@@ -77,7 +80,7 @@ impl System for SpeciesRelaxation {
         let relaxed =
             relax_fields(shape, model.base, set, &mut phi, model.relax).map_err(|source| {
                 SimError::Species {
-                    iteration: clock.iteration,
+                    iteration: clock.iteration + 1,
                     source,
                 }
             })?;

@@ -385,8 +385,9 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
 
 /// Protein species: their amounts on the vertices (from each species'
 /// initial field), the species force term, the gather system (Gather) and,
-/// with the minimiser, the fields' relaxation (Integrate, after
-/// `fire_minimiser`), the `species` recorder and summary section.
+/// with the minimiser, the fields' relaxation (Gather, after it: the
+/// forces see the fields relaxed at the current shape), the `species`
+/// recorder and summary section.
 pub fn species(
     set: crate::species::params::SpeciesSet,
     base: crate::species::free_energy::BaseBending,
@@ -475,10 +476,10 @@ pub fn species(
             .after("gather_state");
         if minimiser {
             b.add_system(
-                Stage::Integrate,
+                Stage::Gather,
                 crate::systems::species_relaxation::SpeciesRelaxation::default(),
             )
-            .after(crate::systems::fire_minimiser::FIRE_MINIMISER);
+            .after(crate::systems::species_gather::SPECIES_GATHER);
         }
         b.add_recorder(crate::io::recorders::SpeciesColumns);
         b.add_summary_section(ResourceSection::<SpeciesStatus>::new("species"))?;
