@@ -99,18 +99,20 @@ fn checkpoint_iteration(staging: &Path) -> Option<u64> {
     v["iteration"].as_u64()
 }
 
-#[test]
-#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
-fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = scene_file(tmp.path());
-    let scene = scene.to_str().unwrap();
-    let whole = tmp.path().join("whole");
+/// Runs `scene` whole, then again killed (SIGKILL) three times at random
+/// moments after a checkpoint (every `every` iterations) and resumed on
+/// 2, 3 and 1 threads; asserts both runs wrote the same bytes. Returns the
+/// killed run's directory (in `tmp`).
+fn killed_three_times_and_resumed(tmp: &Path, scene: &str, every: &str) -> PathBuf {
+    let path = tmp.join("checkpointed.ron");
+    std::fs::write(&path, scene).unwrap();
+    let scene = path.to_str().unwrap();
+    let whole = tmp.join("whole");
     run_ok(&["run", scene, "--out", whole.to_str().unwrap(), "--quiet"]);
 
-    let killed = tmp.path().join("killed");
+    let killed = tmp.join("killed");
     let dir = killed.to_str().unwrap();
-    let staging = tmp.path().join("killed.incomplete");
+    let staging = tmp.join("killed.incomplete");
     let seed = std::env::var("REMEMBRANE_KILL_SEED")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -123,7 +125,7 @@ fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
         dir,
         "--quiet",
         "--checkpoint-every",
-        "25",
+        every,
         "--threads",
         "1",
     ]);
@@ -170,8 +172,57 @@ fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
         &common::run_contents(&whole),
         &common::run_contents(&killed),
     );
+    killed
+}
+
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn a_run_killed_three_times_and_resumed_writes_the_same_bytes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let killed = killed_three_times_and_resumed(tmp.path(), SCENE, "25");
     let summary = crate::common::summary(&killed);
     assert!(summary.remesh.events > 50, "the scene remeshes");
+}
+
+/// The fluid red blood cell with one protein species, minimised: the
+/// proteins' amounts on the vertices (through remeshing and flips), the
+/// species' status and FIRE's state are all carried by a checkpoint.
+const SPECIES_SCENE: &str = r#"Scene(
+    name: "checkpointed_species",
+    membrane: Ellipsoid(level: 3, semi_axes: (6.864, 6.864, 6.178)),
+    model: Fluid(),
+    energy: [
+        Vin(form: Exact),
+        Bending(kappa: 5.0),
+    ],
+    constraints: (area: Absolute(553.0), volume: Reduced(0.6)),
+    dynamics: (
+        method: Minimise(force_tolerance: 1e-6, preconditioner: Sobolev()),
+        iterations: 1200,
+        frames: 10,
+    ),
+    remesh: (mode: FreeEnergy),
+    species: (
+        species: [(
+            name: "bar",
+            area_per_protein: 0.05,
+            curvature_coupling: 1.0,
+            initial: Fraction(0.2),
+        )],
+    ),
+)
+"#;
+
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn a_minimisation_with_species_killed_three_times_and_resumed_writes_the_same_bytes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let killed = killed_three_times_and_resumed(tmp.path(), SPECIES_SCENE, "25");
+    let summary = crate::common::summary(&killed);
+    let status: remembrane::species::model::SpeciesStatus =
+        summary.section("species").unwrap().unwrap();
+    assert!(status.relaxations > 1000, "{status:?}");
+    assert!(summary.remesh.events > 0, "the scene remeshes");
 }
 
 #[test]
