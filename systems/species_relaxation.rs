@@ -37,6 +37,7 @@ pub const SPECIES_RELAXATION: &str = "species_relaxation";
 pub struct SpeciesRelaxation {
     geometry: Vec<Corners>,
     boundary: Vec<bool>,
+    entities: Vec<hecs::Entity>,
 }
 
 impl System for SpeciesRelaxation {
@@ -62,7 +63,7 @@ impl System for SpeciesRelaxation {
         };
         let positions = &positions.0;
         let n = positions.len();
-        let topology = membrane.cached_topology().clone();
+        let topology = membrane.cached_topology();
         face_geometry(positions, &topology.faces, &mut self.geometry);
         self.boundary.clear();
         if topology.is_open() {
@@ -85,6 +86,8 @@ impl System for SpeciesRelaxation {
                 }
             })?;
         dense.0 = amounts(set, &phi, &areas);
+        self.entities.clear();
+        self.entities.extend_from_slice(&topology.vertex_entities);
         for (k, s) in set.species.iter().enumerate() {
             if s.reservoir == Reservoir::Conserved {
                 let target = status.initial_counts[k];
@@ -93,7 +96,7 @@ impl System for SpeciesRelaxation {
                     dense.0[k].iter_mut().for_each(|x| *x *= target / count);
                 }
             }
-            write_amounts(&mut membrane.world, &topology, k, &dense.0[k]);
+            write_amounts(&mut membrane.world, &self.entities, k, &dense.0[k]);
         }
         status.counts = dense.counts();
         status.chemical_potentials = relaxed.chemical_potentials;

@@ -280,8 +280,7 @@ pub fn relax_fields(
         f - exchanged
     };
     let nc = conserved.len();
-    // Per vertex: the factor, H⁻¹G and H⁻¹(w e_c) for each conserved c.
-    let mut factors = vec![[[0.0; MAX_SPECIES]; MAX_SPECIES]; n];
+    // Per vertex: H⁻¹G and H⁻¹(w e_c) for each conserved c.
     let mut u = vec![0.0; n * ns];
     let mut vc = vec![0.0; n * ns * nc];
     let mut step = vec![vec![0.0; n]; ns];
@@ -320,7 +319,7 @@ pub fn relax_fields(
                 }
                 h[s][s] += ss.gradient_energy * v.dirichlet[i];
             }
-            factors[i] = factorise(&h, ns);
+            let factor = factorise(&h, ns);
             let ui = &mut u[i * ns..(i + 1) * ns];
             for s in 0..ns {
                 ui[s] = grad[s][i]
@@ -329,12 +328,12 @@ pub fn relax_fields(
                         false => bulk_mu[s] * weight(i, s),
                     };
             }
-            cholesky_solve(&factors[i], ns, ui);
+            cholesky_solve(&factor, ns, ui);
             for (ci, &c) in conserved.iter().enumerate() {
                 let x = &mut vc[(i * nc + ci) * ns..(i * nc + ci + 1) * ns];
                 x.fill(0.0);
                 x[c] = weight(i, c);
-                cholesky_solve(&factors[i], ns, x);
+                cholesky_solve(&factor, ns, x);
             }
         }
         // The multipliers: Σ_i w_i,c' δ_i,c' = 0 with δ_i = −u_i + Σ_c λ_c v^c_i.

@@ -104,10 +104,10 @@ pub fn read_amounts(world: &World, topology: &Topology, k: usize, out: &mut Vec<
     })));
 }
 
-/// Writes species `k`'s amounts `values` (by dense slot of `topology`)
-/// into the world.
-pub fn write_amounts(world: &mut World, topology: &Topology, k: usize, values: &[f64]) {
-    with_component!(k, C => for (&e, &v) in topology.vertex_entities.iter().zip(values) {
+/// Writes species `k`'s amounts `values` into the world, at the vertex
+/// entities `vertices` (a topology's `vertex_entities`: by dense slot).
+pub fn write_amounts(world: &mut World, vertices: &[hecs::Entity], k: usize, values: &[f64]) {
+    with_component!(k, C => for (&e, &v) in vertices.iter().zip(values) {
         if let Ok(mut c) = world.get::<&mut C>(e) {
             c.0 = v;
         }
@@ -225,7 +225,7 @@ mod tests {
         // Species 1 written back doubled, the others untouched.
         let doubled: Vec<f64> = dense.0[1].iter().map(|x| 2.0 * x).collect();
         let t = m.cached_topology().clone();
-        write_amounts(&mut m.world, &t, 1, &doubled);
+        write_amounts(&mut m.world, &t.vertex_entities, 1, &doubled);
         dense.gather(&m.world, m.cached_topology(), 3);
         assert_eq!(dense.0[1], doubled);
         assert_eq!(dense.counts()[0], before[0]);
