@@ -2,7 +2,7 @@
 
 from os import PathLike
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -19,6 +19,7 @@ __all__ = [
     "SceneError",
     "Simulation",
     "SimulationError",
+    "Species",
     "__version__",
     "check_force",
     "check_run_dir",
@@ -96,6 +97,17 @@ class Scene:
     def energy_terms(self) -> List[str]: ...
 
 @final
+class Species:
+    """The protein species' area fractions by name, at the current shape."""
+
+    def keys(self) -> List[str]: ...
+    def __len__(self) -> int: ...
+    def __contains__(self, name: str, /) -> bool: ...
+    def __iter__(self) -> Iterator[str]: ...
+    def __getitem__(self, name: str, /) -> npt.NDArray[np.float64]: ...
+    def __setitem__(self, name: str, values: npt.NDArray[np.float64], /) -> None: ...
+
+@final
 class Simulation:
     """A scene's simulation, stepped or run through the CLI's code."""
 
@@ -120,6 +132,8 @@ class Simulation:
     def boundary_loops(self) -> List[npt.NDArray[np.int64]]: ...
     @property
     def edges(self) -> _Indices: ...
+    @property
+    def species(self) -> Species: ...
     @property
     def field_names(self) -> List[str]: ...
     def field(self, name: str) -> npt.NDArray[np.float64]: ...

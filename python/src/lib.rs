@@ -13,6 +13,7 @@ mod force_term;
 mod interrupt;
 mod scene;
 mod simulation;
+mod species;
 mod tools;
 
 use pyo3::prelude::*;
@@ -25,6 +26,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", py.get_type::<errors::SimulationError>())?;
     m.add_class::<scene::PyScene>()?;
     m.add_class::<simulation::PySimulation>()?;
+    m.add_class::<species::PySpecies>()?;
     m.add_function(wrap_pyfunction!(tools::check_force, m)?)?;
     m.add_function(wrap_pyfunction!(tools::icosphere, m)?)?;
     m.add_function(wrap_pyfunction!(tools::perturbed_icosphere, m)?)?;

@@ -39,7 +39,7 @@ enum State {
 
 /// Everything behind the lock: the engine's simulation (or its builder) and
 /// what a changed scene needs to be built again.
-struct Inner {
+pub(crate) struct Inner {
     state: State,
     scene: PyScene,
     check_invariants: bool,
@@ -118,7 +118,7 @@ impl Inner {
     }
 
     /// The membrane (world and topology cache).
-    fn membrane(&self) -> PyResult<Res<'_, Membrane>> {
+    pub(crate) fn membrane(&self) -> PyResult<Res<'_, Membrane>> {
         match &self.state {
             State::Built(run) => Ok(run.sim.membrane()),
             State::Pending(p) => p
@@ -131,7 +131,7 @@ impl Inner {
     }
 
     /// The membrane, mutably (to bring its topology cache up to date).
-    fn membrane_mut(&mut self) -> PyResult<&mut Membrane> {
+    pub(crate) fn membrane_mut(&mut self) -> PyResult<&mut Membrane> {
         match &mut self.state {
             State::Built(run) => Ok(run.sim.membrane_mut()),
             State::Pending(p) => p
@@ -139,6 +139,32 @@ impl Inner {
                 .resource_mut::<Membrane>()
                 .ok_or_else(|| simulation_error("the scene built no membrane")),
             State::Sealing => Err(simulation_error("the simulation could not be built")),
+        }
+    }
+
+    /// The resources (of the builder until the simulation is built).
+    fn resources(&self) -> Option<&remembrane::engine::resources::Resources> {
+        match &self.state {
+            State::Built(run) => Some(run.sim.resources()),
+            State::Pending(p) => Some(p.builder.resources()),
+            State::Sealing => None,
+        }
+    }
+
+    /// Resource `T`, if there is one.
+    pub(crate) fn resource<T: remembrane::engine::resources::Resource>(
+        &self,
+    ) -> Option<Res<'_, T>> {
+        self.resources()?.get::<T>().ok()
+    }
+
+    /// Calls `f` on resource `T`, if there is one.
+    pub(crate) fn with_resource_mut<T: remembrane::engine::resources::Resource>(
+        &self,
+        f: impl FnOnce(&mut T),
+    ) {
+        if let Some(mut r) = self.resources().and_then(|r| r.get_mut::<T>().ok()) {
+            f(&mut r);
         }
     }
 
@@ -163,7 +189,7 @@ impl Inner {
         Ok(p)
     }
 
-    fn topology(&mut self) -> PyResult<&remembrane::mesh::topology::Topology> {
+    pub(crate) fn topology(&mut self) -> PyResult<&remembrane::mesh::topology::Topology> {
         self.membrane_mut()?.topology().map_err(simulation_error)
     }
 }
@@ -193,7 +219,7 @@ pub struct PySimulation {
 }
 
 impl PySimulation {
-    fn lock(&self) -> PyResult<MutexGuard<'_, Inner>> {
+    pub(crate) fn lock(&self) -> PyResult<MutexGuard<'_, Inner>> {
         match self.inner.try_lock() {
             Ok(g) => Ok(g),
             Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
@@ -558,6 +584,13 @@ impl PySimulation {
             .iter()
             .map(|f| f.name().to_string())
             .collect())
+    }
+
+    /// The protein species' area fractions by name (a mapping of float64
+    /// arrays of length N at the current shape; settable).
+    #[getter]
+    fn species(slf: Py<Self>) -> crate::species::PySpecies {
+        crate::species::PySpecies::new(slf)
     }
 
     /// A per-vertex field by name, float64 array of length N.
