@@ -296,3 +296,113 @@ fn ten_thousand_remesh_edits_and_flips_hold_every_count() {
         );
     }
 }
+
+/// `scenes/proteins/two_species.ron` to its end: on the final shape every
+/// vertex satisfies the two-species relation φ_s = x_s / (1 + x_1 + x_2),
+/// x_s = exp((μ_s − ε_s)/k_BT), ε_s = −a κ c_s (h − Σ_t c_t φ_t), to 1e-6
+/// (κ = 1, k_BT = 0.1, a = 0.1 for both), read from `final.ply` and the
+/// chemical potentials of `summary.json`; and the two have sorted apart.
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn two_species_end_on_the_fixed_shape_relation() {
+    use glam::DVec3;
+    use remembrane::mesh::geometry::{face_geometry, vertex_curvature_terms};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let scene = crate::common::scene("proteins/two_species.ron");
+    assert_eq!(
+        cli(&[&"run", &scene, &"--out", &out, &"--quiet"]),
+        std::process::ExitCode::SUCCESS
+    );
+    let s = summary(&out);
+    assert_eq!(s.minimiser.as_ref().unwrap().stopped_by, "force_residual");
+    let status: SpeciesStatus = s.section("species").unwrap().unwrap();
+    let mu = &status.chemical_potentials;
+    // final.ply: binary little-endian, x y z phi_positive phi_negative per
+    // vertex, then the faces as a uchar count and three int32.
+    let bytes = std::fs::read(out.join("final.ply")).unwrap();
+    let end = b"end_header\n";
+    let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let header = String::from_utf8_lossy(&bytes[..at]).to_string();
+    assert!(
+        header.contains("property double phi_positive\nproperty double phi_negative\nelement face")
+    );
+    let count = |element: &str| -> usize {
+        let line = header
+            .lines()
+            .find(|l| l.starts_with(&format!("element {element} ")))
+            .unwrap();
+        line.split(' ').nth(2).unwrap().parse().unwrap()
+    };
+    let (n, f) = (count("vertex"), count("face"));
+    let double =
+        |i: usize| f64::from_le_bytes(bytes[at + 8 * i..at + 8 * i + 8].try_into().unwrap());
+    let positions: Vec<DVec3> = (0..n)
+        .map(|v| DVec3::new(double(5 * v), double(5 * v + 1), double(5 * v + 2)))
+        .collect();
+    let phi: [Vec<f64>; 2] = [
+        (0..n).map(|v| double(5 * v + 3)).collect(),
+        (0..n).map(|v| double(5 * v + 4)).collect(),
+    ];
+    let faces_at = at + 40 * n;
+    let faces: Vec<[u32; 3]> = (0..f)
+        .map(|k| {
+            let base = faces_at + 13 * k;
+            assert_eq!(bytes[base], 3);
+            let int = |j: usize| {
+                i32::from_le_bytes(
+                    bytes[base + 1 + 4 * j..base + 5 + 4 * j]
+                        .try_into()
+                        .unwrap(),
+                ) as u32
+            };
+            [int(0), int(1), int(2)]
+        })
+        .collect();
+    assert_eq!(bytes.len(), faces_at + 13 * f);
+    // The signed curvature h = s|L|/(2A), as the free energy measures it.
+    let mut geometry = Vec::new();
+    face_geometry(&positions, &faces, &mut geometry);
+    let (mut areas, mut laplacians, mut normals) = (Vec::new(), Vec::new(), Vec::new());
+    vertex_curvature_terms(
+        &faces,
+        &geometry,
+        &mut areas,
+        &mut laplacians,
+        Some(&mut normals),
+        n,
+    );
+    let (kappa, kbt, a, c) = (1.0, 0.1, 0.1, [3.0, -3.0]);
+    let mut worst: f64 = 0.0;
+    for i in 0..n {
+        let l = laplacians[i];
+        let sign = if l.dot(normals[i]) < 0.0 { -1.0 } else { 1.0 };
+        let h = sign * l.length() / (2.0 * areas[i]);
+        let c0 = c[0] * phi[0][i] + c[1] * phi[1][i];
+        let x: Vec<f64> = (0..2)
+            .map(|s| {
+                let eps = -a * kappa * c[s] * (h - c0);
+                ((mu[s] - eps) / kbt).exp()
+            })
+            .collect();
+        for s in 0..2 {
+            let expected = x[s] / (1.0 + x[0] + x[1]);
+            worst = worst.max((phi[s][i] - expected).abs());
+        }
+    }
+    println!("two species: largest |φ − φ_relation| {worst:e} over {n} vertices");
+    assert!(worst <= 1e-6, "{worst}");
+    // Sorted apart: each species' richest vertex is poor in the other.
+    let richest = |s: usize| {
+        (0..n)
+            .max_by(|&i, &j| phi[s][i].total_cmp(&phi[s][j]))
+            .unwrap()
+    };
+    let (p, q) = (richest(0), richest(1));
+    assert!(
+        phi[1][p] < 0.15 && phi[0][q] < 0.15,
+        "{} {}",
+        phi[1][p],
+        phi[0][q]
+    );
+}
