@@ -184,26 +184,33 @@ fn cholesky_solve(l: &Block, s: usize, b: &mut [f64]) {
     }
 }
 
-/// Factorises `h`, shifting its diagonal where it is not positive definite.
-fn factorise(h: &Block, s: usize) -> Block {
-    let scale = (0..s)
-        .map(|k| h[k][k].abs())
+/// Factorises the symmetric `h` (S×S) in place into its lower Cholesky
+/// factor, shifting its diagonal where it is not positive definite. Only
+/// the lower triangle is overwritten, so a failed attempt is undone from
+/// the upper one and the saved diagonal.
+fn factorise(h: &mut Block, s: usize) {
+    let mut diagonal = [0.0; MAX_SPECIES];
+    for k in 0..s {
+        diagonal[k] = h[k][k];
+    }
+    let scale = diagonal[..s]
+        .iter()
+        .map(|d| d.abs())
         .fold(0.0, f64::max)
         .max(1e-300);
     let mut shift = 0.0;
-    loop {
-        let mut l = *h;
-        for (k, row) in l.iter_mut().enumerate().take(s) {
-            row[k] += shift;
-        }
-        if cholesky(&mut l, s) {
-            return l;
-        }
+    while !cholesky(h, s) {
         shift = if shift == 0.0 {
             1e-10 * scale
         } else {
             shift * 10.0
         };
+        for i in 0..s {
+            for j in 0..i {
+                h[i][j] = h[j][i];
+            }
+            h[i][i] = diagonal[i] + shift;
+        }
     }
 }
 
@@ -289,11 +296,12 @@ pub fn relax_fields(
     let mut iterations = 0;
     loop {
         let value = omega(phi, Some(&mut grad));
-        // The local Hessian blocks and the solves.
+        // The local Hessian blocks and the solves (each block's S×S corner
+        // is written in full for every vertex).
+        let mut h: Block = [[0.0; MAX_SPECIES]; MAX_SPECIES];
         for i in 0..n {
             let a = v.areas[i];
             let bare = 1.0 - phi.iter().map(|p| p[i]).sum::<f64>();
-            let mut h: Block = [[0.0; MAX_SPECIES]; MAX_SPECIES];
             let (mut kappa, mut c0) = (base.kappa, base.c0);
             for (k, sp) in set.species.iter().enumerate() {
                 kappa += sp.rigidity_change * phi[k][i];
@@ -319,7 +327,8 @@ pub fn relax_fields(
                 }
                 h[s][s] += ss.gradient_energy * v.dirichlet[i];
             }
-            let factor = factorise(&h, ns);
+            factorise(&mut h, ns);
+            let factor = &h;
             let ui = &mut u[i * ns..(i + 1) * ns];
             for s in 0..ns {
                 ui[s] = grad[s][i]
@@ -328,12 +337,12 @@ pub fn relax_fields(
                         false => bulk_mu[s] * weight(i, s),
                     };
             }
-            cholesky_solve(&factor, ns, ui);
+            cholesky_solve(factor, ns, ui);
             for (ci, &c) in conserved.iter().enumerate() {
                 let x = &mut vc[(i * nc + ci) * ns..(i * nc + ci + 1) * ns];
                 x.fill(0.0);
                 x[c] = weight(i, c);
-                cholesky_solve(&factor, ns, x);
+                cholesky_solve(factor, ns, x);
             }
         }
         // The multipliers: Σ_i w_i,c' δ_i,c' = 0 with δ_i = −u_i + Σ_c λ_c v^c_i.
@@ -349,7 +358,8 @@ pub fn relax_fields(
                     }
                 }
             }
-            let l = factorise(&m, nc);
+            factorise(&mut m, nc);
+            let l = &m;
             cholesky_solve(&l, nc, &mut b[..nc]);
             lambda.copy_from_slice(&b[..nc]);
         }
