@@ -360,7 +360,7 @@ pub fn relax_fields(
             }
             factorise(&mut m, nc);
             let l = &m;
-            cholesky_solve(&l, nc, &mut b[..nc]);
+            cholesky_solve(l, nc, &mut b[..nc]);
             lambda.copy_from_slice(&b[..nc]);
         }
         // The residual with these multipliers, and the step.
