@@ -24,10 +24,8 @@ use remembrane_core::mesh::geometry::{Corners, face_geometry};
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane_core::species::params::Reservoir;
-use remembrane_core::species::relax::{FixedShape, relax_fields};
-use remembrane_core::species::state::{
-    SpeciesAmounts, amounts, fractions, vertex_areas, write_amounts,
-};
+use remembrane_core::species::relax::{FixedShape, relax_amounts};
+use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
 
 /// Its name in the schedule.
 pub const SPECIES_RELAXATION: &str = "species_relaxation";
@@ -75,17 +73,14 @@ impl System for SpeciesRelaxation {
             vertex_count: n,
             boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
         };
-        let areas = vertex_areas(&topology.faces, &self.geometry, n);
         let set = &model.set;
-        let mut phi = fractions(set, &dense.0, &areas);
         let relaxed =
-            relax_fields(shape, model.base, set, &mut phi, model.relax).map_err(|source| {
+            relax_amounts(shape, model.base, set, &mut dense.0, model.relax).map_err(|source| {
                 SimError::Species {
                     iteration: clock.iteration + 1,
                     source,
                 }
             })?;
-        dense.0 = amounts(set, &phi, &areas);
         self.entities.clear();
         self.entities.extend_from_slice(&topology.vertex_entities);
         for (k, s) in set.species.iter().enumerate() {

@@ -224,6 +224,38 @@ pub fn relax_fields(
     phi: &mut [Vec<f64>],
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
+    relax_measured(shape, &Vertices::measure(shape), base, set, phi, settings)
+}
+
+/// [`relax_fields`] for the protein amounts n_s,i = A_i φ_s,i / a_s (by
+/// species, then dense slot), which are relaxed in place; the vertex areas
+/// are measured once for the conversions and the relaxation.
+pub fn relax_amounts(
+    shape: FixedShape<'_>,
+    base: BaseBending,
+    set: &SpeciesSet,
+    amounts: &mut [Vec<f64>],
+    settings: RelaxSettings,
+) -> Result<Relaxed, RelaxError> {
+    let v = Vertices::measure(shape);
+    let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
+    let relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;
+    let back = crate::species::state::amounts(set, &phi, &v.areas);
+    for (n, x) in amounts.iter_mut().zip(back) {
+        *n = x;
+    }
+    Ok(relaxed)
+}
+
+/// [`relax_fields`] on the vertex quantities `v` of `shape`.
+fn relax_measured(
+    shape: FixedShape<'_>,
+    v: &Vertices,
+    base: BaseBending,
+    set: &SpeciesSet,
+    phi: &mut [Vec<f64>],
+    settings: RelaxSettings,
+) -> Result<Relaxed, RelaxError> {
     let n = shape.vertex_count;
     let ns = set.species.len();
     for i in 0..n {
@@ -238,7 +270,6 @@ pub fn relax_fields(
             }
         }
     }
-    let v = Vertices::measure(shape);
     let kbt = set.temperature;
     let a0 = set.solvent_area();
     let chi = set.interaction_matrix();
