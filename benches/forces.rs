@@ -367,9 +367,89 @@ fn model_ticks(c: &mut Criterion) {
     g.finish();
 }
 
+/// The protein species' per-tick kernels at 642 … 10242 vertices (one
+/// conserved species, c = 1 /l̄, a_p = 0.05 l̄², φ = 0.2 with a ±0.05
+/// ripple, κ = 5 Ē): the species force term at fixed amounts (`species/term`,
+/// with the face-geometry pass it reads and, outside the schedule, its
+/// gather of the amounts from the world)
+/// and the relaxation of the fields at the shape (`species/relax`), from the
+/// same unrelaxed fields each time.
+fn species(c: &mut Criterion) {
+    use remembrane::species::free_energy::BaseBending;
+    use remembrane::species::params::{Initial, Reservoir, Species, SpeciesSet};
+    use remembrane::species::relax::{FixedShape, RelaxSettings, relax_amounts};
+    use remembrane::species::state::{SpeciesAmounts, add_amounts, vertex_areas};
+    use remembrane::species::term::SpeciesForces;
+    let set = SpeciesSet {
+        species: vec![Species {
+            name: "bar".into(),
+            area_per_protein: 0.05,
+            curvature_coupling: 1.0,
+            rigidity_change: 0.0,
+            binding_energy: 0.0,
+            gradient_energy: 0.0,
+            initial: Initial::Fraction(0.2),
+            reservoir: Reservoir::Conserved,
+            chemical_potential: None,
+        }],
+        interactions: vec![],
+        temperature: 0.1,
+    };
+    let base = BaseBending {
+        kappa: 5.0,
+        c0: 0.0,
+    };
+    for level in [3, 4, 5] {
+        let mut m = membrane(level);
+        let mut pos = Vec::new();
+        m.gather_positions(&mut pos);
+        let n = pos.len();
+        let mut geometry = Vec::new();
+        let faces = m.cached_topology().faces.clone();
+        remembrane::mesh::geometry::face_geometry(&pos, &faces, &mut geometry);
+        let areas = vertex_areas(&faces, &geometry, n);
+        add_amounts(&mut m, &set, |_, slot, p| {
+            areas[slot] * (0.2 + 0.05 * (p.z / 7.0).sin()) / 0.05
+        })
+        .unwrap();
+        let t = m.topology().unwrap().clone();
+        let mut amounts = SpeciesAmounts::default();
+        amounts.gather(&m.world, &t, 1);
+        let mut g = configure(c, "species");
+        g.throughput(Throughput::Elements(n as u64));
+        let mut term = SpeciesForces::new(set.clone(), base);
+        let mut force = vec![DVec3::ZERO; n];
+        let mut scratch = Vec::new();
+        g.bench_with_input(BenchmarkId::new("term", n), &n, |b, _| {
+            b.iter(|| {
+                let ctx = ForceContext::new(&m.world, &t, &pos, &[], &mut scratch, true);
+                black_box(term.accumulate(&ctx, &mut force))
+            })
+        });
+        let shape = FixedShape {
+            faces: &faces,
+            geometry: &geometry,
+            vertex_count: n,
+            boundary: None,
+        };
+        let settings = RelaxSettings {
+            tolerance: 1e-9,
+            max_iterations: 100,
+        };
+        g.bench_with_input(BenchmarkId::new("relax", n), &n, |b, _| {
+            b.iter(|| {
+                let mut fields = amounts.0.clone();
+                black_box(relax_amounts(shape, base, &set, &mut fields, settings).unwrap())
+            })
+        });
+        g.finish();
+    }
+}
+
 criterion_group!(
     benches,
     each_system,
+    species,
     rbc_all_forces,
     constraints,
     models,
