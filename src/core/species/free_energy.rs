@@ -167,9 +167,18 @@ pub(crate) fn gradient_energy(
     energy
 }
 
+/// The fields a free energy is evaluated for, by species, then dense slot.
+#[derive(Clone, Copy, Debug)]
+pub enum Fields<'a> {
+    /// The area fractions φ (each in (0, 1), their sum below 1).
+    Fractions(&'a [Vec<f64>]),
+    /// The protein amounts n = A φ / a_p, turned into fractions at the
+    /// vertex areas the evaluation measures.
+    Amounts(&'a [Vec<f64>]),
+}
+
 /// The species' free energy (Ē) of the mesh `faces` with per-face
-/// `geometry` and `n` vertices, for the fractions `phi` (by species, then
-/// dense slot; each in (0, 1), their sum below 1). `boundary` marks the
+/// `geometry` and `n` vertices, for the `fields`. `boundary` marks the
 /// vertices of an open mesh's rims, which carry no bending (as in
 /// [`crate::energy::bending`]). With `out`, adds the shape force to
 /// `out.force` under `hold` and writes ∂F/∂φ to `out.phi`.
@@ -180,7 +189,7 @@ pub fn free_energy(
     n: usize,
     base: BaseBending,
     set: &SpeciesSet,
-    phi: &[Vec<f64>],
+    fields: Fields<'_>,
     boundary: Option<&[bool]>,
     hold: Hold,
     scratch: &mut FreeEnergyScratch,
@@ -191,6 +200,14 @@ pub fn free_energy(
     let local = LocalEnergy::new(set, base);
     let (areas, laplacians) = (&mut s.areas, &mut s.laplacians);
     vertex_curvature_terms(faces, geometry, areas, laplacians, Some(&mut s.normals), n);
+    let converted;
+    let phi = match fields {
+        Fields::Fractions(phi) => phi,
+        Fields::Amounts(amounts) => {
+            converted = crate::species::state::fractions(set, amounts, &s.areas);
+            &converted[..]
+        }
+    };
     s.g_lap.clear();
     s.g_lap.resize(n, DVec3::ZERO);
     s.g_area.clear();
@@ -360,7 +377,7 @@ mod tests {
             n,
             base,
             set,
-            &phi,
+            Fields::Fractions(&phi),
             boundary,
             hold,
             &mut s,

@@ -491,7 +491,7 @@ mod tests {
     use super::*;
     use crate::mesh::ellipsoid;
     use crate::mesh::geometry::face_geometry;
-    use crate::species::free_energy::{FreeEnergyScratch, Hold, free_energy};
+    use crate::species::free_energy::{Fields, FreeEnergyScratch, Hold, free_energy};
     use crate::species::params::Species;
 
     fn species(name: &str, c: f64, reservoir: Reservoir, mu: Option<f64>) -> Species {
@@ -674,7 +674,7 @@ mod tests {
                 n,
                 base,
                 &set,
-                phi,
+                Fields::Fractions(phi),
                 shape.boundary,
                 Hold::Fraction,
                 &mut s,

@@ -8,9 +8,11 @@
 //! outside the schedule (finite differences, flip proposals).
 
 use crate::engine::force::{ForceContext, ForceTerm};
-use crate::species::free_energy::{BaseBending, Derivatives, FreeEnergyScratch, Hold, free_energy};
+use crate::species::free_energy::{
+    BaseBending, Derivatives, Fields, FreeEnergyScratch, Hold, free_energy,
+};
 use crate::species::params::SpeciesSet;
-use crate::species::state::{SpeciesAmounts, fractions, vertex_areas};
+use crate::species::state::SpeciesAmounts;
 use glam::DVec3;
 
 /// The species term.
@@ -19,7 +21,6 @@ pub struct SpeciesForces {
     base: BaseBending,
     scratch: FreeEnergyScratch,
     amounts: SpeciesAmounts,
-    phi: Vec<Vec<f64>>,
     dphi: Vec<Vec<f64>>,
     boundary: Vec<bool>,
 }
@@ -32,7 +33,6 @@ impl SpeciesForces {
             base,
             scratch: FreeEnergyScratch::default(),
             amounts: SpeciesAmounts::default(),
-            phi: Vec::new(),
             dphi: Vec::new(),
             boundary: Vec::new(),
         }
@@ -48,8 +48,6 @@ impl SpeciesForces {
                 &self.amounts
             }
         };
-        let areas = vertex_areas(&t.faces, ctx.face_geometry, n);
-        self.phi = fractions(&self.set, &amounts.0, &areas);
         self.boundary.clear();
         if t.is_open() {
             self.boundary = t.boundary_mask();
@@ -65,7 +63,7 @@ impl SpeciesForces {
             n,
             self.base,
             &self.set,
-            &self.phi,
+            Fields::Amounts(&amounts.0),
             (!self.boundary.is_empty()).then_some(&self.boundary[..]),
             Hold::Amount,
             &mut self.scratch,
