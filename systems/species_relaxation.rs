@@ -9,13 +9,15 @@
 //! minimiser measured on the 642-vertex red blood cell with one species
 //! stalls at a residual of 1.8e-2 Ē/l̄ with a creeping energy.)
 //!
-//! Stage: Gather, after `species_gather`. Reads: [`DensePositions`],
+//! Stage: Gather, after `species_gather` and `face_geometry`. Reads:
+//! [`DensePositions`], [`FaceGeometry`],
 //! the topology (in [`Membrane`]), [`SpeciesModel`], [`Clock`]. Writes:
 //! the [`SpeciesAmounts`] in [`TermInputs`] and the world's
 //! `ProteinAmount` components (in [`Membrane`]), [`SpeciesStatus`]. The
 //! conserved counts are rescaled to their initial values after each
 //! relaxation, so round-off does not accumulate over iterations.
 
+use remembrane_core::engine::force::FaceGeometry;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{Clock, DensePositions, SimError};
@@ -35,12 +37,12 @@ pub const SPECIES_RELAXATION: &str = "species_relaxation";
 pub struct SpeciesRelaxation {
     geometry: Vec<Corners>,
     boundary: Vec<bool>,
-    entities: Vec<hecs::Entity>,
 }
 
 impl System for SpeciesRelaxation {
     type Data<'a> = (
         Res<'a, DensePositions>,
+        Res<'a, FaceGeometry>,
         Res<'a, SpeciesModel>,
         Res<'a, Clock>,
         ResMut<'a, Membrane>,
@@ -54,7 +56,7 @@ impl System for SpeciesRelaxation {
 
     fn run(
         &mut self,
-        (positions, model, clock, mut membrane, mut inputs, mut status): Self::Data<'_>,
+        (positions, shared, model, clock, mut membrane, mut inputs, mut status): Self::Data<'_>,
     ) -> Result<(), SimError> {
         let Some(dense) = inputs.get_mut::<SpeciesAmounts>() else {
             return Ok(());
@@ -62,14 +64,21 @@ impl System for SpeciesRelaxation {
         let positions = &positions.0;
         let n = positions.len();
         let topology = membrane.cached_topology();
-        face_geometry(positions, &topology.faces, &mut self.geometry);
+        // The tick's face geometry where the force pass has measured it
+        // (the species term asks for it), else measured here.
+        let geometry = if shared.0.len() == topology.faces.len() {
+            &shared.0
+        } else {
+            face_geometry(positions, &topology.faces, &mut self.geometry);
+            &self.geometry
+        };
         self.boundary.clear();
         if topology.is_open() {
             self.boundary = topology.boundary_mask();
         }
         let shape = FixedShape {
             faces: &topology.faces,
-            geometry: &self.geometry,
+            geometry,
             vertex_count: n,
             boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
         };
@@ -81,8 +90,6 @@ impl System for SpeciesRelaxation {
                     source,
                 }
             })?;
-        self.entities.clear();
-        self.entities.extend_from_slice(&topology.vertex_entities);
         for (k, s) in set.species.iter().enumerate() {
             if s.reservoir == Reservoir::Conserved {
                 let target = status.initial_counts[k];
@@ -91,7 +98,7 @@ impl System for SpeciesRelaxation {
                     dense.0[k].iter_mut().for_each(|x| *x *= target / count);
                 }
             }
-            write_amounts(&mut membrane.world, &self.entities, k, &dense.0[k]);
+            write_amounts(&mut membrane, k, &dense.0[k]);
         }
         status.counts = dense.counts();
         status.chemical_potentials = relaxed.chemical_potentials;

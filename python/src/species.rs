@@ -142,7 +142,7 @@ impl PySpecies {
             .zip(&areas)
             .map(|(p, area)| area * p / a)
             .collect();
-        write_amounts(&mut membrane.world, &t.vertex_entities, k, &amounts);
+        write_amounts(membrane, k, &amounts);
         let count: f64 = amounts.iter().sum();
         inner.with_resource_mut::<SpeciesStatus>(|status| {
             if set.species[k].reservoir == Reservoir::Conserved {

@@ -479,7 +479,8 @@ pub fn species(
                 Stage::Gather,
                 crate::systems::species_relaxation::SpeciesRelaxation::default(),
             )
-            .after(crate::systems::species_gather::SPECIES_GATHER);
+            .after(crate::systems::species_gather::SPECIES_GATHER)
+            .after("face_geometry");
         }
         b.add_recorder(crate::io::recorders::SpeciesColumns);
         b.add_summary_section(ResourceSection::<SpeciesStatus>::new("species"))?;

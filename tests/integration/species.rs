@@ -372,7 +372,23 @@ fn two_species_end_on_the_fixed_shape_relation() {
         Some(&mut normals),
         n,
     );
-    let (kappa, kbt, a, c) = (1.0, 0.1, 0.1, [3.0, -3.0]);
+    // κ, k_BT, a_p and c_s as the scene declares them.
+    let declared = remembrane::scene::Scene::load(&scene).unwrap();
+    let set = declared.species.as_ref().unwrap();
+    let kappa = declared
+        .energy
+        .iter()
+        .find_map(|t| match t {
+            remembrane::scene::EnergyTerm::Bending(p) => Some(p.kappa),
+            _ => None,
+        })
+        .unwrap();
+    let (kbt, a) = (set.temperature, set.species[0].area_per_protein);
+    assert_eq!(set.species[1].area_per_protein, a);
+    let c = [
+        set.species[0].curvature_coupling,
+        set.species[1].curvature_coupling,
+    ];
     let mut worst: f64 = 0.0;
     for i in 0..n {
         let l = laplacians[i];

@@ -161,6 +161,26 @@ impl Membrane {
         Ok(())
     }
 
+    /// Reads the vertex field `C` into `out` by dense slot of the cached
+    /// topology (0 at a vertex without it), in one pass over the world.
+    pub fn gather_vertex_field<C: ScalarComponent>(&self, out: &mut Vec<f64>) {
+        gather_field::<C>(&self.world, &self.topology, out);
+    }
+
+    /// Writes `values` (by dense slot of the cached topology) into the
+    /// vertices' `C` components, in one pass over the world; vertices
+    /// without the component are left without it.
+    pub fn scatter_vertex_field<C: ScalarComponent>(&mut self, values: &[f64]) {
+        let slot_of = &self.topology.slot_of;
+        for (e, c) in self.world.query_mut::<(Entity, &mut C)>() {
+            if let Some(&slot) = slot_of.get(e.id() as usize)
+                && let Some(&v) = values.get(slot as usize)
+            {
+                *c = C::from_value(v);
+            }
+        }
+    }
+
     /// The registered per-vertex fields, in registration order.
     pub fn fields(&self) -> &[Arc<dyn FieldTransfer>] {
         &self.fields
@@ -332,5 +352,19 @@ impl Membrane {
             positions,
             faces: self.topology.faces.clone(),
         })
+    }
+}
+
+/// Reads the vertex field `C` of `world` into `out` by dense slot of
+/// `topology` (0 at a vertex without it), in one pass over the world.
+pub fn gather_field<C: ScalarComponent>(world: &World, topology: &Topology, out: &mut Vec<f64>) {
+    out.clear();
+    out.resize(topology.vertex_count(), 0.0);
+    for (e, c) in world.query::<(Entity, &C)>().iter() {
+        if let Some(&slot) = topology.slot_of.get(e.id() as usize)
+            && let Some(x) = out.get_mut(slot as usize)
+        {
+            *x = c.value();
+        }
     }
 }

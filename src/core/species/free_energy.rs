@@ -66,9 +66,10 @@ pub(crate) fn signed_curvature(l: DVec3, normal: DVec3, area: f64) -> (f64, f64,
     (sign * len / (2.0 * area), sign, len)
 }
 
-/// x ln x, continued by 0 at x = 0.
-fn x_ln_x(x: f64) -> f64 {
-    if x > 0.0 { x * x.ln() } else { 0.0 }
+/// (x ln x, ln x), the first continued by 0 at x = 0.
+fn x_ln_x(x: f64) -> (f64, f64) {
+    let ln = x.ln();
+    (if x > 0.0 { x * ln } else { 0.0 }, ln)
 }
 
 /// The local free energy per area of one vertex, f_loc(φ) plus, on an
@@ -77,18 +78,25 @@ fn x_ln_x(x: f64) -> f64 {
 pub(crate) struct LocalEnergy<'a> {
     set: &'a SpeciesSet,
     base: BaseBending,
-    kbt: f64,
-    a0: f64,
+    /// k_BT / a_0, the solvent's entropy per area.
+    kbt_a0: f64,
+    /// k_BT / a_s, each species' entropy per area.
+    kbt_ap: [f64; MAX_SPECIES],
     chi: Vec<Vec<f64>>,
 }
 
 impl<'a> LocalEnergy<'a> {
     pub(crate) fn new(set: &'a SpeciesSet, base: BaseBending) -> Self {
+        let kbt = set.temperature;
+        let mut kbt_ap = [0.0; MAX_SPECIES];
+        for (k, s) in set.species.iter().enumerate() {
+            kbt_ap[k] = kbt / s.area_per_protein;
+        }
         Self {
             set,
             base,
-            kbt: set.temperature,
-            a0: set.solvent_area(),
+            kbt_a0: kbt / set.solvent_area(),
+            kbt_ap,
             chi: set.interaction_matrix(),
         }
     }
@@ -98,14 +106,15 @@ impl<'a> LocalEnergy<'a> {
     /// returns (f, ∂f/∂h).
     pub(crate) fn at(&self, phi: &[f64], h: Option<f64>, dphi: &mut [f64]) -> (f64, f64) {
         let species = &self.set.species;
-        let kbt = self.kbt;
         let bare = 1.0 - phi.iter().sum::<f64>();
-        let mut f = kbt / self.a0 * x_ln_x(bare);
-        let solvent = kbt / self.a0 * (bare.ln() + 1.0);
+        let (b_ln_b, ln_b) = x_ln_x(bare);
+        let mut f = self.kbt_a0 * b_ln_b;
+        let solvent = self.kbt_a0 * (ln_b + 1.0);
         for (k, sp) in species.iter().enumerate() {
             let p = phi[k];
-            f += sp.binding_energy * p + kbt / sp.area_per_protein * x_ln_x(p);
-            dphi[k] = sp.binding_energy + kbt / sp.area_per_protein * (p.ln() + 1.0) - solvent;
+            let (p_ln_p, ln_p) = x_ln_x(p);
+            f += sp.binding_energy * p + self.kbt_ap[k] * p_ln_p;
+            dphi[k] = sp.binding_energy + self.kbt_ap[k] * (ln_p + 1.0) - solvent;
         }
         for (k, row) in self.chi.iter().enumerate() {
             for (l, c) in row.iter().enumerate().skip(k) {
@@ -248,7 +257,7 @@ pub fn free_energy(
     }
     // The gradient energies.
     let mut cot_adjoints = Vec::new();
-    if species.iter().any(|sp| sp.gradient_energy != 0.0) {
+    if set.has_gradient_energy() {
         cot_adjoints.resize(faces.len(), [0.0; 3]);
         energy += gradient_energy(
             faces,

@@ -121,6 +121,11 @@ pub struct SpeciesError {
 }
 
 impl SpeciesSet {
+    /// Whether any species has a gradient energy η_s ≠ 0.
+    pub fn has_gradient_energy(&self) -> bool {
+        self.species.iter().any(|s| s.gradient_energy != 0.0)
+    }
+
     /// Checks every value: names unique and non-empty, a_p > 0 and every
     /// parameter finite, k_BT > 0, interactions naming declared species.
     pub fn validate(&self) -> Result<(), SpeciesError> {

@@ -11,7 +11,7 @@
 //! refreshed from the world each tick.
 
 use crate::mesh::geometry::{Corners, vertex_curvature_terms};
-use crate::mesh::membrane::Membrane;
+use crate::mesh::membrane::{Membrane, gather_field};
 use crate::mesh::topology::{Topology, TopologyError};
 use crate::mesh::vertex_field::{ScalarComponent, TransferPolicy};
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
@@ -98,20 +98,13 @@ pub fn add_amounts(
 /// Species `k`'s amounts from the world, by dense slot of `topology`, into
 /// `out` (0 at a vertex without the component).
 pub fn read_amounts(world: &World, topology: &Topology, k: usize, out: &mut Vec<f64>) {
-    out.clear();
-    with_component!(k, C => out.extend(topology.vertex_entities.iter().map(|&e| {
-        world.get::<&C>(e).map_or(0.0, |c| c.0)
-    })));
+    with_component!(k, C => gather_field::<C>(world, topology, out));
 }
 
-/// Writes species `k`'s amounts `values` into the world, at the vertex
-/// entities `vertices` (a topology's `vertex_entities`: by dense slot).
-pub fn write_amounts(world: &mut World, vertices: &[hecs::Entity], k: usize, values: &[f64]) {
-    with_component!(k, C => for (&e, &v) in vertices.iter().zip(values) {
-        if let Ok(mut c) = world.get::<&mut C>(e) {
-            c.0 = v;
-        }
-    });
+/// Writes species `k`'s amounts `values` (by dense slot of the cached
+/// topology) into the world's components.
+pub fn write_amounts(membrane: &mut Membrane, k: usize, values: &[f64]) {
+    with_component!(k, C => membrane.scatter_vertex_field::<C>(values));
 }
 
 /// The dense amounts of every species (proteins; by species, then dense
@@ -224,8 +217,7 @@ mod tests {
         assert_eq!(dense.0[2][5], 3.05);
         // Species 1 written back doubled, the others untouched.
         let doubled: Vec<f64> = dense.0[1].iter().map(|x| 2.0 * x).collect();
-        let t = m.cached_topology().clone();
-        write_amounts(&mut m.world, &t.vertex_entities, 1, &doubled);
+        write_amounts(&mut m, 1, &doubled);
         dense.gather(&m.world, m.cached_topology(), 3);
         assert_eq!(dense.0[1], doubled);
         assert_eq!(dense.counts()[0], before[0]);
