@@ -300,12 +300,12 @@ fn ten_thousand_remesh_edits_and_flips_hold_every_count() {
 /// `scenes/proteins/two_species.ron` to its end: on the final shape every
 /// vertex satisfies the two-species relation φ_s = x_s / (1 + x_1 + x_2),
 /// x_s = exp((μ_s − ε_s)/k_BT), ε_s = −a κ c_s (h − Σ_t c_t φ_t), to 1e-6
-/// (κ = 1, k_BT = 0.1, a = 0.1 for both), read from `final.ply` and the
-/// chemical potentials of `summary.json`; and the two have sorted apart.
+/// (κ, k_BT, a and c_s as the scene declares them), read from `final.ply`
+/// and the chemical potentials of `summary.json`; and the two have sorted
+/// apart.
 #[test]
 #[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn two_species_end_on_the_fixed_shape_relation() {
-    use glam::DVec3;
     use remembrane::mesh::geometry::{face_geometry, vertex_curvature_terms};
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
@@ -318,48 +318,9 @@ fn two_species_end_on_the_fixed_shape_relation() {
     assert_eq!(s.minimiser.as_ref().unwrap().stopped_by, "force_residual");
     let status: SpeciesStatus = s.section("species").unwrap().unwrap();
     let mu = &status.chemical_potentials;
-    // final.ply: binary little-endian, x y z phi_positive phi_negative per
-    // vertex, then the faces as a uchar count and three int32.
-    let bytes = std::fs::read(out.join("final.ply")).unwrap();
-    let end = b"end_header\n";
-    let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let header = String::from_utf8_lossy(&bytes[..at]).to_string();
-    assert!(
-        header.contains("property double phi_positive\nproperty double phi_negative\nelement face")
-    );
-    let count = |element: &str| -> usize {
-        let line = header
-            .lines()
-            .find(|l| l.starts_with(&format!("element {element} ")))
-            .unwrap();
-        line.split(' ').nth(2).unwrap().parse().unwrap()
-    };
-    let (n, f) = (count("vertex"), count("face"));
-    let double =
-        |i: usize| f64::from_le_bytes(bytes[at + 8 * i..at + 8 * i + 8].try_into().unwrap());
-    let positions: Vec<DVec3> = (0..n)
-        .map(|v| DVec3::new(double(5 * v), double(5 * v + 1), double(5 * v + 2)))
-        .collect();
-    let phi: [Vec<f64>; 2] = [
-        (0..n).map(|v| double(5 * v + 3)).collect(),
-        (0..n).map(|v| double(5 * v + 4)).collect(),
-    ];
-    let faces_at = at + 40 * n;
-    let faces: Vec<[u32; 3]> = (0..f)
-        .map(|k| {
-            let base = faces_at + 13 * k;
-            assert_eq!(bytes[base], 3);
-            let int = |j: usize| {
-                i32::from_le_bytes(
-                    bytes[base + 1 + 4 * j..base + 5 + 4 * j]
-                        .try_into()
-                        .unwrap(),
-                ) as u32
-            };
-            [int(0), int(1), int(2)]
-        })
-        .collect();
-    assert_eq!(bytes.len(), faces_at + 13 * f);
+    let (positions, fields, faces) = final_ply(&out, &["phi_positive", "phi_negative"]);
+    let n = positions.len();
+    let phi = [fields[0].clone(), fields[1].clone()];
     // The signed curvature h = s|L|/(2A), as the free energy measures it.
     let mut geometry = Vec::new();
     face_geometry(&positions, &faces, &mut geometry);
@@ -421,4 +382,145 @@ fn two_species_end_on_the_fixed_shape_relation() {
         phi[1][p],
         phi[0][q]
     );
+}
+
+/// Curvature sorting into a tether against the continuum tube
+/// ([`remembrane::analysis::tube_sorting`]): `scenes/proteins/tube_sorting.ron`
+/// (sorting exponent 2, φ_v = 0.001: enriched 7.3 times) and the same tube
+/// with c = −0.5 /l̄ at φ_v = 0.01 (depleted to 0.14 times). The tube's
+/// radius and both end forces hold within 1 %, and φ over the middle third
+/// within 6 %. That is not yet issue 48's 2 % for φ_t: the species feel the
+/// cotangent curvature while the tube's bending is in the dihedral form, and
+/// on the tube the two differ by 1-2.5 % (docs/proteins.md). Measured
+/// (2026-12-07): φ_t −2.6 % and +3.7 %, radii +0.10 % and +0.22 %, forces
+/// within 0.43 %.
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
+    use remembrane::analysis::tube_sorting::{TubeSetting, reservoir_potential, solve};
+    let scene = crate::common::scene("proteins/tube_sorting.ron");
+    let base = std::fs::read_to_string(&scene).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for (c, phi_v) in [(0.5, 0.001), (-0.5, 0.01)] {
+        let mut setting = TubeSetting {
+            kappa: 1.0,
+            sigma: 0.114544,
+            temperature: 0.1,
+            area_per_protein: 0.836,
+            coupling: c,
+            chemical_potential: 0.0,
+        };
+        setting.chemical_potential = reservoir_potential(&setting, phi_v);
+        let tube = solve(&setting).unwrap();
+        let text = base
+            .replace(
+                "curvature_coupling: 0.5,",
+                &format!("curvature_coupling: {c},"),
+            )
+            .replace(
+                "Some(-0.6904664778648554)",
+                &format!("Some({})", setting.chemical_potential),
+            );
+        assert!(text.contains(&format!("Some({})", setting.chemical_potential)));
+        assert!(text.contains("Bending(kappa: 1.0,") && text.contains("sigma: 0.114544"));
+        assert!(text.contains("area_per_protein: 0.836,") && text.contains("temperature: 0.1,"));
+        let out = dir.path().join(format!("c{c}"));
+        let path = write(dir.path(), &text);
+        assert_eq!(
+            cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
+            std::process::ExitCode::SUCCESS
+        );
+        assert!(summary(&out).minimiser.unwrap().converged);
+        let last = |column: &str| *crate::common::series_column(&out, column).last().unwrap();
+        let radius = last("radius_tube");
+        assert!(
+            (radius / tube.radius - 1.0).abs() < 0.01,
+            "c = {c}: R {radius} against {}",
+            tube.radius
+        );
+        for end in ["force_top", "force_bottom"] {
+            let f = last(end);
+            assert!(
+                (f / tube.force - 1.0).abs() < 0.01,
+                "c = {c}: {end} {f} against {}",
+                tube.force
+            );
+        }
+        // φ over the middle third, where the tube_radius planes are.
+        let (positions, fields, _) = final_ply(&out, &["phi_bar"]);
+        let middle: Vec<f64> = positions
+            .iter()
+            .zip(&fields[0])
+            .filter(|(p, _)| p.z.abs() < 3.5)
+            .map(|(_, &phi)| phi)
+            .collect();
+        let phi_t = middle.iter().sum::<f64>() / middle.len() as f64;
+        println!(
+            "c = {c}: φ_t {phi_t:.6} against {:.6} ({:+.2} %), R {radius:.5} against {:.5}",
+            tube.fraction,
+            100.0 * (phi_t / tube.fraction - 1.0),
+            tube.radius
+        );
+        assert!(
+            (phi_t / tube.fraction - 1.0).abs() < 0.06,
+            "c = {c}: φ_t {phi_t} against {}",
+            tube.fraction
+        );
+    }
+}
+
+/// The vertices, the named per-vertex fields and the faces of `out`'s
+/// final.ply (binary little-endian: x y z and then the fields as doubles
+/// per vertex, in the header's order, then each face as a uchar count and
+/// three int32).
+fn final_ply(out: &Path, names: &[&str]) -> (Vec<glam::DVec3>, Vec<Vec<f64>>, Vec<[u32; 3]>) {
+    let bytes = std::fs::read(out.join("final.ply")).unwrap();
+    let end = b"end_header\n";
+    let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let header = String::from_utf8_lossy(&bytes[..at]).to_string();
+    let properties: Vec<&str> = header
+        .lines()
+        .skip_while(|l| !l.starts_with("element vertex"))
+        .skip(1)
+        .take_while(|l| l.starts_with("property double"))
+        .map(|l| l.rsplit(' ').next().unwrap())
+        .collect();
+    assert_eq!(properties[..3], ["x", "y", "z"]);
+    let count = |element: &str| -> usize {
+        let line = header
+            .lines()
+            .find(|l| l.starts_with(&format!("element {element} ")))
+            .unwrap();
+        line.split(' ').nth(2).unwrap().parse().unwrap()
+    };
+    let (n, f, k) = (count("vertex"), count("face"), properties.len());
+    let double =
+        |i: usize| f64::from_le_bytes(bytes[at + 8 * i..at + 8 * i + 8].try_into().unwrap());
+    let positions = (0..n)
+        .map(|v| glam::DVec3::new(double(k * v), double(k * v + 1), double(k * v + 2)))
+        .collect();
+    let fields = names
+        .iter()
+        .map(|name| {
+            let j = properties.iter().position(|p| p == name).unwrap();
+            (0..n).map(|v| double(k * v + j)).collect()
+        })
+        .collect();
+    let faces_at = at + 8 * k * n;
+    let faces = (0..f)
+        .map(|q| {
+            let base = faces_at + 13 * q;
+            assert_eq!(bytes[base], 3);
+            let int = |j: usize| {
+                i32::from_le_bytes(
+                    bytes[base + 1 + 4 * j..base + 5 + 4 * j]
+                        .try_into()
+                        .unwrap(),
+                ) as u32
+            };
+            [int(0), int(1), int(2)]
+        })
+        .collect();
+    assert_eq!(bytes.len(), faces_at + 13 * f);
+    (positions, fields, faces)
 }
