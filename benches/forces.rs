@@ -377,8 +377,9 @@ fn model_ticks(c: &mut Criterion) {
 fn species(c: &mut Criterion) {
     use remembrane::species::free_energy::BaseBending;
     use remembrane::species::params::{Initial, Reservoir, Species, SpeciesSet};
-    use remembrane::species::relax::{FixedShape, RelaxSettings, relax_amounts};
-    use remembrane::species::state::{SpeciesAmounts, add_amounts, vertex_areas};
+    use remembrane::species::relax::{RelaxSettings, relax_amounts};
+    use remembrane::species::state::{SpeciesAmounts, add_amounts};
+    use remembrane::species::surface::{Surface, vertex_areas};
     use remembrane::species::term::SpeciesForces;
     let set = SpeciesSet {
         species: vec![Species {
@@ -398,6 +399,7 @@ fn species(c: &mut Criterion) {
     let base = BaseBending {
         kappa: 5.0,
         c0: 0.0,
+        discretisation: Default::default(),
     };
     for level in [3, 4, 5] {
         let mut m = membrane(level);
@@ -407,7 +409,7 @@ fn species(c: &mut Criterion) {
         let mut geometry = Vec::new();
         let faces = m.cached_topology().faces.clone();
         remembrane::mesh::geometry::face_geometry(&pos, &faces, &mut geometry);
-        let areas = vertex_areas(&faces, &geometry, n);
+        let areas = vertex_areas(&faces, &geometry, n, base.discretisation);
         add_amounts(&mut m, &set, |_, slot, p| {
             areas[slot] * (0.2 + 0.05 * (p.z / 7.0).sin()) / 0.05
         })
@@ -426,10 +428,10 @@ fn species(c: &mut Criterion) {
                 black_box(term.accumulate(&ctx, &mut force))
             })
         });
-        let shape = FixedShape {
-            faces: &faces,
+        let shape = Surface {
+            positions: &pos,
+            topology: &t,
             geometry: &geometry,
-            vertex_count: n,
             boundary: None,
         };
         let settings = RelaxSettings {

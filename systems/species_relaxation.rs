@@ -26,8 +26,9 @@ use remembrane_core::mesh::geometry::{Corners, face_geometry};
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane_core::species::params::Reservoir;
-use remembrane_core::species::relax::{FixedShape, relax_amounts};
+use remembrane_core::species::relax::relax_amounts;
 use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
+use remembrane_core::species::surface::Surface;
 
 /// Its name in the schedule.
 pub const SPECIES_RELAXATION: &str = "species_relaxation";
@@ -62,7 +63,6 @@ impl System for SpeciesRelaxation {
             return Ok(());
         };
         let positions = &positions.0;
-        let n = positions.len();
         let topology = membrane.cached_topology();
         // The tick's face geometry where the force pass has measured it
         // (the species term asks for it), else measured here.
@@ -76,10 +76,10 @@ impl System for SpeciesRelaxation {
         if topology.is_open() {
             self.boundary = topology.boundary_mask();
         }
-        let shape = FixedShape {
-            faces: &topology.faces,
+        let shape = Surface {
+            positions,
+            topology,
             geometry,
-            vertex_count: n,
             boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
         };
         let set = &model.set;

@@ -8,7 +8,8 @@ use pyo3::exceptions::{PyKeyError, PyValueError};
 use pyo3::prelude::*;
 use remembrane::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane::species::params::Reservoir;
-use remembrane::species::state::{SpeciesAmounts, fractions_at, vertex_areas, write_amounts};
+use remembrane::species::state::{SpeciesAmounts, fractions_at, write_amounts};
+use remembrane::species::surface::vertex_areas;
 
 /// The species of a simulation as a mapping from name to area fractions
 /// φ (float64 arrays of length N, by vertex): `sim.species["bar"]` reads
@@ -38,7 +39,10 @@ struct Fields {
 fn read(sim: &PySimulation, name: Option<&str>) -> PyResult<Fields> {
     let mut inner = sim.lock()?;
     inner.topology()?;
-    let Some(set) = inner.resource::<SpeciesModel>().map(|m| m.set.clone()) else {
+    let Some((set, form)) = inner
+        .resource::<SpeciesModel>()
+        .map(|m| (m.set.clone(), m.base.discretisation))
+    else {
         return Ok(Fields {
             names: Vec::new(),
             index: None,
@@ -53,7 +57,7 @@ fn read(sim: &PySimulation, name: Option<&str>) -> PyResult<Fields> {
     amounts.gather(&membrane.world, t, set.species.len());
     let mut positions = Vec::new();
     membrane.gather_positions(&mut positions);
-    let phi = fractions_at(&set, &amounts.0, &positions, &t.faces);
+    let phi = fractions_at(&set, &amounts.0, &positions, &t.faces, form);
     Ok(Fields { names, index, phi })
 }
 
@@ -125,9 +129,9 @@ impl PySpecies {
         }
         let sim = self.sim.borrow(py);
         let mut inner = sim.lock()?;
-        let set = inner
+        let (set, form) = inner
             .resource::<SpeciesModel>()
-            .map(|m| m.set.clone())
+            .map(|m| (m.set.clone(), m.base.discretisation))
             .ok_or_else(|| simulation_error("the scene declares no species"))?;
         let membrane = inner.membrane_mut()?;
         let t = membrane.topology().map_err(simulation_error)?.clone();
@@ -135,7 +139,7 @@ impl PySpecies {
         membrane.gather_positions(&mut positions);
         let mut geometry = Vec::new();
         remembrane::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
-        let areas = vertex_areas(&t.faces, &geometry, n);
+        let areas = vertex_areas(&t.faces, &geometry, n, form);
         let a = set.species[k].area_per_protein;
         let amounts: Vec<f64> = values
             .iter()

@@ -179,8 +179,14 @@ impl Recorder for SpeciesColumns {
         };
         let set = &model.set;
         let faces = &membrane.cached_topology().faces;
-        let phi = fractions_at(set, &amounts.0, &positions.0, faces);
-        // The mixed areas partition the faces: Σ A_i φ_i / Σ A_i = a_s N / A.
+        let phi = fractions_at(
+            set,
+            &amounts.0,
+            &positions.0,
+            faces,
+            model.base.discretisation,
+        );
+        // The vertex areas partition the faces: Σ A_i φ_i / Σ A_i = a_s N / A.
         let area = crate::mesh::geometry::total_area(&positions.0, faces);
         for (k, s) in set.species.iter().enumerate() {
             let name = &s.name;

@@ -217,12 +217,14 @@ impl Scene {
                     EnergyTerm::Bending(p) => Some(crate::species::free_energy::BaseBending {
                         kappa: p.kappa,
                         c0: p.c0,
+                        discretisation: p.discretisation,
                     }),
                     _ => None,
                 })
                 .unwrap_or(crate::species::free_energy::BaseBending {
                     kappa: 0.0,
                     c0: 0.0,
+                    discretisation: Default::default(),
                 });
             let tolerance = match self.dynamics_resolved().method {
                 crate::params::Method::Minimise(m) => m.field_tolerance,

@@ -396,7 +396,8 @@ pub fn species(
     move |b: &mut SimBuilder| {
         use crate::species::model::{SpeciesModel, SpeciesStatus};
         use crate::species::params::{Initial, Reservoir};
-        use crate::species::state::{SpeciesAmounts, add_amounts, vertex_areas};
+        use crate::species::state::{SpeciesAmounts, add_amounts};
+        use crate::species::surface::vertex_areas;
         let membrane = b
             .resource_mut::<Membrane>()
             .ok_or_else(|| BuildError::Requires {
@@ -413,7 +414,7 @@ pub fn species(
         membrane.gather_positions(&mut positions);
         let mut geometry = Vec::new();
         crate::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
-        let areas = vertex_areas(&t.faces, &geometry, positions.len());
+        let areas = vertex_areas(&t.faces, &geometry, positions.len(), base.discretisation);
         let area: f64 = areas.iter().sum();
         // Each species' uniform initial fraction.
         let mut fractions = Vec::new();

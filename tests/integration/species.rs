@@ -266,7 +266,13 @@ fn ten_thousand_remesh_edits_and_flips_hold_every_count() {
     );
     // The smearing against the field's resolution.
     let amounts = counts(&mut m);
-    let phi = fractions_at(&set, &amounts.0, &mesh.positions, &mesh.faces);
+    let phi = fractions_at(
+        &set,
+        &amounts.0,
+        &mesh.positions,
+        &mesh.faces,
+        Default::default(),
+    );
     let (areas, centroids) = vertex_cells(&mesh.positions, &mesh.faces);
     let total: f64 = areas.iter().sum();
     let t = m.topology().unwrap().clone();
@@ -389,11 +395,9 @@ fn two_species_end_on_the_fixed_shape_relation() {
 /// (sorting exponent 2, φ_v = 0.001: enriched 7.3 times) and the same tube
 /// with c = −0.5 /l̄ at φ_v = 0.01 (depleted to 0.14 times). The tube's
 /// radius and both end forces hold within 1 %, and φ over the middle third
-/// within 6 %. That is not yet issue 48's 2 % for φ_t: the species feel the
-/// cotangent curvature while the tube's bending is in the dihedral form, and
-/// on the tube the two differ by 1-2.5 % (docs/proteins.md). Measured
-/// (2026-12-07): φ_t −2.6 % and +3.7 %, radii +0.10 % and +0.22 %, forces
-/// within 0.43 %.
+/// within 6 %: not yet issue 48's 2 % for φ_t, which reads further off on
+/// finer meshes (docs/proteins.md). Measured (2026-12-07): φ_t −2.0 % and
+/// +2.7 %, radii +0.26 % and +0.23 %, forces within 0.25 %.
 #[test]
 #[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_tether_sorts_proteins_as_the_continuum_tube_does() {

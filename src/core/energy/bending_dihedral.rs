@@ -112,37 +112,7 @@ pub fn bending_dihedral(
 ) -> f64 {
     let n = positions.len();
     let s = scratch;
-    s.orient(topology);
-    let (quads, quad_faces) = (&s.quads, &s.quad_faces);
-    crate::util::parallel::fill_vec(&mut s.edges, quads.len(), |e| {
-        let [x0, x1, ..] = quads[e].map(|v| positions[v as usize]);
-        let [fa, fb] = quad_faces[e].map(|f| geometry[f as usize].n_hat);
-        let d = x1 - x0;
-        let l = d.length();
-        (l, dihedral(fa, fb, d / l))
-    });
-    let edges = &s.edges;
-    crate::util::parallel::fill_vec(&mut s.m, n, |i| {
-        0.25 * topology
-            .ring_edges_of(i)
-            .iter()
-            .map(|&e| {
-                let (l, t) = edges[e as usize];
-                l * t
-            })
-            .sum::<f64>()
-    });
-    crate::util::parallel::fill_vec(&mut s.a, n, |i| {
-        topology
-            .ring_faces_of(i)
-            .iter()
-            .filter(|&&f| f != NO_SLOT)
-            .map(|&f| geometry[f as usize].twice_area)
-            .sum::<f64>()
-            / 6.0
-    });
-    s.g_m.resize(n, 0.0);
-    s.g_a.resize(n, 0.0);
+    s.measure(positions, topology, geometry);
     let mut energy = 0.0;
     for i in 0..n {
         if topology.is_boundary_vertex(i) {
@@ -157,45 +127,119 @@ pub fn bending_dihedral(
         s.g_m[i] = 2.0 * kappa * dh;
         s.g_a[i] = 0.5 * kappa * dh * dh - kappa * dh * h;
     }
-    let Some(force) = force else {
-        return energy;
-    };
-    let (g_m, g_a) = (&s.g_m, &s.g_a);
-    let edge_gradient = |e: usize| {
-        let [i0, i1, ..] = quads[e];
-        let [x0, x1, x2, x3] = quads[e].map(|v| positions[v as usize]);
-        let [ca, cb] = quad_faces[e].map(|f| &geometry[f as usize]);
-        let (l, theta) = edges[e];
-        let d = x1 - x0;
-        let e_hat = d / l;
-        let c = 0.25 * (g_m[i0 as usize] + g_m[i1 as usize]);
-        // ∂θ/∂x2 = −ℓ n̂_A / (2A_A), ∂θ/∂x3 = −ℓ n̂_B / (2A_B); the edge's
-        // ends take the rest by where x2 and x3 project onto the edge.
-        let t2 = -l * ca.inv_twice_area * ca.n_hat;
-        let t3 = -l * cb.inv_twice_area * cb.n_hat;
-        let inv_l2 = 1.0 / (l * l);
-        let alpha_a = (x2 - x0).dot(d) * inv_l2;
-        let alpha_b = (x3 - x0).dot(d) * inv_l2;
-        let t0 = -(1.0 - alpha_a) * t2 - (1.0 - alpha_b) * t3;
-        let t1 = -alpha_a * t2 - alpha_b * t3;
-        // d(ℓθ) = θ dℓ + ℓ dθ.
-        let (cl, ct) = (c * theta, c * l);
-        (
-            0.0,
-            [ct * t0 - cl * e_hat, ct * t1 + cl * e_hat, ct * t2, ct * t3],
-        )
-    };
-    subtract(quads, force, &mut s.edge_gradients, edge_gradient);
-    let faces = &topology.faces;
-    let face_gradient = |k: usize| {
-        let [i0, i1, i2] = faces[k].map(|v| v as usize);
-        let c = &geometry[k];
-        // ∂A_f/∂p_k = ½ n̂ × e_k, and A_i takes a third of A_f.
-        let w = (g_a[i0] + g_a[i1] + g_a[i2]) / 6.0;
-        (0.0, c.e.map(|e| w * c.n_hat.cross(e)))
-    };
-    subtract(faces, force, &mut s.face_gradients, face_gradient);
+    if let Some(force) = force {
+        s.pull_back(positions, topology, geometry, force);
+    }
     energy
+}
+
+impl DihedralScratch {
+    /// Measures every edge's length ℓ_e and angle θ_e, and every vertex's
+    /// M_i = ¼ Σ_{e∋i} ℓ_e θ_e and barycentric area A_i; sizes the adjoints.
+    pub(crate) fn measure(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        geometry: &[Corners],
+    ) {
+        let n = positions.len();
+        let s = self;
+        s.orient(topology);
+        let (quads, quad_faces) = (&s.quads, &s.quad_faces);
+        crate::util::parallel::fill_vec(&mut s.edges, quads.len(), |e| {
+            let [x0, x1, ..] = quads[e].map(|v| positions[v as usize]);
+            let [fa, fb] = quad_faces[e].map(|f| geometry[f as usize].n_hat);
+            let d = x1 - x0;
+            let l = d.length();
+            (l, dihedral(fa, fb, d / l))
+        });
+        let edges = &s.edges;
+        crate::util::parallel::fill_vec(&mut s.m, n, |i| {
+            0.25 * topology
+                .ring_edges_of(i)
+                .iter()
+                .map(|&e| {
+                    let (l, t) = edges[e as usize];
+                    l * t
+                })
+                .sum::<f64>()
+        });
+        crate::util::parallel::fill_vec(&mut s.a, n, |i| {
+            topology
+                .ring_faces_of(i)
+                .iter()
+                .filter(|&&f| f != NO_SLOT)
+                .map(|&f| geometry[f as usize].twice_area)
+                .sum::<f64>()
+                / 6.0
+        });
+        s.g_m.resize(n, 0.0);
+        s.g_a.resize(n, 0.0);
+    }
+
+    /// M_i of the last [`DihedralScratch::measure`] (l̄).
+    pub(crate) fn integrated_curvature(&self) -> &[f64] {
+        &self.m
+    }
+
+    /// A_i of the last [`DihedralScratch::measure`] (l̄²).
+    pub(crate) fn areas(&self) -> &[f64] {
+        &self.a
+    }
+
+    /// The adjoints ∂E/∂M_i and ∂E/∂A_i, which [`DihedralScratch::pull_back`]
+    /// reads.
+    pub(crate) fn adjoints_mut(&mut self) -> (&mut [f64], &mut [f64]) {
+        (&mut self.g_m, &mut self.g_a)
+    }
+
+    /// Subtracts ∇E from `force` for an energy E(M, A) whose adjoints were
+    /// written with [`DihedralScratch::adjoints_mut`], at the measured state.
+    pub(crate) fn pull_back(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        geometry: &[Corners],
+        force: &mut [DVec3],
+    ) {
+        let s = self;
+        let (quads, quad_faces, edges) = (&s.quads, &s.quad_faces, &s.edges);
+        let (g_m, g_a) = (&s.g_m, &s.g_a);
+        let edge_gradient = |e: usize| {
+            let [i0, i1, ..] = quads[e];
+            let [x0, x1, x2, x3] = quads[e].map(|v| positions[v as usize]);
+            let [ca, cb] = quad_faces[e].map(|f| &geometry[f as usize]);
+            let (l, theta) = edges[e];
+            let d = x1 - x0;
+            let e_hat = d / l;
+            let c = 0.25 * (g_m[i0 as usize] + g_m[i1 as usize]);
+            // ∂θ/∂x2 = −ℓ n̂_A / (2A_A), ∂θ/∂x3 = −ℓ n̂_B / (2A_B); the edge's
+            // ends take the rest by where x2 and x3 project onto the edge.
+            let t2 = -l * ca.inv_twice_area * ca.n_hat;
+            let t3 = -l * cb.inv_twice_area * cb.n_hat;
+            let inv_l2 = 1.0 / (l * l);
+            let alpha_a = (x2 - x0).dot(d) * inv_l2;
+            let alpha_b = (x3 - x0).dot(d) * inv_l2;
+            let t0 = -(1.0 - alpha_a) * t2 - (1.0 - alpha_b) * t3;
+            let t1 = -alpha_a * t2 - alpha_b * t3;
+            // d(ℓθ) = θ dℓ + ℓ dθ.
+            let (cl, ct) = (c * theta, c * l);
+            (
+                0.0,
+                [ct * t0 - cl * e_hat, ct * t1 + cl * e_hat, ct * t2, ct * t3],
+            )
+        };
+        subtract(quads, force, &mut s.edge_gradients, edge_gradient);
+        let faces = &topology.faces;
+        let face_gradient = |k: usize| {
+            let [i0, i1, i2] = faces[k].map(|v| v as usize);
+            let c = &geometry[k];
+            // ∂A_f/∂p_k = ½ n̂ × e_k, and A_i takes a third of A_f.
+            let w = (g_a[i0] + g_a[i1] + g_a[i2]) / 6.0;
+            (0.0, c.e.map(|e| w * c.n_hat.cross(e)))
+        };
+        subtract(faces, force, &mut s.face_gradients, face_gradient);
+    }
 }
 
 /// Subtracts every item's per-vertex gradients from `force`, in item order:

@@ -17,8 +17,10 @@
 //! its proteins feels; the fractions dilute as the vertex areas grow,
 //! ∂φ_i/∂A_i = −φ_i/A_i).
 
-use crate::mesh::geometry::{Corners, vertex_curvature_terms};
+use crate::energy::bending::BendingDiscretisation;
+use crate::mesh::geometry::Corners;
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
+use crate::species::surface::{Surface, VertexTerms};
 use glam::DVec3;
 
 /// What stays fixed when the shape moves.
@@ -37,15 +39,15 @@ pub struct BaseBending {
     pub kappa: f64,
     /// C0 (1/l̄, total curvature).
     pub c0: f64,
+    /// The curvature the bending measures, which the coupling modifies.
+    pub discretisation: BendingDiscretisation,
 }
 
 /// Reusable per-vertex buffers.
 #[derive(Clone, Debug, Default)]
 pub struct FreeEnergyScratch {
-    areas: Vec<f64>,
-    laplacians: Vec<DVec3>,
-    normals: Vec<DVec3>,
-    g_lap: Vec<DVec3>,
+    terms: VertexTerms,
+    df_dh: Vec<f64>,
     g_area: Vec<f64>,
 }
 
@@ -55,15 +57,6 @@ pub struct Derivatives<'a> {
     pub force: &'a mut [DVec3],
     /// ∂F/∂φ_s,i is written here (Ē), by species then dense slot.
     pub phi: &'a mut [Vec<f64>],
-}
-
-/// The signed total curvature h = s|L|/(2A) of a vertex with cotangent
-/// Laplacian `l`, area-weighted normal `normal` and area `area`, with the
-/// sign s (negative where L points against the normal) and |L|.
-pub(crate) fn signed_curvature(l: DVec3, normal: DVec3, area: f64) -> (f64, f64, f64) {
-    let len = l.length();
-    let sign = if l.dot(normal) < 0.0 { -1.0 } else { 1.0 };
-    (sign * len / (2.0 * area), sign, len)
 }
 
 /// (x ln x, ln x), the first continued by 0 at x = 0.
@@ -186,39 +179,35 @@ pub enum Fields<'a> {
     Amounts(&'a [Vec<f64>]),
 }
 
-/// The species' free energy (Ē) of the mesh `faces` with per-face
-/// `geometry` and `n` vertices, for the `fields`. `boundary` marks the
-/// vertices of an open mesh's rims, which carry no bending (as in
-/// [`crate::energy::bending`]). With `out`, adds the shape force to
-/// `out.force` under `hold` and writes ∂F/∂φ to `out.phi`.
-#[allow(clippy::too_many_arguments)]
+/// The species' free energy (Ē) on `surface` for the `fields`, with the
+/// curvature and the vertex areas in the discretisation of `base`
+/// ([`crate::species::surface`]). A rim vertex of an open mesh carries no
+/// bending (as in [`crate::energy::bending`]). With `out`, adds the shape
+/// force to `out.force` under `hold` and writes ∂F/∂φ to `out.phi`.
 pub fn free_energy(
-    faces: &[[u32; 3]],
-    geometry: &[Corners],
-    n: usize,
+    surface: Surface<'_>,
     base: BaseBending,
     set: &SpeciesSet,
     fields: Fields<'_>,
-    boundary: Option<&[bool]>,
     hold: Hold,
     scratch: &mut FreeEnergyScratch,
     mut out: Option<Derivatives<'_>>,
 ) -> f64 {
     let s = scratch;
+    let n = surface.vertex_count();
     let species = &set.species;
     let local = LocalEnergy::new(set, base);
-    let (areas, laplacians) = (&mut s.areas, &mut s.laplacians);
-    vertex_curvature_terms(faces, geometry, areas, laplacians, Some(&mut s.normals), n);
+    s.terms.measure(surface, base.discretisation);
     let converted;
     let phi = match fields {
         Fields::Fractions(phi) => phi,
         Fields::Amounts(amounts) => {
-            converted = crate::species::state::fractions(set, amounts, &s.areas);
+            converted = crate::species::state::fractions(set, amounts, &s.terms.areas);
             &converted[..]
         }
     };
-    s.g_lap.clear();
-    s.g_lap.resize(n, DVec3::ZERO);
+    s.df_dh.clear();
+    s.df_dh.resize(n, 0.0);
     s.g_area.clear();
     s.g_area.resize(n, 0.0);
     if let Some(o) = out.as_mut() {
@@ -231,24 +220,18 @@ pub fn free_energy(
     let mut at = [0.0; MAX_SPECIES];
     let mut dphi = [0.0; MAX_SPECIES];
     for i in 0..n {
-        let a = s.areas[i];
+        let a = s.terms.areas[i];
         for (k, p) in phi.iter().enumerate() {
             at[k] = p[i];
         }
         // The coupled bending on interior vertices only.
-        let interior = !boundary.is_some_and(|b| b[i]);
-        let l = s.laplacians[i];
-        let (h, sign, len) = signed_curvature(l, s.normals[i], a);
-        let (f, mut df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
-        if interior {
-            // h = s|L|/(2A): ∂(A f)/∂L = ½ f'(h) s L/|L|; ∂(A f)/∂A gets −h f'(h).
-            if len > 0.0 {
-                s.g_lap[i] = l * (0.5 * df_dh * sign / len);
-            }
-            df_dh *= h;
-        }
+        let interior = surface.is_interior(i);
+        let h = s.terms.curvature[i];
+        let (f, df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
+        s.df_dh[i] = df_dh;
         energy += a * f;
-        s.g_area[i] = f - df_dh;
+        // ∂(A f)/∂A at fixed h, less h f'(h) (h varies as 1/A).
+        s.g_area[i] = if interior { f - df_dh * h } else { f - df_dh };
         if let Some(o) = out.as_mut() {
             for (k, d) in dphi.iter().take(species.len()).enumerate() {
                 o.phi[k][i] = a * d;
@@ -258,10 +241,10 @@ pub fn free_energy(
     // The gradient energies.
     let mut cot_adjoints = Vec::new();
     if set.has_gradient_energy() {
-        cot_adjoints.resize(faces.len(), [0.0; 3]);
+        cot_adjoints.resize(surface.faces().len(), [0.0; 3]);
         energy += gradient_energy(
-            faces,
-            geometry,
+            surface.faces(),
+            surface.geometry,
             set,
             phi,
             out.as_mut().map(|o| &mut *o.phi),
@@ -274,28 +257,14 @@ pub fn free_energy(
     if hold == Hold::Amount {
         // φ_i = a_p n_i / A_i: ∂φ_i/∂A_i = −φ_i/A_i.
         for i in 0..n {
-            let a = s.areas[i];
+            let a = s.terms.areas[i];
             for (k, d) in o.phi.iter().enumerate() {
                 s.g_area[i] -= d[i] * phi[k][i] / a;
             }
         }
     }
-    for (fi, (face, c)) in faces.iter().zip(geometry).enumerate() {
-        let [i0, i1, i2] = face.map(|v| v as usize);
-        let mut g = c.backward(
-            [s.g_lap[i0], s.g_lap[i1], s.g_lap[i2]],
-            [s.g_area[i0], s.g_area[i1], s.g_area[i2]],
-        );
-        if let Some(gc) = cot_adjoints.get(fi) {
-            let extra = c.cot_backward(*gc);
-            for k in 0..3 {
-                g[k] += extra[k];
-            }
-        }
-        o.force[i0] -= g[0];
-        o.force[i1] -= g[1];
-        o.force[i2] -= g[2];
-    }
+    s.terms
+        .pull_back(surface, &s.df_dh, &s.g_area, &cot_adjoints, o.force);
     energy
 }
 
@@ -305,7 +274,9 @@ mod tests {
     use crate::fd::{perturbed_icosphere, perturbed_patches};
     use crate::mesh::SurfaceMesh;
     use crate::mesh::geometry::face_geometry;
+    use crate::mesh::topology::Topology;
     use crate::species::params::{Interaction, Species};
+    use crate::species::surface::vertex_areas;
     use rand::{RngExt, SeedableRng};
 
     fn two_species() -> SpeciesSet {
@@ -346,57 +317,86 @@ mod tests {
             .collect()
     }
 
-    /// The mesh's faces at `positions`: their geometry and the vertex areas.
-    fn geometry_at(mesh: &SurfaceMesh, positions: &[DVec3]) -> (Vec<Corners>, Vec<f64>) {
-        let mut geometry = Vec::new();
-        face_geometry(positions, &mesh.faces, &mut geometry);
-        let (mut areas, mut laps) = (Vec::new(), Vec::new());
-        let n = positions.len();
-        vertex_curvature_terms(&mesh.faces, &geometry, &mut areas, &mut laps, None, n);
-        (geometry, areas)
+    /// A mesh to differentiate on: its topology (dense slots in the mesh's
+    /// vertex order), its rims and the curvature's discretisation.
+    struct Case<'a> {
+        mesh: &'a SurfaceMesh,
+        topology: Topology,
+        boundary: Option<Vec<bool>>,
+        form: BendingDiscretisation,
     }
 
-    /// F of `mesh` at `positions` (κ = 5 Ē, C0 = 0.3/l̄) for the fractions
-    /// `phi`, or, with `amounts`, for the fractions n_i / A_i of the
-    /// amounts `phi` at these positions; with `out`, its derivatives.
-    fn evaluate(
-        mesh: &SurfaceMesh,
-        positions: &[DVec3],
-        (set, phi, amounts): (&SpeciesSet, &[Vec<f64>], bool),
-        (boundary, hold): (Option<&[bool]>, Hold),
-        out: Option<Derivatives<'_>>,
-    ) -> f64 {
-        let (geometry, areas) = geometry_at(mesh, positions);
-        let phi: Vec<Vec<f64>> = match amounts {
-            true => phi
-                .iter()
-                .map(|n| n.iter().zip(&areas).map(|(n, a)| n / a).collect())
-                .collect(),
-            false => phi.to_vec(),
-        };
-        let base = BaseBending {
-            kappa: 5.0,
-            c0: 0.3,
-        };
-        let mut s = FreeEnergyScratch::default();
-        let n = positions.len();
-        free_energy(
-            &mesh.faces,
-            &geometry,
-            n,
-            base,
-            set,
-            Fields::Fractions(&phi),
-            boundary,
-            hold,
-            &mut s,
-            out,
-        )
+    impl<'a> Case<'a> {
+        fn new(mesh: &'a SurfaceMesh, open: bool, form: BendingDiscretisation) -> Self {
+            let mut m = crate::mesh::membrane::Membrane::from_mesh(mesh, false).unwrap();
+            let topology = m.topology().unwrap().clone();
+            let boundary = open.then(|| topology.boundary_mask());
+            if let Some(b) = &boundary {
+                assert!(b.iter().any(|b| *b));
+            }
+            Self {
+                mesh,
+                topology,
+                boundary,
+                form,
+            }
+        }
+
+        /// The faces' geometry at `positions` and the vertex areas.
+        fn geometry_at(&self, positions: &[DVec3]) -> (Vec<Corners>, Vec<f64>) {
+            let mut geometry = Vec::new();
+            let faces = &self.topology.faces;
+            face_geometry(positions, faces, &mut geometry);
+            let areas = vertex_areas(faces, &geometry, positions.len(), self.form);
+            (geometry, areas)
+        }
+
+        /// F at `positions` (κ = 5 Ē, C0 = 0.3/l̄) for the fractions `phi`,
+        /// or, with `amounts`, for the fractions n_i / A_i of the amounts
+        /// `phi` at these positions; with `out`, its derivatives.
+        fn evaluate(
+            &self,
+            positions: &[DVec3],
+            (set, phi, amounts): (&SpeciesSet, &[Vec<f64>], bool),
+            hold: Hold,
+            out: Option<Derivatives<'_>>,
+        ) -> f64 {
+            let (geometry, areas) = self.geometry_at(positions);
+            let phi: Vec<Vec<f64>> = match amounts {
+                true => phi
+                    .iter()
+                    .map(|n| n.iter().zip(&areas).map(|(n, a)| n / a).collect())
+                    .collect(),
+                false => phi.to_vec(),
+            };
+            let base = BaseBending {
+                kappa: 5.0,
+                c0: 0.3,
+                discretisation: self.form,
+            };
+            let surface = Surface {
+                positions,
+                topology: &self.topology,
+                geometry: &geometry,
+                boundary: self.boundary.as_deref(),
+            };
+            let mut s = FreeEnergyScratch::default();
+            free_energy(
+                surface,
+                base,
+                set,
+                Fields::Fractions(&phi),
+                hold,
+                &mut s,
+                out,
+            )
+        }
     }
 
     /// Checks −∂F/∂r and ∂F/∂φ against central differences (fourth order)
-    /// on `mesh`, holding fractions or amounts.
-    fn check(mesh: &SurfaceMesh, boundary: Option<&[bool]>, hold: Hold, seed: u64) {
+    /// on `case`, holding fractions or amounts.
+    fn check(case: &Case<'_>, hold: Hold, seed: u64) {
+        let mesh = case.mesh;
         let set = two_species();
         let n = mesh.positions.len();
         let phi = fields(n, seed);
@@ -407,25 +407,18 @@ mod tests {
             phi: &mut dphi,
         };
         let at_rest = (&set, phi.as_slice(), false);
-        let e = evaluate(
-            mesh,
-            &mesh.positions,
-            at_rest,
-            (boundary, hold),
-            Some(derivatives),
-        );
+        let e = case.evaluate(&mesh.positions, at_rest, hold, Some(derivatives));
         assert!(e.is_finite());
         let amounts = hold == Hold::Amount;
         // The held variables: the amounts A_i φ_i (a_p cancels).
         let held: Vec<Vec<f64>> = if amounts {
-            let areas = geometry_at(mesh, &mesh.positions).1;
+            let areas = case.geometry_at(&mesh.positions).1;
             phi.iter()
                 .map(|p| p.iter().zip(&areas).map(|(p, a)| p * a).collect())
                 .collect()
         } else {
             phi.clone()
         };
-        let plain = (boundary, Hold::Fraction);
         // 1e-5 l̄: on the flat disc some |L_i| are small, and the curvature
         // h_i = s|L_i|/(2A_i) bends sharply at that scale (with 1e-4 the
         // stencil's truncation error reaches 1e-4 relative there).
@@ -433,20 +426,21 @@ mod tests {
         let diff4 = |f: &dyn Fn(f64) -> f64| {
             (f(-2.0 * h) - 8.0 * f(-h) + 8.0 * f(h) - f(2.0 * h)) / (12.0 * h)
         };
+        let form = case.form;
         for v in 0..n {
             let mut numeric = DVec3::ZERO;
             for c in 0..3 {
                 let at = |t: f64| {
                     let mut p = mesh.positions.clone();
                     p[v][c] += t;
-                    evaluate(mesh, &p, (&set, &held, amounts), plain, None)
+                    case.evaluate(&p, (&set, &held, amounts), Hold::Fraction, None)
                 };
                 numeric[c] = -diff4(&at);
             }
             let err = (force[v] - numeric).length();
             assert!(
                 err <= 1e-6 * numeric.length() + 1e-8,
-                "{hold:?}, vertex {v}: analytic {:?}, numeric {numeric:?}",
+                "{form:?}, {hold:?}, vertex {v}: analytic {:?}, numeric {numeric:?}",
                 force[v]
             );
         }
@@ -455,44 +449,41 @@ mod tests {
                 let at = |t: f64| {
                     let mut p = phi.clone();
                     p[k][v] += t;
-                    evaluate(mesh, &mesh.positions, (&set, &p, false), plain, None)
+                    case.evaluate(&mesh.positions, (&set, &p, false), Hold::Fraction, None)
                 };
                 let numeric = diff4(&at);
                 assert!(
                     (d[v] - numeric).abs() <= 1e-6 * numeric.abs() + 1e-8,
-                    "species {k}, vertex {v}: analytic {}, numeric {numeric}",
+                    "{form:?}, species {k}, vertex {v}: analytic {}, numeric {numeric}",
                     d[v]
                 );
             }
         }
     }
 
+    const FORMS: [BendingDiscretisation; 2] = [
+        BendingDiscretisation::Cotangent,
+        BendingDiscretisation::Dihedral,
+    ];
+
     #[test]
     fn shape_and_field_derivatives_match_finite_differences_on_a_closed_mesh() {
         let mesh = perturbed_icosphere(1, 7);
-        check(&mesh, None, Hold::Fraction, 1);
-        check(&mesh, None, Hold::Amount, 2);
+        for form in FORMS {
+            let case = Case::new(&mesh, false, form);
+            check(&case, Hold::Fraction, 1);
+            check(&case, Hold::Amount, 2);
+        }
     }
 
     #[test]
     fn shape_and_field_derivatives_match_finite_differences_on_open_meshes() {
         for mesh in perturbed_patches(11) {
-            // The rims: the vertices of edges with one face.
-            let mut uses = std::collections::HashMap::new();
-            for f in &mesh.faces {
-                for k in 0..3 {
-                    let (a, b) = (f[k], f[(k + 1) % 3]);
-                    *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-                }
+            for form in FORMS {
+                let case = Case::new(&mesh, true, form);
+                check(&case, Hold::Fraction, 3);
+                check(&case, Hold::Amount, 4);
             }
-            let mut boundary = vec![false; mesh.vertex_count()];
-            for ((a, b), _) in uses.into_iter().filter(|(_, c)| *c == 1) {
-                boundary[a as usize] = true;
-                boundary[b as usize] = true;
-            }
-            assert!(boundary.iter().any(|b| *b));
-            check(&mesh, Some(&boundary), Hold::Fraction, 3);
-            check(&mesh, Some(&boundary), Hold::Amount, 4);
         }
     }
 
@@ -506,10 +497,10 @@ mod tests {
         let sp = &mut set.species[0];
         (sp.binding_energy, sp.gradient_energy) = (0.0, 0.0);
         (sp.curvature_coupling, sp.rigidity_change) = (0.0, 0.0);
-        let area: f64 = geometry_at(&mesh, &mesh.positions).1.iter().sum();
+        let case = Case::new(&mesh, false, BendingDiscretisation::Cotangent);
+        let area: f64 = case.geometry_at(&mesh.positions).1.iter().sum();
         let phi = vec![vec![0.3; n]];
-        let plain = (None, Hold::Fraction);
-        let e = evaluate(&mesh, &mesh.positions, (&set, &phi, false), plain, None);
+        let e = case.evaluate(&mesh.positions, (&set, &phi, false), Hold::Fraction, None);
         // (k_BT/a_p)[φ ln φ + (1−φ) ln(1−φ)] per area.
         let per_area = 0.1 / 0.05 * (0.3 * 0.3f64.ln() + 0.7 * 0.7f64.ln());
         assert!((e - area * per_area).abs() <= 1e-12 * e.abs(), "{e}");

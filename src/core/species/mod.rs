@@ -2,7 +2,9 @@
 //! curvature, bind, interact and mix (SPEC §9). [`params`] declares them
 //! with their units; [`free_energy`] is their free energy on the mesh with
 //! its analytic derivatives against the shape and the fields; [`relax`]
-//! minimises it over the fields at a fixed shape. [`state`] keeps the
+//! minimises it over the fields at a fixed shape; [`surface`] is what the
+//! proteins feel of the surface (areas and curvatures in the bending's
+//! discretisation). [`state`] keeps the
 //! proteins' amounts on the vertices; [`term`] is the force term;
 //! [`model`] holds the resources of a simulation with species.
 
@@ -11,4 +13,5 @@ pub mod model;
 pub mod params;
 pub mod relax;
 pub mod state;
+pub mod surface;
 pub mod term;

@@ -17,22 +17,10 @@
 //! (for one species the Fermi-Dirac relation
 //! φ_i = 1/(1 + e^{(ε_i − μ)/k_BT}), ε_i = −a_p κ c (h_i − c φ_i)).
 
-use crate::mesh::geometry::{Corners, vertex_curvature_terms};
-use crate::species::free_energy::{BaseBending, LocalEnergy, gradient_energy, signed_curvature};
+use crate::energy::bending::BendingDiscretisation;
+use crate::species::free_energy::{BaseBending, LocalEnergy, gradient_energy};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
-
-/// The fixed surface the fields relax on.
-#[derive(Clone, Copy)]
-pub struct FixedShape<'a> {
-    /// Faces by dense vertex slot.
-    pub faces: &'a [[u32; 3]],
-    /// Per-face geometry at the shape.
-    pub geometry: &'a [Corners],
-    /// The number of vertices.
-    pub vertex_count: usize,
-    /// The rim vertices of an open mesh (no bending), or `None`.
-    pub boundary: Option<&'a [bool]>,
-}
+use crate::species::surface::{Surface, VertexTerms};
 
 /// When the relaxation stops.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,27 +95,16 @@ struct Vertices {
 }
 
 impl Vertices {
-    /// The quantities of `shape`; the Dirichlet diagonal only with
-    /// `gradients` (a species has a gradient energy), else zeros.
-    fn measure(shape: FixedShape<'_>, gradients: bool) -> Self {
-        let n = shape.vertex_count;
-        let (mut areas, mut laplacians, mut normals) = (Vec::new(), Vec::new(), Vec::new());
-        vertex_curvature_terms(
-            shape.faces,
-            shape.geometry,
-            &mut areas,
-            &mut laplacians,
-            Some(&mut normals),
-            n,
-        );
-        let curvature = (0..n)
-            .map(|i| signed_curvature(laplacians[i], normals[i], areas[i]).0)
-            .collect();
-        let interior = (0..n)
-            .map(|i| !shape.boundary.is_some_and(|b| b[i]))
-            .collect();
+    /// The quantities of `shape` in the bending's `form`; the Dirichlet
+    /// diagonal only with `gradients` (a species has a gradient energy),
+    /// else zeros.
+    fn measure(shape: Surface<'_>, form: BendingDiscretisation, gradients: bool) -> Self {
+        let n = shape.vertex_count();
+        let mut terms = VertexTerms::default();
+        terms.measure(shape, form);
+        let interior = (0..n).map(|i| shape.is_interior(i)).collect();
         let mut dirichlet = vec![0.0; n];
-        let faces = if gradients { shape.faces } else { &[] };
+        let faces = if gradients { shape.faces() } else { &[] };
         for (face, c) in faces.iter().zip(shape.geometry) {
             for k in 0..3 {
                 for v in [face[(k + 1) % 3], face[(k + 2) % 3]] {
@@ -139,8 +116,8 @@ impl Vertices {
             *d = d.max(0.0);
         }
         Self {
-            areas,
-            curvature,
+            areas: terms.areas,
+            curvature: terms.curvature,
             interior,
             dirichlet,
         }
@@ -250,7 +227,7 @@ fn factorise(h: &mut Block, s: usize) {
 /// the minimum of the grand potential, holding every conserved species'
 /// count. `phi` must be inside the bounds.
 pub fn relax_fields(
-    shape: FixedShape<'_>,
+    shape: Surface<'_>,
     base: BaseBending,
     set: &SpeciesSet,
     phi: &mut [Vec<f64>],
@@ -258,7 +235,7 @@ pub fn relax_fields(
 ) -> Result<Relaxed, RelaxError> {
     relax_measured(
         shape,
-        &Vertices::measure(shape, set.has_gradient_energy()),
+        &Vertices::measure(shape, base.discretisation, set.has_gradient_energy()),
         base,
         set,
         phi,
@@ -270,13 +247,13 @@ pub fn relax_fields(
 /// species, then dense slot), which are relaxed in place; the vertex areas
 /// are measured once for the conversions and the relaxation.
 pub fn relax_amounts(
-    shape: FixedShape<'_>,
+    shape: Surface<'_>,
     base: BaseBending,
     set: &SpeciesSet,
     amounts: &mut [Vec<f64>],
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
-    let v = Vertices::measure(shape, set.has_gradient_energy());
+    let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
     let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
     let relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;
     let back = crate::species::state::amounts(set, &phi, &v.areas);
@@ -288,14 +265,14 @@ pub fn relax_amounts(
 
 /// [`relax_fields`] on the vertex quantities `v` of `shape`.
 fn relax_measured(
-    shape: FixedShape<'_>,
+    shape: Surface<'_>,
     v: &Vertices,
     base: BaseBending,
     set: &SpeciesSet,
     phi: &mut [Vec<f64>],
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
-    let n = shape.vertex_count;
+    let n = shape.vertex_count();
     let ns = set.species.len();
     for i in 0..n {
         let total: f64 = phi.iter().map(|p| p[i]).sum();
@@ -350,7 +327,7 @@ fn relax_measured(
         }
         if set.has_gradient_energy() {
             f += gradient_energy(
-                shape.faces,
+                shape.faces(),
                 shape.geometry,
                 set,
                 phi,
@@ -590,6 +567,12 @@ mod tests {
     use crate::species::free_energy::{Fields, FreeEnergyScratch, Hold, free_energy};
     use crate::species::params::Species;
 
+    /// The topology of `mesh`, its dense slots in the mesh's vertex order.
+    fn topology_of(mesh: &crate::mesh::SurfaceMesh) -> crate::mesh::topology::Topology {
+        let mut m = crate::mesh::membrane::Membrane::from_mesh(mesh, false).unwrap();
+        m.topology().unwrap().clone()
+    }
+
     fn species(name: &str, c: f64, reservoir: Reservoir, mu: Option<f64>) -> Species {
         Species {
             name: name.into(),
@@ -615,20 +598,22 @@ mod tests {
         let mesh = ellipsoid(4, [1.0, 1.3, 0.8], 0.0, 0);
         let n = mesh.vertex_count();
         assert_eq!(n, 2562);
+        let topology = topology_of(&mesh);
         let mut geometry = Vec::new();
-        face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
-        let shape = FixedShape {
-            faces: &mesh.faces,
+        face_geometry(&mesh.positions, &topology.faces, &mut geometry);
+        let shape = Surface {
+            positions: &mesh.positions,
+            topology: &topology,
             geometry: &geometry,
-            vertex_count: n,
             boundary: None,
         };
         let base = BaseBending {
             kappa: 1.0,
             c0: 0.0,
+            discretisation: BendingDiscretisation::Cotangent,
         };
         let mut phi: Vec<Vec<f64>> = start.iter().map(|&p| vec![p; n]).collect();
-        let v = Vertices::measure(shape, set.has_gradient_energy());
+        let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
         let count = |phi: &[Vec<f64>], s: usize| -> f64 {
             (0..n).map(|i| v.areas[i] * phi[s][i]).sum::<f64>() / 0.05
         };
@@ -720,23 +705,15 @@ mod tests {
         use crate::fd::perturbed_patches;
         let mesh = perturbed_patches(5)[0].clone();
         let n = mesh.vertex_count();
+        let topology = topology_of(&mesh);
         let mut geometry = Vec::new();
-        face_geometry(&mesh.positions, &mesh.faces, &mut geometry);
-        let mut uses = std::collections::HashMap::new();
-        for f in &mesh.faces {
-            for k in 0..3 {
-                let (a, b) = (f[k], f[(k + 1) % 3]);
-                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-            }
-        }
-        let mut boundary = vec![false; n];
-        for ((a, b), _) in uses.into_iter().filter(|(_, c)| *c == 1) {
-            (boundary[a as usize], boundary[b as usize]) = (true, true);
-        }
-        let shape = FixedShape {
-            faces: &mesh.faces,
+        face_geometry(&mesh.positions, &topology.faces, &mut geometry);
+        let boundary = topology.boundary_mask();
+        assert!(boundary.iter().any(|b| *b));
+        let shape = Surface {
+            positions: &mesh.positions,
+            topology: &topology,
             geometry: &geometry,
-            vertex_count: n,
             boundary: Some(&boundary),
         };
         let mut bar = species("bar", 3.0, Reservoir::Conserved, None);
@@ -755,6 +732,7 @@ mod tests {
         let base = BaseBending {
             kappa: 1.0,
             c0: 0.2,
+            discretisation: BendingDiscretisation::Cotangent,
         };
         let mut phi = vec![vec![0.3; n], vec![0.2; n]];
         let settings = RelaxSettings {
@@ -765,25 +743,22 @@ mod tests {
         let omega = |phi: &[Vec<f64>]| {
             let mut s = FreeEnergyScratch::default();
             let f = free_energy(
-                shape.faces,
-                shape.geometry,
-                n,
+                shape,
                 base,
                 &set,
                 Fields::Fractions(phi),
-                shape.boundary,
                 Hold::Fraction,
                 &mut s,
                 None,
             );
-            let v = Vertices::measure(shape, set.has_gradient_energy());
+            let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
             f + 0.1 * (0..n).map(|i| v.areas[i] * phi[1][i]).sum::<f64>() / 0.03
         };
         let at_minimum = omega(&phi);
         assert!((at_minimum - relaxed.grand_potential).abs() <= 1e-12 * at_minimum.abs());
         // Move protein between two vertices of equal area weight (count
         // kept), or change the bulk species anywhere.
-        let v = Vertices::measure(shape, set.has_gradient_energy());
+        let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
         for (i, j) in [(3, 17), (20, 41), (8, 30)] {
             for t in [1e-4, -1e-4] {
                 let mut p = phi.clone();

@@ -10,11 +10,12 @@
 //! is published for the force terms ([`crate::engine::term_inputs`]) and
 //! refreshed from the world each tick.
 
-use crate::mesh::geometry::{Corners, vertex_curvature_terms};
+use crate::energy::bending::BendingDiscretisation;
 use crate::mesh::membrane::{Membrane, gather_field};
 use crate::mesh::topology::{Topology, TopologyError};
 use crate::mesh::vertex_field::{ScalarComponent, TransferPolicy};
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
+use crate::species::surface::vertex_areas;
 use glam::DVec3;
 use hecs::World;
 
@@ -127,13 +128,6 @@ impl SpeciesAmounts {
     }
 }
 
-/// The vertex areas A_i of the faces `geometry` (mixed Voronoi, l̄²).
-pub fn vertex_areas(faces: &[[u32; 3]], geometry: &[Corners], n: usize) -> Vec<f64> {
-    let (mut areas, mut laplacians) = (Vec::new(), Vec::new());
-    vertex_curvature_terms(faces, geometry, &mut areas, &mut laplacians, None, n);
-    areas
-}
-
 /// The fractions φ_s,i = a_s n_s,i / A_i of the amounts `amounts` on the
 /// vertex areas `areas`.
 pub fn fractions(set: &SpeciesSet, amounts: &[Vec<f64>], areas: &[f64]) -> Vec<Vec<f64>> {
@@ -150,16 +144,17 @@ pub fn fractions(set: &SpeciesSet, amounts: &[Vec<f64>], areas: &[f64]) -> Vec<V
 }
 
 /// The fractions of the amounts `amounts` on the mesh of `faces` at
-/// `positions` (its vertex areas measured here).
+/// `positions` (its vertex areas in `form` measured here).
 pub fn fractions_at(
     set: &SpeciesSet,
     amounts: &[Vec<f64>],
     positions: &[DVec3],
     faces: &[[u32; 3]],
+    form: BendingDiscretisation,
 ) -> Vec<Vec<f64>> {
     let mut geometry = Vec::new();
     crate::mesh::geometry::face_geometry(positions, faces, &mut geometry);
-    let areas = vertex_areas(faces, &geometry, positions.len());
+    let areas = vertex_areas(faces, &geometry, positions.len(), form);
     fractions(set, amounts, &areas)
 }
 

@@ -13,6 +13,7 @@ use crate::species::free_energy::{
 };
 use crate::species::params::SpeciesSet;
 use crate::species::state::SpeciesAmounts;
+use crate::species::surface::Surface;
 use glam::DVec3;
 
 /// The species term.
@@ -57,14 +58,17 @@ impl SpeciesForces {
             force: f,
             phi: &mut self.dphi,
         });
+        let surface = Surface {
+            positions: ctx.positions,
+            topology: t,
+            geometry: ctx.face_geometry,
+            boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
+        };
         free_energy(
-            &t.faces,
-            ctx.face_geometry,
-            n,
+            surface,
             self.base,
             &self.set,
             Fields::Amounts(&amounts.0),
-            (!self.boundary.is_empty()).then_some(&self.boundary[..]),
             Hold::Amount,
             &mut self.scratch,
             out,
@@ -138,6 +142,7 @@ mod tests {
             let mut term = SpeciesForces::new(
                 set(),
                 BaseBending {
+                    discretisation: Default::default(),
                     kappa: 2.0,
                     c0: 0.1,
                 },

@@ -633,7 +633,13 @@ fn species_fields(sim: &Simulation, mesh: &crate::mesh::SurfaceMesh) -> Vec<(Str
         membrane.cached_topology(),
         set.species.len(),
     );
-    let phi = fractions_at(set, &amounts.0, &mesh.positions, &mesh.faces);
+    let phi = fractions_at(
+        set,
+        &amounts.0,
+        &mesh.positions,
+        &mesh.faces,
+        model.base.discretisation,
+    );
     set.species
         .iter()
         .zip(phi)
