@@ -473,6 +473,89 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
     }
 }
 
+/// The weak-coupling force drop: the same tether at a fixed reservoir
+/// tension Σ = 0.114544 Ē/l̄² (σ raised by the reservoir's protein pressure
+/// and κc²φ_v²/2), with a species of sorting exponent E = 0.02
+/// (a_p = 0.00836 l̄², c = 0.5 /l̄) bound at the μ of φ_v = 0.0001, 0.03,
+/// 0.06 and 0.1. Each end force within 1 % of the continuum tube's, and the
+/// slope of f against φ_v (a straight fit over the four) within 2 % of both
+/// the classic −2πκc and the continuum's own fit (whose dilute limit is
+/// −2πκc (e^E − 1)/E: [`remembrane::analysis::tube_sorting`]). Measured
+/// (2026-12-07): forces within 0.06 %, slope −3.181 against −3.170 (the
+/// continuum) and −3.142 (−2πκc).
+#[test]
+fn a_tether_loses_force_to_weakly_sorted_proteins_as_the_continuum_tube_does() {
+    use remembrane::analysis::tube_sorting::{
+        TubeSetting, reservoir_potential, reservoir_tension, solve,
+    };
+    let scene = crate::common::scene("proteins/tube_sorting.ron");
+    let base = std::fs::read_to_string(&scene).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let tension = 0.114544;
+    let mut points = Vec::new();
+    for phi_v in [0.0001, 0.03, 0.06, 0.1] {
+        let mut setting = TubeSetting {
+            kappa: 1.0,
+            sigma: tension,
+            temperature: 0.1,
+            area_per_protein: 0.00836,
+            coupling: 0.5,
+            chemical_potential: 0.0,
+        };
+        setting.sigma += tension - reservoir_tension(&setting, phi_v);
+        setting.chemical_potential = reservoir_potential(&setting, phi_v);
+        let tube = solve(&setting).unwrap();
+        let text = base
+            .replace("sigma: 0.114544", &format!("sigma: {}", setting.sigma))
+            .replace("area_per_protein: 0.836,", "area_per_protein: 0.00836,")
+            .replace(
+                "Some(-0.6904664778648554)",
+                &format!("Some({})", setting.chemical_potential),
+            )
+            .replace(
+                "initial: Fraction(0.007306),",
+                &format!("initial: Fraction({}),", tube.fraction),
+            );
+        assert!(text.contains(&format!("sigma: {}", setting.sigma)));
+        assert!(text.contains(&format!("Fraction({})", tube.fraction)));
+        let out = dir.path().join(format!("v{phi_v}"));
+        let path = write(dir.path(), &text);
+        assert_eq!(
+            cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
+            std::process::ExitCode::SUCCESS
+        );
+        assert!(summary(&out).minimiser.unwrap().converged);
+        let last = |column: &str| *crate::common::series_column(&out, column).last().unwrap();
+        let (top, bottom) = (last("force_top"), last("force_bottom"));
+        for f in [top, bottom] {
+            assert!(
+                (f / tube.force - 1.0).abs() < 0.01,
+                "φ_v = {phi_v}: force {f} against {}",
+                tube.force
+            );
+        }
+        points.push((phi_v, tube.force, 0.5 * (top + bottom)));
+    }
+    let slope = |y: &dyn Fn(&(f64, f64, f64)) -> f64| {
+        let n = points.len() as f64;
+        let (mx, my) = (
+            points.iter().map(|p| p.0).sum::<f64>() / n,
+            points.iter().map(y).sum::<f64>() / n,
+        );
+        points.iter().map(|p| (p.0 - mx) * (y(p) - my)).sum::<f64>()
+            / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+    };
+    let (continuum, measured) = (slope(&|p| p.1), slope(&|p| p.2));
+    let classic = -2.0 * std::f64::consts::PI * 0.5;
+    println!("force drop: slope {measured:.4} against {continuum:.4} and −2πκc = {classic:.4} Ē/l̄");
+    for expected in [continuum, classic] {
+        assert!(
+            (measured / expected - 1.0).abs() < 0.02,
+            "slope {measured} against {expected}"
+        );
+    }
+}
+
 /// The vertices, the named per-vertex fields and the faces of `out`'s
 /// final.ply (binary little-endian: x y z and then the fields as doubles
 /// per vertex, in the header's order, then each face as a uchar count and
