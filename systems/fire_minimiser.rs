@@ -482,14 +482,35 @@ impl System for FireMinimiser {
             let topology = membrane.cached_topology();
             let faces = &topology.faces;
             let (turned, volume) = check_step(faces, &self.previous, positions);
-            if turned.is_none() && (volume > 0.0 || topology.is_open()) {
+            let folded = turned.is_some() || !(volume > 0.0 || topology.is_open());
+            // A step that folds nothing must also stay in every term's domain.
+            let refused = match folded {
+                true => None,
+                false => buffers.refusal(&ForceContext {
+                    world: &membrane.world,
+                    topology,
+                    positions,
+                    lipid: &[],
+                    face_geometry: &[],
+                    inputs: TermInputs::none(),
+                }),
+            };
+            if !folded && refused.is_none() {
                 break;
             }
             // Undo, halve the step and start again from rest.
+            let refused = refused.map(str::to_string);
             positions.copy_from_slice(&self.previous);
             status.folds_undone += 1;
             let dt = 0.5 * fire.dt;
             if dt < SMALLEST_RETRY * p.dt_start {
+                if let Some(term) = refused {
+                    return Err(SimError::StepRefused {
+                        iteration: clock.iteration + 1,
+                        dt,
+                        term,
+                    });
+                }
                 let face = turned.unwrap_or(0);
                 return Err(SimError::MinimiserStuck {
                     iteration: clock.iteration + 1,

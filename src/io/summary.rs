@@ -150,7 +150,7 @@ pub struct MinimiserSummary {
     pub constraint_violation: f64,
     /// Restarts after topology changes.
     pub restarts: u64,
-    /// Steps undone because they folded a face.
+    /// Steps undone because they folded a face or left a term's domain.
     pub folds_undone: u64,
     /// Factorisations of the preconditioner (0 without one).
     #[serde(default)]

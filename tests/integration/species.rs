@@ -556,6 +556,52 @@ fn a_tether_loses_force_to_weakly_sorted_proteins_as_the_continuum_tube_does() {
     }
 }
 
+/// A minimiser step never leaves the fractions' domain: the tether of
+/// `tube_sorting.ron` with strong sorting (a_p = 2.09 l̄², exponent 5,
+/// φ_v = 0.01) and no remeshing fills its caps' vertices nearly to φ = 1,
+/// and shape steps at fixed amounts then shrink such a cell past its
+/// proteins. FIRE undoes and halves every step the species term does not
+/// admit ([`remembrane::engine::force::ForceTerm::admits`]), as it does a
+/// step that folds a face. Without that, the run stopped at iteration 181
+/// with φ = 1.0145 at a cap vertex (2026-12-07).
+#[test]
+fn a_minimiser_step_keeps_every_fraction_below_one() {
+    use remembrane::analysis::tube_sorting::{TubeSetting, reservoir_potential};
+    let scene = crate::common::scene("proteins/tube_sorting.ron");
+    let base = std::fs::read_to_string(&scene).unwrap();
+    let mut setting = TubeSetting {
+        kappa: 1.0,
+        sigma: 0.114544,
+        temperature: 0.1,
+        area_per_protein: 2.09,
+        coupling: 0.5,
+        chemical_potential: 0.0,
+    };
+    setting.chemical_potential = reservoir_potential(&setting, 0.01);
+    let text = base
+        .replace("area_per_protein: 0.836,", "area_per_protein: 2.09,")
+        .replace(
+            "Some(-0.6904664778648554)",
+            &format!("Some({})", setting.chemical_potential),
+        )
+        .replace("remesh: (mode: FreeEnergy),", "remesh: (mode: Off),")
+        .replace("iterations: 20000", "iterations: 400");
+    assert!(text.contains("remesh: (mode: Off)") && text.contains("iterations: 400"));
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let path = write(dir.path(), &text);
+    assert_eq!(
+        cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
+        std::process::ExitCode::SUCCESS
+    );
+    let s = summary(&out);
+    assert_eq!(s.iterations, 400);
+    assert!(s.minimiser.unwrap().folds_undone > 0);
+    let (_, fields, _) = final_ply(&out, &["phi_bar"]);
+    let largest = fields[0].iter().copied().fold(0.0, f64::max);
+    assert!(largest > 0.99 && largest < 1.0, "{largest}");
+}
+
 /// The vertices, the named per-vertex fields and the faces of `out`'s
 /// final.ply (binary little-endian: x y z and then the fields as doubles
 /// per vertex, in the header's order, then each face as a uchar count and

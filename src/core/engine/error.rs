@@ -108,6 +108,19 @@ pub enum SimError {
         /// Its vertex slots.
         vertices: [u32; 3],
     },
+    /// The minimiser could not take a step that stays in every term's
+    /// domain, even after shrinking its step to the smallest it allows.
+    #[error(
+        "minimiser stuck at iteration {iteration}: every step down to Δt = {dt:e} left the domain of the term `{term}` (for species: a fraction reached 0 or 1 at fixed amounts; lower dynamics.method.Minimise.max_step, or the protein amounts)"
+    )]
+    StepRefused {
+        /// Iteration being computed (completed iterations + 1).
+        iteration: u64,
+        /// The last step tried (fictitious time).
+        dt: f64,
+        /// The term that refused it.
+        term: String,
+    },
     /// The minimiser's preconditioner could not be built.
     #[error("minimiser at iteration {iteration}: {source}")]
     Preconditioner {

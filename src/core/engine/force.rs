@@ -184,6 +184,15 @@ pub trait ForceTerm: Send {
         let _ = (ctx, out);
         false
     }
+    /// Whether the state of `ctx` lies in the term's domain (default: it
+    /// always does). A term whose energy is defined only on part of the
+    /// states (the protein species need every fraction inside (0, 1) at
+    /// their fixed amounts) says so here; the minimiser undoes and halves a
+    /// step that leaves it, as it does a step that folds a face.
+    fn admits(&self, ctx: &ForceContext<'_>) -> bool {
+        let _ = ctx;
+        true
+    }
     /// State the term carries from one evaluation to the next, for
     /// checkpoints; `None` (the default) means none (caches that do not
     /// change results do not count). See
@@ -322,6 +331,16 @@ impl ForceBuffers {
             any |= term.normal_stiffness(ctx, out);
         }
         any
+    }
+
+    /// The first term, in evaluation order, whose domain does not hold the
+    /// state of `ctx` ([`ForceTerm::admits`]), by name.
+    pub fn refusal(&self, ctx: &ForceContext<'_>) -> Option<&str> {
+        self.objects
+            .0
+            .iter()
+            .find(|t| !t.admits(ctx))
+            .map(|t| t.name())
     }
 
     /// The registered terms and the evaluation they write, borrowed together.
@@ -506,6 +525,9 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     }
     fn normal_stiffness(&self, ctx: &ForceContext<'_>, out: &mut [f64]) -> bool {
         (**self).normal_stiffness(ctx, out)
+    }
+    fn admits(&self, ctx: &ForceContext<'_>) -> bool {
+        (**self).admits(ctx)
     }
     fn save_state(&self) -> Option<serde_json::Value> {
         (**self).save_state()

@@ -58,8 +58,9 @@ pub struct MinimiserStatus {
     pub constraint_violation: f64,
     /// Restarts after a topology change (remesh event or flip).
     pub restarts: u64,
-    /// Steps undone because they turned a face over (each cut the step in
-    /// half and restarted FIRE).
+    /// Steps undone because they turned a face over or left a term's
+    /// domain ([`crate::engine::force::ForceTerm::admits`]; each cut the
+    /// step in half and restarted FIRE).
     pub folds_undone: u64,
     /// Factorisations of the preconditioner by its schedule (0 without
     /// one; a resumed run's factorisation of the checkpointed matrix is

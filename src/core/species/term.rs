@@ -13,7 +13,7 @@ use crate::species::free_energy::{
 };
 use crate::species::params::SpeciesSet;
 use crate::species::state::SpeciesAmounts;
-use crate::species::surface::Surface;
+use crate::species::surface::{Surface, vertex_areas};
 use glam::DVec3;
 
 /// The species term.
@@ -91,6 +91,41 @@ impl ForceTerm for SpeciesForces {
 
     fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
         self.evaluate(ctx, Some(force))
+    }
+
+    /// Every fraction at the amounts held stays inside (0, 1), and their
+    /// sum below 1: a shape step that shrinks a full vertex's area past its
+    /// proteins' leaves the free energy's domain.
+    fn admits(&self, ctx: &ForceContext<'_>) -> bool {
+        let t = ctx.topology;
+        let n = ctx.positions.len();
+        let species = self.set.species.len();
+        let mut gathered = SpeciesAmounts::default();
+        let amounts = match ctx.inputs.get::<SpeciesAmounts>() {
+            Some(a) if a.0.first().is_some_and(|x| x.len() == n) => a,
+            _ => {
+                gathered.gather(ctx.world, t, species);
+                &gathered
+            }
+        };
+        let mut geometry = Vec::new();
+        let geometry = match ctx.face_geometry.len() == t.faces.len() {
+            true => ctx.face_geometry,
+            false => {
+                crate::mesh::geometry::face_geometry(ctx.positions, &t.faces, &mut geometry);
+                &geometry[..]
+            }
+        };
+        let areas = vertex_areas(&t.faces, geometry, n, self.base.discretisation);
+        (0..n).all(|i| {
+            let mut total = 0.0;
+            let all_positive = self.set.species.iter().zip(&amounts.0).all(|(s, a)| {
+                let phi = s.area_per_protein * a[i] / areas[i];
+                total += phi;
+                phi > 0.0
+            });
+            all_positive && total < 1.0
+        })
     }
 }
 
