@@ -108,6 +108,36 @@ impl ForceTerm for SpeciesForces {
                 &gathered
             }
         };
+        // First a cheap sufficient test on a lower bound of every vertex
+        // area: the barycentric third of each face (the dihedral form's area
+        // itself). A mixed Voronoi area is at least 3/4 of it: every corner of
+        // a face takes at least a quarter of it (an acute face's circumcentre
+        // lies in its medial triangle).
+        let mut bary = vec![0.0; n];
+        for face in &t.faces {
+            let [a, b, c] = face.map(|v| ctx.positions[v as usize]);
+            let third = (b - a).cross(c - a).length() / 6.0;
+            for &v in face {
+                bary[v as usize] += third;
+            }
+        }
+        let lower = match self.base.discretisation {
+            crate::energy::bending::BendingDiscretisation::Dihedral => 1.0,
+            crate::energy::bending::BendingDiscretisation::Cotangent => 0.75,
+        };
+        let inside = |areas: &[f64], scale: f64| {
+            (0..n).all(|i| {
+                let mut covered = 0.0;
+                let all_positive = self.set.species.iter().zip(&amounts.0).all(|(s, a)| {
+                    covered += s.area_per_protein * a[i];
+                    a[i] > 0.0
+                });
+                all_positive && covered < scale * areas[i]
+            })
+        };
+        if inside(&bary, lower) {
+            return true;
+        }
         let mut geometry = Vec::new();
         let geometry = match ctx.face_geometry.len() == t.faces.len() {
             true => ctx.face_geometry,
@@ -117,15 +147,7 @@ impl ForceTerm for SpeciesForces {
             }
         };
         let areas = vertex_areas(&t.faces, geometry, n, self.base.discretisation);
-        (0..n).all(|i| {
-            let mut total = 0.0;
-            let all_positive = self.set.species.iter().zip(&amounts.0).all(|(s, a)| {
-                let phi = s.area_per_protein * a[i] / areas[i];
-                total += phi;
-                phi > 0.0
-            });
-            all_positive && total < 1.0
-        })
+        inside(&areas, 1.0)
     }
 }
 
