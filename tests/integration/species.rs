@@ -429,13 +429,7 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
         assert!(text.contains("Bending(kappa: 1.0,") && text.contains("sigma: 0.114544"));
         assert!(text.contains("area_per_protein: 0.836,") && text.contains("temperature: 0.1,"));
         let out = dir.path().join(format!("c{c}"));
-        let path = write(dir.path(), &text);
-        assert_eq!(
-            cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
-            std::process::ExitCode::SUCCESS
-        );
-        assert!(summary(&out).minimiser.unwrap().converged);
-        let last = |column: &str| *crate::common::series_column(&out, column).last().unwrap();
+        let last = run_to_rest(dir.path(), &text, &out);
         let radius = last("radius_tube");
         assert!(
             (radius / tube.radius - 1.0).abs() < 0.01,
@@ -519,13 +513,7 @@ fn a_tether_loses_force_to_weakly_sorted_proteins_as_the_continuum_tube_does() {
         assert!(text.contains(&format!("sigma: {}", setting.sigma)));
         assert!(text.contains(&format!("Fraction({})", tube.fraction)));
         let out = dir.path().join(format!("v{phi_v}"));
-        let path = write(dir.path(), &text);
-        assert_eq!(
-            cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
-            std::process::ExitCode::SUCCESS
-        );
-        assert!(summary(&out).minimiser.unwrap().converged);
-        let last = |column: &str| *crate::common::series_column(&out, column).last().unwrap();
+        let last = run_to_rest(dir.path(), &text, &out);
         let (top, bottom) = (last("force_top"), last("force_bottom"));
         for f in [top, bottom] {
             assert!(
@@ -600,6 +588,20 @@ fn a_minimiser_step_keeps_every_fraction_below_one() {
     let (_, fields, _) = final_ply(&out, &["phi_bar"]);
     let largest = fields[0].iter().copied().fold(0.0, f64::max);
     assert!(largest > 0.99 && largest < 1.0, "{largest}");
+}
+
+/// Runs the scene `text` (written into `dir`) to `out` through the CLI,
+/// asserts that the minimiser converged, and returns the last value of a
+/// `series.csv` column.
+fn run_to_rest(dir: &Path, text: &str, out: &Path) -> impl Fn(&str) -> f64 {
+    let path = write(dir, text);
+    assert_eq!(
+        cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
+        std::process::ExitCode::SUCCESS
+    );
+    assert!(summary(out).minimiser.unwrap().converged);
+    let out = out.to_path_buf();
+    move |column: &str| *crate::common::series_column(&out, column).last().unwrap()
 }
 
 /// The vertices, the named per-vertex fields and the faces of `out`'s
