@@ -376,22 +376,15 @@ fn model_ticks(c: &mut Criterion) {
 /// same unrelaxed fields each time.
 fn species(c: &mut Criterion) {
     use remembrane::species::free_energy::BaseBending;
-    use remembrane::species::params::{Initial, Reservoir, Species, SpeciesSet};
+    use remembrane::species::params::{Initial, Species, SpeciesSet};
     use remembrane::species::relax::{RelaxSettings, relax_amounts};
     use remembrane::species::state::{SpeciesAmounts, add_amounts};
     use remembrane::species::surface::{Surface, vertex_areas};
     use remembrane::species::term::SpeciesForces;
     let set = SpeciesSet {
         species: vec![Species {
-            name: "bar".into(),
-            area_per_protein: 0.05,
             curvature_coupling: 1.0,
-            rigidity_change: 0.0,
-            binding_energy: 0.0,
-            gradient_energy: 0.0,
-            initial: Initial::Fraction(0.2),
-            reservoir: Reservoir::Conserved,
-            chemical_potential: None,
+            ..Species::new("bar", 0.05, Initial::Fraction(0.2))
         }],
         interactions: vec![],
         temperature: 0.1,

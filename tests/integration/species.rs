@@ -168,20 +168,10 @@ fn ten_thousand_remesh_edits_and_flips_hold_every_count() {
     use remembrane::mesh::membrane::Membrane;
     use remembrane::mesh::{ValenceRange, check_mesh, icosphere};
     use remembrane::remesh::{merge_edge, split_edge};
-    use remembrane::species::params::{Initial, Reservoir, Species, SpeciesSet};
+    use remembrane::species::params::{Initial, Species, SpeciesSet};
     use remembrane::species::state::{SpeciesAmounts, add_amounts, fractions_at};
     let range = ValenceRange { min: 4, max: 9 };
-    let sp = |name: &str, a: f64| Species {
-        name: name.into(),
-        area_per_protein: a,
-        curvature_coupling: 0.0,
-        rigidity_change: 0.0,
-        binding_energy: 0.0,
-        gradient_energy: 0.0,
-        initial: Initial::Fraction(0.2),
-        reservoir: Reservoir::Conserved,
-        chemical_potential: None,
-    };
+    let sp = |name: &str, a: f64| Species::new(name, a, Initial::Fraction(0.2));
     let set = SpeciesSet {
         species: vec![sp("bar", 0.05), sp("epsin", 0.02)],
         interactions: vec![],

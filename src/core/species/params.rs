@@ -120,6 +120,25 @@ pub struct SpeciesError {
     pub reason: String,
 }
 
+impl Species {
+    /// A conserved species named `name` with area per protein `area_per_protein`
+    /// (l̄²) and the `initial` field, without couplings, binding or gradient
+    /// energy; set the other fields by struct update.
+    pub fn new(name: &str, area_per_protein: f64, initial: Initial) -> Self {
+        Self {
+            name: name.into(),
+            area_per_protein,
+            curvature_coupling: 0.0,
+            rigidity_change: 0.0,
+            binding_energy: 0.0,
+            gradient_energy: 0.0,
+            initial,
+            reservoir: Reservoir::Conserved,
+            chemical_potential: None,
+        }
+    }
+}
+
 impl SpeciesSet {
     /// Whether any species has a gradient energy η_s ≠ 0.
     pub fn has_gradient_energy(&self) -> bool {
@@ -286,15 +305,8 @@ mod tests {
 
     fn one(name: &str) -> Species {
         Species {
-            name: name.into(),
-            area_per_protein: 0.01,
             curvature_coupling: 2.0,
-            rigidity_change: 0.0,
-            binding_energy: 0.0,
-            gradient_energy: 0.0,
-            initial: Initial::Fraction(0.1),
-            reservoir: Reservoir::Conserved,
-            chemical_potential: None,
+            ..Species::new(name, 0.01, Initial::Fraction(0.1))
         }
     }
 

@@ -575,15 +575,10 @@ mod tests {
 
     fn species(name: &str, c: f64, reservoir: Reservoir, mu: Option<f64>) -> Species {
         Species {
-            name: name.into(),
-            area_per_protein: 0.05,
             curvature_coupling: c,
-            rigidity_change: 0.0,
-            binding_energy: 0.0,
-            gradient_energy: 0.0,
-            initial: crate::species::params::Initial::Fraction(0.1),
             reservoir,
             chemical_potential: mu,
+            ..Species::new(name, 0.05, crate::species::params::Initial::Fraction(0.1))
         }
     }
 

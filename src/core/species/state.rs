@@ -183,17 +183,7 @@ mod tests {
         let set = SpeciesSet {
             species: ["a", "b", "c"]
                 .iter()
-                .map(|n| Species {
-                    name: n.to_string(),
-                    area_per_protein: 0.1,
-                    curvature_coupling: 0.0,
-                    rigidity_change: 0.0,
-                    binding_energy: 0.0,
-                    gradient_energy: 0.0,
-                    initial: crate::species::params::Initial::Fraction(0.1),
-                    reservoir: Default::default(),
-                    chemical_potential: None,
-                })
+                .map(|n| Species::new(n, 0.1, crate::species::params::Initial::Fraction(0.1)))
                 .collect(),
             interactions: vec![],
             temperature: 0.1,
