@@ -373,7 +373,8 @@ fn model_ticks(c: &mut Criterion) {
 /// with the face-geometry pass it reads and, outside the schedule, its
 /// gather of the amounts from the world)
 /// and the relaxation of the fields at the shape (`species/relax`), from the
-/// same unrelaxed fields each time.
+/// same unrelaxed fields each time; and the term's domain check after a
+/// minimiser step (`species/admits`).
 fn species(c: &mut Criterion) {
     use remembrane::species::free_energy::BaseBending;
     use remembrane::species::params::{Initial, Species, SpeciesSet};
@@ -419,6 +420,14 @@ fn species(c: &mut Criterion) {
             b.iter(|| {
                 let ctx = ForceContext::new(&m.world, &t, &pos, &[], &mut scratch, true);
                 black_box(term.accumulate(&ctx, &mut force))
+            })
+        });
+        // The domain check FIRE makes after each step (its cheap bound holds
+        // here, as it does on a minimisation's usual step).
+        g.bench_with_input(BenchmarkId::new("admits", n), &n, |b, _| {
+            b.iter(|| {
+                let ctx = ForceContext::new(&m.world, &t, &pos, &[], &mut scratch, false);
+                black_box(term.admits(&ctx))
             })
         });
         let shape = Surface {

@@ -230,8 +230,9 @@ pub fn free_energy(
         let (f, df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
         s.df_dh[i] = df_dh;
         energy += a * f;
-        // ∂(A f)/∂A at fixed h, less h f'(h) (h varies as 1/A).
-        s.g_area[i] = if interior { f - df_dh * h } else { f - df_dh };
+        // ∂(A f)/∂A at fixed h, less h f'(h) (h varies as 1/A; on a rim
+        // both are 0).
+        s.g_area[i] = f - df_dh * h;
         if let Some(o) = out.as_mut() {
             for (k, d) in dphi.iter().take(species.len()).enumerate() {
                 o.phi[k][i] = a * d;
