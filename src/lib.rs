@@ -95,7 +95,7 @@
 //! | Remesh | [`maintenance_flips`](systems::maintenance_flips) (the fluid model's Delaunay flips; before `remesh`) | [`Membrane`] (faces and edges only), [`MaintenanceFlipStats`] |
 //! | Remesh | [`remesh`](systems::remesh) (when declared) | [`Membrane`], [`DensePositions`], [`DenseLipid`], [`AbnormalEdges`], [`RemeshStats`], [`RemeshTriggered`] |
 //! | Remesh | [`edge_flips`](systems::edge_flips) (when declared; after `remesh`) | [`Membrane`] (faces and edges only), [`FlipStats`] |
-//! | Diffuse | [`lipid_diffusion`](systems::lipid_diffusion) (when declared), plugins' systems | [`DenseLipid`], [`Membrane`] |
+//! | Diffuse | [`lipid_diffusion`](systems::lipid_diffusion) (when declared), in overdamped dynamics [`species_transport`](systems::species_transport) (a species with a mobility or a binding rate), plugins' systems | [`DenseLipid`], [`Membrane`] (the species' amounts), [`SpeciesStatus`](species::model::SpeciesStatus) |
 //!
 //! The plugins and the resources they insert:
 //!
@@ -112,7 +112,7 @@
 //! | `remesh` | [`ValenceRange`], [`RemeshStats`], [`RemeshTriggered`] | `remesh` |
 //! | `edge_flips` | [`ValenceRange`], [`FlipStats`] | `edge_flips` |
 //! | `diffusion` | — | `lipid_diffusion` |
-//! | `species` ([`species`]) | `ProteinAmount` components, [`SpeciesAmounts`](species::state::SpeciesAmounts) in [`TermInputs`], [`SpeciesModel`](species::model::SpeciesModel), [`SpeciesStatus`](species::model::SpeciesStatus) | `species_gather`, term `species`, `species_relaxation` (with the minimiser), recorder `species` |
+//! | `species` ([`species`]) | `ProteinAmount` components, [`SpeciesAmounts`](species::state::SpeciesAmounts) in [`TermInputs`], [`SpeciesModel`](species::model::SpeciesModel), [`SpeciesStatus`](species::model::SpeciesStatus) | `species_gather`, term `species`, `species_relaxation` (with the minimiser), `species_transport` (in overdamped dynamics), recorder `species` |
 //! | `recorders` | [`FrameSchedule`], [`CurrentFrame`] | `frame_clock`, a `record_<name>` system per recorder (Observe) |
 //! | `frame_output` ([`io::output::frame_output`]) | [`OpenOutput`] | `frames` (Output) |
 //!

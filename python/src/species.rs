@@ -1,15 +1,13 @@
 //! `Simulation.species`: the protein species' area fractions, by name, as
 //! numpy arrays (at the current shape), settable.
 
-use crate::errors::simulation_error;
 use crate::simulation::PySimulation;
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyKeyError, PyValueError};
 use pyo3::prelude::*;
 use remembrane::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane::species::params::Reservoir;
-use remembrane::species::state::{SpeciesAmounts, fractions_at, write_amounts};
-use remembrane::species::surface::vertex_areas;
+use remembrane::species::state::{SpeciesAmounts, fractions_at, write_fractions};
 
 /// The species of a simulation as a mapping from name to area fractions
 /// φ (float64 arrays of length N, by vertex): `sim.species["bar"]` reads
@@ -109,45 +107,20 @@ impl PySpecies {
         values: PyReadonlyArray1<'_, f64>,
     ) -> PyResult<()> {
         let values = values.as_slice()?.to_vec();
-        let Fields { names, index, phi } = read(&self.sim.borrow(py), Some(name))?;
-        let k = index.ok_or_else(|| missing(name, &names))?;
-        let n = phi[k].len();
-        if values.len() != n {
-            return Err(PyValueError::new_err(format!(
-                "species {name:?}: {} values for {n} vertices",
-                values.len()
-            )));
-        }
-        for (i, &x) in values.iter().enumerate() {
-            let others: f64 = (0..phi.len()).filter(|&s| s != k).map(|s| phi[s][i]).sum();
-            if !(x > 0.0 && x + others < 1.0) {
-                return Err(PyValueError::new_err(format!(
-                    "species {name:?}: φ = {x} at vertex {i} is outside (0, 1) or brings the \
-                     species' sum to 1 or more"
-                )));
-            }
-        }
         let sim = self.sim.borrow(py);
         let mut inner = sim.lock()?;
-        let (set, form) = inner
+        let Some((set, form)) = inner
             .resource::<SpeciesModel>()
             .map(|m| (m.set.clone(), m.base.discretisation))
-            .ok_or_else(|| simulation_error("the scene declares no species"))?;
-        let membrane = inner.membrane_mut()?;
-        let t = membrane.topology().map_err(simulation_error)?.clone();
-        let mut positions = Vec::new();
-        membrane.gather_positions(&mut positions);
-        let mut geometry = Vec::new();
-        remembrane::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
-        let areas = vertex_areas(&t.faces, &geometry, n, form);
-        let a = set.species[k].area_per_protein;
-        let amounts: Vec<f64> = values
-            .iter()
-            .zip(&areas)
-            .map(|(p, area)| area * p / a)
-            .collect();
-        write_amounts(membrane, k, &amounts);
-        let count: f64 = amounts.iter().sum();
+        else {
+            return Err(missing(name, &[]));
+        };
+        let k = set.index(name).ok_or_else(|| {
+            let names: Vec<String> = set.species.iter().map(|s| s.name.clone()).collect();
+            missing(name, &names)
+        })?;
+        let count = write_fractions(inner.membrane_mut()?, &set, form, k, &values)
+            .map_err(|e| PyValueError::new_err(format!("species {name:?}: {e}")))?;
         inner.with_resource_mut::<SpeciesStatus>(|status| {
             if set.species[k].reservoir == Reservoir::Conserved {
                 status.initial_counts[k] = count;

@@ -74,7 +74,8 @@ pub struct Scene {
     pub remesh: RemeshParams,
     /// Protein species on the membrane: area fractions that couple to the
     /// curvature, bind, interact and mix (default none; see
-    /// `docs/proteins.md`). Their fields relax with the minimiser.
+    /// `docs/proteins.md`). Their fields relax with the minimiser; in
+    /// overdamped dynamics they move by their mobility and binding rate.
     #[serde(default)]
     pub species: Option<crate::species::params::SpeciesSet>,
     /// Lipid diffusion (needs `lipid_density: true`; default none).

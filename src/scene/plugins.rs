@@ -386,8 +386,9 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
 /// Protein species: their amounts on the vertices (from each species'
 /// initial field), the species force term, the gather system (Gather) and,
 /// with the minimiser, the fields' relaxation (Gather, after it: the
-/// forces see the fields relaxed at the current shape), the `species`
-/// recorder and summary section.
+/// forces see the fields relaxed at the current shape), in overdamped
+/// dynamics the fields' transport (Diffuse) where a species moves (a
+/// mobility or a binding rate), the `species` recorder and summary section.
 pub fn species(
     set: crate::species::params::SpeciesSet,
     base: crate::species::free_energy::BaseBending,
@@ -482,6 +483,15 @@ pub fn species(
             )
             .after(crate::systems::species_gather::SPECIES_GATHER)
             .after("face_geometry");
+        } else if set
+            .species
+            .iter()
+            .any(|s| s.mobility > 0.0 || s.binding_rate > 0.0)
+        {
+            b.add_system(
+                Stage::Diffuse,
+                crate::systems::species_transport::SpeciesTransport::default(),
+            );
         }
         b.add_recorder(crate::io::recorders::SpeciesColumns);
         b.add_summary_section(ResourceSection::<SpeciesStatus>::new("species"))?;

@@ -37,21 +37,23 @@ impl Scene {
             .map(|(i, t)| (i, t.kind()))
     }
 
-    /// The species: their parameters, and a minimiser to relax their
-    /// fields.
+    /// The species: their parameters, and in thermal dynamics one k_BT.
     fn validate_species(&self, path: &Path) -> Result<(), SceneError> {
         let Some(set) = &self.species else {
             return Ok(());
         };
         set.validate()
             .map_err(|e| invalid_field(path, &format!("species.{}", e.field), e.reason))?;
-        if !matches!(self.dynamics.method, crate::params::Method::Minimise(_)) {
+        let kbt = self.dynamics.temperature;
+        if self.dynamics.method.is_overdamped() && kbt > 0.0 && kbt != set.temperature {
             return Err(invalid_field(
                 path,
-                "species",
-                "the species' fields relax with the minimiser (dynamics: (method: \
-                 Minimise(...))); their transport in overdamped dynamics is not built yet"
-                    .into(),
+                "species.temperature",
+                format!(
+                    "{} differs from dynamics.temperature {kbt}: the fields' thermal noise and \
+                     their mixing entropy must share one k_BT (Ē)",
+                    set.temperature
+                ),
             ));
         }
         Ok(())

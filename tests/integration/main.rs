@@ -45,6 +45,7 @@ mod self_avoidance;
 mod shape_and_render;
 mod shape_diagram;
 mod species;
+mod species_transport;
 mod spectrum;
 mod study;
 mod sweep;

@@ -108,15 +108,19 @@ fn a_species_relaxes_with_the_shape_and_its_count_holds() {
 /// The message of the scene's load-and-build error, and that the CLI
 /// refuses it (non-zero, no output directory left behind).
 fn refused(species: &str) -> String {
+    refused_scene(&scene_text(species))
+}
+
+/// [`refused`] for a whole scene's `text`.
+fn refused_scene(text: &str) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let text = scene_text(species);
-    let path = write(dir.path(), &text);
+    let path = write(dir.path(), text);
     let msg = match Scene::load(&path).and_then(|s| s.build(&path).map(|_| ())) {
         Ok(()) => panic!("accepted:\n{text}"),
         Err(e) => e.to_string(),
     };
     assert!(msg.contains("scene.ron"), "{msg}");
-    let (out, ok) = run(dir.path(), &text);
+    let (out, ok) = run(dir.path(), text);
     assert!(!ok, "the CLI ran it");
     assert!(!out.exists() && !dir.path().join("out.incomplete").exists());
     msg
@@ -145,6 +149,38 @@ fn bad_species_are_refused_naming_the_file_the_field_and_the_reason() {
     ));
     assert!(
         msg.contains("species.species[0].chemical_potential") && msg.contains("conserved"),
+        "{msg}"
+    );
+    let msg = refused(&BAR.replace(
+        "initial: Fraction(0.2),",
+        "initial: Fraction(0.2), mobility: -1.0,",
+    ));
+    assert!(
+        msg.contains("species.species[0].mobility") && msg.contains("positive"),
+        "{msg}"
+    );
+    let msg = refused(&BAR.replace(
+        "initial: Fraction(0.2),",
+        "initial: Fraction(0.2), binding_rate: 2.0,",
+    ));
+    assert!(
+        msg.contains("species.species[0].binding_rate") && msg.contains("conserved"),
+        "{msg}"
+    );
+    // Thermal dynamics whose k_BT is not the species'.
+    let text = scene_text(BAR)
+        .replace(
+            "method: Minimise(force_tolerance: 1e-3, field_tolerance: 1e-10),",
+            "temperature: 0.2,",
+        )
+        .replace(
+            "constraints: (\n        area: OfInitial(1.0),\n        volume: OfInitial(1.0),\n    ),",
+            "",
+        )
+        .replace("model: Fluid(),", "");
+    let msg = refused_scene(&text);
+    assert!(
+        msg.contains("species.temperature") && msg.contains("one k_BT"),
         "{msg}"
     );
 }

@@ -137,6 +137,14 @@ pub enum SimError {
         /// What failed.
         source: crate::species::relax::RelaxError,
     },
+    /// The protein species' fields could not be moved over a tick.
+    #[error("species at iteration {iteration}: {source}")]
+    SpeciesTransport {
+        /// The iteration whose tick it was.
+        iteration: u64,
+        /// What failed.
+        source: crate::species::transport::TransportError,
+    },
     /// An output could not be written.
     #[error("{0}")]
     Output(String),

@@ -46,7 +46,7 @@ pub enum Stage {
     BarrierCheck,
     /// Split and merge.
     Remesh,
-    /// Lipid diffusion.
+    /// Lipid diffusion and the protein species' transport.
     Diffuse,
 }
 

@@ -282,15 +282,11 @@ mod tests {
 
     fn two_species() -> SpeciesSet {
         let sp = |name: &str, a: f64, c: f64, dk: f64, eps: f64, eta: f64| Species {
-            name: name.into(),
-            area_per_protein: a,
             curvature_coupling: c,
             rigidity_change: dk,
             binding_energy: eps,
             gradient_energy: eta,
-            initial: crate::species::params::Initial::Fraction(0.1),
-            reservoir: Default::default(),
-            chemical_potential: None,
+            ..Species::new(name, a, crate::species::params::Initial::Fraction(0.1))
         };
         SpeciesSet {
             species: vec![

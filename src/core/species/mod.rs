@@ -9,9 +9,11 @@
 //! [`model`] holds the resources of a simulation with species.
 
 pub mod free_energy;
+pub(crate) mod measured;
 pub mod model;
 pub mod params;
 pub mod relax;
 pub mod state;
 pub mod surface;
 pub mod term;
+pub mod transport;

@@ -40,4 +40,8 @@ pub struct SpeciesStatus {
     pub newton_steps: u64,
     /// The last relaxation's residual (Ē/l̄²).
     pub residual: f64,
+    /// The steps of the fields' transport in overdamped dynamics over the
+    /// run (they also count the draws of its noise).
+    #[serde(default)]
+    pub transport_steps: u64,
 }

@@ -55,6 +55,18 @@ pub struct Species {
     /// multiplier of its count), so it is not given.
     #[serde(default)]
     pub chemical_potential: Option<f64>,
+    /// Mobility M_s (l̄⁴/(Ē·s)) of its transport along the membrane in
+    /// overdamped dynamics, ∂φ/∂t = ∇·(M φ(1 − Σφ) ∇δF/δφ): in the dilute
+    /// limit a diffusion of coefficient D = M k_BT / a_p (default 0: the
+    /// proteins stay where they are on the surface).
+    #[serde(default)]
+    pub mobility: f64,
+    /// Binding rate Γ_s (1/s) of a species bound from a bulk, in overdamped
+    /// dynamics: ∂φ/∂t = −Γ (a_p/k_BT) φ(1 − Σφ) (δF/δφ − μ/a_p), so a
+    /// dilute coverage relaxes to the bulk's at rate Γ (default 0: no
+    /// exchange during dynamics).
+    #[serde(default)]
+    pub binding_rate: f64,
 }
 
 /// The field a species starts from.
@@ -135,6 +147,8 @@ impl Species {
             initial,
             reservoir: Reservoir::Conserved,
             chemical_potential: None,
+            mobility: 0.0,
+            binding_rate: 0.0,
         }
     }
 }
@@ -228,6 +242,24 @@ impl SpeciesSet {
                     return err(format!("species[{k}].chemical_potential"), "must be finite");
                 }
                 _ => {}
+            }
+            for (field, v, unit) in [
+                ("mobility", s.mobility, "l̄⁴/(Ē·s)"),
+                ("binding_rate", s.binding_rate, "1/s"),
+            ] {
+                if !(v >= 0.0 && v.is_finite()) {
+                    return err(
+                        format!("species[{k}].{field}"),
+                        &format!("{v} must be zero or positive and finite ({unit})"),
+                    );
+                }
+            }
+            if s.binding_rate > 0.0 && s.reservoir == Reservoir::Conserved {
+                return err(
+                    format!("species[{k}].binding_rate"),
+                    "a conserved species does not bind from a bulk (declare reservoir: Bulk \
+                     with its chemical_potential)",
+                );
             }
             if s.gradient_energy < 0.0 {
                 return err(

@@ -17,10 +17,10 @@
 //! (for one species the Fermi-Dirac relation
 //! φ_i = 1/(1 + e^{(ε_i − μ)/k_BT}), ε_i = −a_p κ c (h_i − c φ_i)).
 
-use crate::energy::bending::BendingDiscretisation;
-use crate::species::free_energy::{BaseBending, LocalEnergy, gradient_energy};
+use crate::species::free_energy::{BaseBending, LocalEnergy};
+use crate::species::measured::{Block, HessianConstants, MeasuredVertices};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
-use crate::species::surface::{Surface, VertexTerms};
+use crate::species::surface::Surface;
 
 /// When the relaxation stops.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,49 +83,6 @@ const TO_BOUNDARY: f64 = 0.9;
 /// a Newton step is taken in full without measuring the grand potential at
 /// its end.
 const QUADRATIC_REGIME: f64 = 1e-2;
-
-/// The per-vertex quantities of the fixed shape.
-struct Vertices {
-    areas: Vec<f64>,
-    curvature: Vec<f64>,
-    interior: Vec<bool>,
-    /// Σ of ½cot over the face edges at each vertex (the Dirichlet
-    /// energy's diagonal per unit η), at least 0.
-    dirichlet: Vec<f64>,
-}
-
-impl Vertices {
-    /// The quantities of `shape` in the bending's `form`; the Dirichlet
-    /// diagonal only with `gradients` (a species has a gradient energy),
-    /// else zeros.
-    fn measure(shape: Surface<'_>, form: BendingDiscretisation, gradients: bool) -> Self {
-        let n = shape.vertex_count();
-        let mut terms = VertexTerms::default();
-        terms.measure(shape, form);
-        let interior = (0..n).map(|i| shape.is_interior(i)).collect();
-        let mut dirichlet = vec![0.0; n];
-        let faces = if gradients { shape.faces() } else { &[] };
-        for (face, c) in faces.iter().zip(shape.geometry) {
-            for k in 0..3 {
-                for v in [face[(k + 1) % 3], face[(k + 2) % 3]] {
-                    dirichlet[v as usize] += 0.5 * c.cot[k];
-                }
-            }
-        }
-        for d in &mut dirichlet {
-            *d = d.max(0.0);
-        }
-        Self {
-            areas: terms.areas,
-            curvature: terms.curvature,
-            interior,
-            dirichlet,
-        }
-    }
-}
-
-/// A dense symmetric S×S block, S ≤ [`MAX_SPECIES`].
-type Block = [[f64; MAX_SPECIES]; MAX_SPECIES];
 
 /// The lower Cholesky factor of `a` (S×S) in place; false if `a` is not
 /// positive definite.
@@ -235,7 +192,7 @@ pub fn relax_fields(
 ) -> Result<Relaxed, RelaxError> {
     relax_measured(
         shape,
-        &Vertices::measure(shape, base.discretisation, set.has_gradient_energy()),
+        &MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy()),
         base,
         set,
         phi,
@@ -253,7 +210,7 @@ pub fn relax_amounts(
     amounts: &mut [Vec<f64>],
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
-    let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
+    let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
     let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
     let relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;
     let back = crate::species::state::amounts(set, &phi, &v.areas);
@@ -266,7 +223,7 @@ pub fn relax_amounts(
 /// [`relax_fields`] on the vertex quantities `v` of `shape`.
 fn relax_measured(
     shape: Surface<'_>,
-    v: &Vertices,
+    v: &MeasuredVertices,
     base: BaseBending,
     set: &SpeciesSet,
     phi: &mut [Vec<f64>],
@@ -286,9 +243,6 @@ fn relax_measured(
             }
         }
     }
-    let kbt = set.temperature;
-    let a0 = set.solvent_area();
-    let chi = set.interaction_matrix();
     let conserved: Vec<usize> = (0..ns)
         .filter(|&s| set.species[s].reservoir == Reservoir::Conserved)
         .collect();
@@ -298,10 +252,10 @@ fn relax_measured(
         .map(|s| s.chemical_potential.unwrap_or(0.0))
         .collect();
     // Per species: 1/a_s, whether conserved; per vertex 1/A_i.
-    let mut inv_ap = [0.0; MAX_SPECIES];
+    let constants = HessianConstants::new(set);
+    let inv_ap = constants.inv_ap;
     let mut is_conserved = [false; MAX_SPECIES];
     for (k, sp) in set.species.iter().enumerate() {
-        inv_ap[k] = 1.0 / sp.area_per_protein;
         is_conserved[k] = sp.reservoir == Reservoir::Conserved;
     }
     let inv_area: Vec<f64> = v.areas.iter().map(|a| 1.0 / a).collect();
@@ -310,31 +264,8 @@ fn relax_measured(
     let mut grad = vec![vec![0.0; n]; ns];
     // Ω and, with `grad`, ∂F/∂φ: the local energies at the vertices'
     // areas and curvatures, measured once, and the gradient energies.
-    let omega = |phi: &[Vec<f64>], mut grad: Option<&mut Vec<Vec<f64>>>| {
-        let (mut at, mut d) = ([0.0; MAX_SPECIES], [0.0; MAX_SPECIES]);
-        let mut f = 0.0;
-        for i in 0..n {
-            for (k, p) in phi.iter().enumerate() {
-                at[k] = p[i];
-            }
-            let h = v.interior[i].then_some(v.curvature[i]);
-            f += v.areas[i] * local.at(&at[..ns], h, &mut d).0;
-            if let Some(g) = grad.as_deref_mut() {
-                for (k, g) in g.iter_mut().enumerate() {
-                    g[i] = v.areas[i] * d[k];
-                }
-            }
-        }
-        if set.has_gradient_energy() {
-            f += gradient_energy(
-                shape.faces(),
-                shape.geometry,
-                set,
-                phi,
-                grad.map(|g| &mut g[..]),
-                None,
-            );
-        }
+    let omega = |phi: &[Vec<f64>], grad: Option<&mut Vec<Vec<f64>>>| {
+        let f = v.free_energy(shape, &local, set, phi, grad.map(|g| &mut g[..]));
         let exchanged: f64 = (0..ns)
             .filter(|s| !conserved.contains(s))
             .map(|s| bulk_mu[s] * (0..n).map(|i| weight(i, s) * phi[s][i]).sum::<f64>())
@@ -388,34 +319,7 @@ fn relax_measured(
         // is written in full for every vertex).
         let mut h: Block = [[0.0; MAX_SPECIES]; MAX_SPECIES];
         for i in 0..n {
-            let a = v.areas[i];
-            let bare = 1.0 - phi.iter().map(|p| p[i]).sum::<f64>();
-            let (mut kappa, mut c0) = (base.kappa, base.c0);
-            for (k, sp) in set.species.iter().enumerate() {
-                kappa += sp.rigidity_change * phi[k][i];
-                c0 += sp.curvature_coupling * phi[k][i];
-            }
-            let d = v.curvature[i] - c0;
-            let solvent = kbt / (a0 * bare);
-            for s in 0..ns {
-                let ss = &set.species[s];
-                for t in 0..ns {
-                    let st = &set.species[t];
-                    let mut x = solvent;
-                    x += if s == t {
-                        kbt * inv_ap[s] / phi[s][i] + 2.0 * chi[s][s]
-                    } else {
-                        chi[s.min(t)][s.max(t)]
-                    };
-                    if v.interior[i] {
-                        x += kappa * ss.curvature_coupling * st.curvature_coupling
-                            - d * (ss.rigidity_change * st.curvature_coupling
-                                + st.rigidity_change * ss.curvature_coupling);
-                    }
-                    h[s][t] = a * x;
-                }
-                h[s][s] += ss.gradient_energy * v.dirichlet[i];
-            }
+            v.hessian(i, &constants, base, set, phi, &mut h);
             factorise(&mut h, ns);
             let factor = &h;
             let ui = &mut u[i * ns..(i + 1) * ns];
@@ -562,6 +466,7 @@ fn relax_measured(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::bending::BendingDiscretisation;
     use crate::mesh::ellipsoid;
     use crate::mesh::geometry::face_geometry;
     use crate::species::free_energy::{Fields, FreeEnergyScratch, Hold, free_energy};
@@ -608,7 +513,7 @@ mod tests {
             discretisation: BendingDiscretisation::Cotangent,
         };
         let mut phi: Vec<Vec<f64>> = start.iter().map(|&p| vec![p; n]).collect();
-        let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
+        let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
         let count = |phi: &[Vec<f64>], s: usize| -> f64 {
             (0..n).map(|i| v.areas[i] * phi[s][i]).sum::<f64>() / 0.05
         };
@@ -746,14 +651,15 @@ mod tests {
                 &mut s,
                 None,
             );
-            let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
+            let v =
+                MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
             f + 0.1 * (0..n).map(|i| v.areas[i] * phi[1][i]).sum::<f64>() / 0.03
         };
         let at_minimum = omega(&phi);
         assert!((at_minimum - relaxed.grand_potential).abs() <= 1e-12 * at_minimum.abs());
         // Move protein between two vertices of equal area weight (count
         // kept), or change the bulk species anywhere.
-        let v = Vertices::measure(shape, base.discretisation, set.has_gradient_energy());
+        let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
         for (i, j) in [(3, 17), (20, 41), (8, 30)] {
             for t in [1e-4, -1e-4] {
                 let mut p = phi.clone();

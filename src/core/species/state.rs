@@ -108,6 +108,81 @@ pub fn write_amounts(membrane: &mut Membrane, k: usize, values: &[f64]) {
     with_component!(k, C => membrane.scatter_vertex_field::<C>(values));
 }
 
+/// Why fractions could not be set.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FractionsError {
+    /// Not one value per vertex.
+    #[error("{given} values for {vertices} vertices")]
+    Length {
+        /// Values given.
+        given: usize,
+        /// Vertices of the membrane.
+        vertices: usize,
+    },
+    /// A value outside (0, 1), or the species' sum at 1 or more.
+    #[error(
+        "φ = {value} at vertex {vertex} is outside (0, 1) or brings the species' sum to 1 or more"
+    )]
+    Outside {
+        /// The dense vertex slot.
+        vertex: usize,
+        /// The value given.
+        value: f64,
+    },
+}
+
+/// Sets species `k`'s fractions to `phi` (by dense slot) at the current
+/// shape of `membrane`: its amounts become A_i φ_i / a_k at the vertex
+/// areas in `form`. Returns the species' new count (proteins). Nothing is
+/// written if a value is outside (0, 1) or brings the species' sum to 1.
+pub fn write_fractions(
+    membrane: &mut Membrane,
+    set: &SpeciesSet,
+    form: BendingDiscretisation,
+    k: usize,
+    phi: &[f64],
+) -> Result<f64, FractionsError> {
+    let t = membrane
+        .topology()
+        .expect("a membrane with species has a valid topology")
+        .clone();
+    let mut positions = Vec::new();
+    membrane.gather_positions(&mut positions);
+    let n = positions.len();
+    if phi.len() != n {
+        return Err(FractionsError::Length {
+            given: phi.len(),
+            vertices: n,
+        });
+    }
+    let mut dense = SpeciesAmounts::default();
+    dense.gather(&membrane.world, &t, set.species.len());
+    let mut geometry = Vec::new();
+    crate::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
+    let areas = vertex_areas(&t.faces, &geometry, n, form);
+    let current = fractions(set, &dense.0, &areas);
+    for (i, &x) in phi.iter().enumerate() {
+        let others: f64 = (0..current.len())
+            .filter(|&s| s != k)
+            .map(|s| current[s][i])
+            .sum();
+        if !(x > 0.0 && x + others < 1.0) {
+            return Err(FractionsError::Outside {
+                vertex: i,
+                value: x,
+            });
+        }
+    }
+    let a = set.species[k].area_per_protein;
+    let values: Vec<f64> = phi
+        .iter()
+        .zip(&areas)
+        .map(|(p, area)| area * p / a)
+        .collect();
+    write_amounts(membrane, k, &values);
+    Ok(values.iter().sum())
+}
+
 /// The dense amounts of every species (proteins; by species, then dense
 /// vertex slot), as the force terms read them.
 #[derive(Clone, Debug, Default, PartialEq)]

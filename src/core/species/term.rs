@@ -156,20 +156,16 @@ mod tests {
     use super::*;
     use crate::fd::{FdOptions, check_force_term, perturbed_icosphere, perturbed_patches};
     use crate::mesh::membrane::Membrane;
-    use crate::species::params::{Reservoir, Species};
+    use crate::species::params::Species;
     use crate::species::state::add_amounts;
 
     fn set() -> SpeciesSet {
         let sp = |name: &str, a: f64, c: f64, dk: f64, eta: f64| Species {
-            name: name.into(),
-            area_per_protein: a,
             curvature_coupling: c,
             rigidity_change: dk,
             binding_energy: -0.1,
             gradient_energy: eta,
-            initial: crate::species::params::Initial::Fraction(0.1),
-            reservoir: Reservoir::Conserved,
-            chemical_potential: None,
+            ..Species::new(name, a, crate::species::params::Initial::Fraction(0.1))
         };
         SpeciesSet {
             species: vec![
