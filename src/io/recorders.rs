@@ -191,7 +191,9 @@ impl Recorder for SpeciesColumns {
         for (k, s) in set.species.iter().enumerate() {
             let name = &s.name;
             let count: f64 = amounts.0[k].iter().sum();
-            let unrelaxed = s.reservoir == Reservoir::Conserved && status.relaxations == 0;
+            let unrelaxed = s.reservoir == Reservoir::Conserved
+                && status.relaxations == 0
+                && status.transport_steps == 0;
             let mu = if unrelaxed {
                 f64::NAN
             } else {

@@ -225,6 +225,52 @@ fn a_minimisation_with_species_killed_three_times_and_resumed_writes_the_same_by
     assert!(summary.remesh.events > 0, "the scene remeshes");
 }
 
+/// A thermal vesicle (Metropolis flips) whose protein species moves with
+/// noise: the amounts, the species' status and the count of the noise's
+/// draws are carried by a checkpoint.
+const SPECIES_DYNAMICS_SCENE: &str = r#"Scene(
+    name: "checkpointed_species_dynamics",
+    membrane: Icosphere(level: 3, mean_edge_length: 1.0),
+    energy: [
+        Vin(v0: 4.0, far_barrier: (1.5, 1.75)),
+        Bending(kappa: 1.5),
+        Volume(k: 1.0, target: OfInitial(1.0)),
+        Area(k: 200.0, target: OfInitial(1.0)),
+    ],
+    penalty_smoothing: 0,
+    dynamics: (
+        temperature: 0.1,
+        dt_max: 1e-6,
+        vin_step_limit: false,
+        iterations: 3000,
+        frames: 10,
+    ),
+    edge_flips: (attempts_per_edge: 0.01, edge_range: (0.7, 1.5)),
+    species: (
+        species: [(
+            name: "bar",
+            area_per_protein: 0.01,
+            curvature_coupling: 1.0,
+            initial: Fraction(0.2),
+            mobility: 200.0,
+        )],
+    ),
+)
+"#;
+
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn thermal_dynamics_with_species_killed_three_times_and_resumed_writes_the_same_bytes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let killed = killed_three_times_and_resumed(tmp.path(), SPECIES_DYNAMICS_SCENE, "200");
+    let summary = crate::common::summary(&killed);
+    let status: remembrane::species::model::SpeciesStatus =
+        summary.section("species").unwrap().unwrap();
+    assert!(status.transport_steps >= 3000, "{status:?}");
+    let (n0, n) = (status.initial_counts[0], status.counts[0]);
+    assert!((n - n0).abs() <= 1e-12 * n0, "{n0} → {n}");
+}
+
 #[test]
 fn resuming_what_cannot_be_resumed_fails_cleanly() {
     let tmp = tempfile::tempdir().unwrap();

@@ -26,8 +26,8 @@ pub struct SpeciesStatus {
     /// The species' names.
     pub names: Vec<String>,
     /// Each chemical potential μ_s (Ē per protein): a conserved species'
-    /// multiplier (`NaN` until the fields have been relaxed), a bulk
-    /// species' given value.
+    /// multiplier (in the series `NaN` until the fields have been relaxed),
+    /// in dynamics its mean over the area; a bulk species' given value.
     pub chemical_potentials: Vec<f64>,
     /// Each conserved species' count at the start (proteins; the bulk
     /// species' start count).
