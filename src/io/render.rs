@@ -1,5 +1,6 @@
 //! A small software renderer: flat-shaded, z-buffered orthographic views of
-//! a mesh in its principal frame, written as PNG (side view | top view).
+//! a mesh in its principal frame, written as PNG (side view | top view),
+//! optionally coloured by a per-vertex field.
 
 use crate::analysis::shape::principal_frame;
 use glam::DVec3;
@@ -9,6 +10,42 @@ use std::path::Path;
 /// top view (looking down the axis), each `size` × `size` pixels, side by
 /// side, into PNG bytes.
 pub fn render_png(positions: &[DVec3], faces: &[[u32; 3]], size: u32) -> Vec<u8> {
+    render_png_coloured(positions, faces, None, size)
+}
+
+/// [`render_png`] with each face coloured by the mean of a per-vertex
+/// `field` over its corners, from grey-blue at the field's 2nd percentile
+/// to red at its 98th (a constant field is drawn at the middle).
+pub fn render_png_coloured(
+    positions: &[DVec3],
+    faces: &[[u32; 3]],
+    field: Option<&[f64]>,
+    size: u32,
+) -> Vec<u8> {
+    // The range between the field's 2nd and 98th percentiles, so that a
+    // few extreme vertices (a bud's neck) do not wash out the rest.
+    let range = field.filter(|f| !f.is_empty()).map(|f| {
+        let mut sorted = f.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
+        (at(0.02), at(0.98))
+    });
+    // The base colour of a face: the renderer's red, or the field's.
+    let base = |face: &[u32; 3]| -> [f64; 3] {
+        match (field, range) {
+            (Some(f), Some((lo, hi))) => {
+                let mean = face.iter().map(|&v| f[v as usize]).sum::<f64>() / 3.0;
+                let t = if hi > lo {
+                    ((mean - lo) / (hi - lo)).clamp(0.0, 1.0)
+                } else {
+                    0.5
+                };
+                let (cold, hot) = ([90.0, 120.0, 170.0], [225.0, 55.0, 35.0]);
+                std::array::from_fn(|k| cold[k] + t * (hot[k] - cold[k]))
+            }
+            _ => [220.0, 100.0, 100.0],
+        }
+    };
     let frame = principal_frame(positions, faces);
     let [thin, mid, wide] = frame.axes;
     // Side: screen x = widest axis, screen y = symmetry axis, depth = middle.
@@ -40,10 +77,12 @@ pub fn render_png(positions: &[DVec3], faces: &[[u32; 3]], size: u32) -> Vec<u8>
                 continue; // back face of a closed surface
             }
             let shade = 0.25 + 0.75 * n.dot(light).max(0.0);
+            let [red, green, blue] = base(f);
+            // (With the renderer's red, the colours it always drew.)
             let color = [
-                (70.0 + 150.0 * shade) as u8,
-                (40.0 + 60.0 * shade) as u8,
-                (40.0 + 60.0 * shade) as u8,
+                (70.0 + (red - 70.0) * shade) as u8,
+                (40.0 + (green - 40.0) * shade) as u8,
+                (40.0 + (blue - 40.0) * shade) as u8,
             ];
             let pts = [project(a), project(b), project(c)];
             let (x0, x1) = (

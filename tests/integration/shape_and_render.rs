@@ -95,3 +95,35 @@ fn renders_a_decodable_png_with_the_mesh_in_both_views() {
     // Side view of a flat cell: empty above and below the disc.
     assert_eq!(pixel(60, 10), [245, 245, 245]);
 }
+
+#[test]
+fn a_field_colours_the_render_from_blue_to_red() {
+    let rbc = mapped(evans_fung);
+    // The field grows along the cell's widest axis: its two ends differ.
+    let frame = remembrane::analysis::shape::principal_frame(&rbc.positions, &rbc.faces);
+    let wide = frame.axes[2];
+    let field: Vec<f64> = rbc.positions.iter().map(|p| p.dot(wide)).collect();
+    let bytes =
+        remembrane::io::render::render_png_coloured(&rbc.positions, &rbc.faces, Some(&field), 120);
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut buf).unwrap();
+    // Along the top view's middle row, the reddest and the bluest mesh
+    // pixels lie at opposite ends.
+    let row: Vec<[u8; 3]> = (120..240)
+        .map(|x| {
+            let o = (60 * 240 + x) * 3;
+            [buf[o], buf[o + 1], buf[o + 2]]
+        })
+        .filter(|p| *p != [245, 245, 245])
+        .collect();
+    let redness = |p: &[u8; 3]| f64::from(p[0]) - f64::from(p[2]);
+    let (first, last) = (redness(&row[2]), redness(&row[row.len() - 3]));
+    assert!(
+        (first - last).abs() > 100.0,
+        "{:?} … {:?}",
+        row[2],
+        row[row.len() - 3]
+    );
+}

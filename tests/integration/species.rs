@@ -616,6 +616,107 @@ fn a_minimiser_step_keeps_every_fraction_below_one() {
     assert!(largest > 0.99 && largest < 1.0, "{largest}");
 }
 
+/// The radius profile of a surface along the axis from its centroid
+/// through its proteins' centroid (φ-weighted): at each of 200 planes
+/// across the axis, the mean distance from the axis of the points where
+/// the mesh's edges cross the plane.
+fn radius_profile(positions: &[glam::DVec3], faces: &[[u32; 3]], phi: &[f64]) -> Vec<f64> {
+    let n = positions.len() as f64;
+    let centroid = positions.iter().copied().sum::<glam::DVec3>() / n;
+    let weight: f64 = phi.iter().sum();
+    let proteins = positions
+        .iter()
+        .zip(phi)
+        .map(|(p, w)| *p * *w)
+        .sum::<glam::DVec3>()
+        / weight;
+    let axis = (proteins - centroid).normalize();
+    let s: Vec<f64> = positions
+        .iter()
+        .map(|p| (*p - centroid).dot(axis))
+        .collect();
+    let (lo, hi) = s
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
+    (1..=200)
+        .map(|k| {
+            let t = lo + (hi - lo) * k as f64 / 201.0;
+            let (mut sum, mut count) = (0.0, 0);
+            for f in faces {
+                for (a, b) in [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])] {
+                    let (a, b) = (a as usize, b as usize);
+                    if (s[a] - t) * (s[b] - t) < 0.0 {
+                        let w = (t - s[a]) / (s[b] - s[a]);
+                        let q = positions[a] + w * (positions[b] - positions[a]) - centroid;
+                        sum += (q - q.dot(axis) * axis).length();
+                        count += 1;
+                    }
+                }
+            }
+            sum / count as f64
+        })
+        .collect()
+}
+
+/// The narrowest waist of a radius profile: the smallest local minimum
+/// with a part at least 5 % wider on each side, if any.
+fn neck(profile: &[f64]) -> Option<f64> {
+    (1..profile.len() - 1)
+        .filter(|&i| {
+            let r = profile[i];
+            r <= profile[i - 1]
+                && r <= profile[i + 1]
+                && profile[..i].iter().any(|&x| x > 1.05 * r)
+                && profile[i + 1..].iter().any(|&x| x > 1.05 * r)
+        })
+        .map(|i| profile[i])
+        .min_by(f64::total_cmp)
+}
+
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn proteins_of_large_coupling_bud_a_vesicle_and_half_the_coupling_does_not() {
+    let scene = crate::common::scene("proteins/budding.ron");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let halved = text.replace("curvature_coupling: 5.0,", "curvature_coupling: 2.5,");
+    assert_ne!(text, halved);
+    let dir = tempfile::tempdir().unwrap();
+    let mean_edge = |positions: &[glam::DVec3], faces: &[[u32; 3]]| {
+        let sum: f64 = faces
+            .iter()
+            .flat_map(|f| [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])])
+            .map(|(a, b)| positions[a as usize].distance(positions[b as usize]))
+            .sum();
+        sum / (3 * faces.len()) as f64
+    };
+    // The bud: a neck below two edge lengths, the proteins in the bud.
+    let out = dir.path().join("budded");
+    let path = write(dir.path(), &text);
+    assert_eq!(
+        cli(&[&"run", &path, &"--out", &out, &"--quiet"]),
+        std::process::ExitCode::SUCCESS
+    );
+    let (positions, fields, faces) = final_ply(&out, &["phi_coat"]);
+    let profile = radius_profile(&positions, &faces, &fields[0]);
+    let edge = mean_edge(&positions, &faces);
+    let narrowest = neck(&profile).expect("no neck");
+    eprintln!("budded: neck radius {narrowest:.3} l̄, mean edge {edge:.3} l̄");
+    assert!(narrowest < 2.0 * edge, "{narrowest} against {edge}");
+    let status: SpeciesStatus = summary(&out).section("species").unwrap().unwrap();
+    assert!((status.counts[0] / status.initial_counts[0] - 1.0).abs() < 1e-12);
+    // Half the coupling: converged, no waist.
+    let out = dir.path().join("halved");
+    let get = run_to_rest(dir.path(), &halved, &out);
+    let (positions, fields, faces) = final_ply(&out, &["phi_coat"]);
+    let profile = radius_profile(&positions, &faces, &fields[0]);
+    eprintln!(
+        "halved: no neck ({:?}), φ up to {:.3}",
+        neck(&profile),
+        get("phi_max_coat")
+    );
+    assert_eq!(neck(&profile), None);
+}
+
 /// Runs the scene `text` (written into `dir`) to `out` through the CLI,
 /// asserts that the minimiser converged, and returns the last value of a
 /// `series.csv` column.

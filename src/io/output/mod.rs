@@ -1,6 +1,6 @@
 //! Run outputs (SPEC §7): VTK PolyData frames (`frames/*.vtp`) with a `.pvd`
 //! collection for ParaView, `series.csv` (one row per frame), `final.ply`,
-//! `final.png` (side and top view) and `summary.json`.
+//! `final.png` (side and top view, coloured by the first protein species' φ) and `summary.json`.
 //!
 //! A run writes into `DIR.incomplete/` and renames it to `DIR` only when it
 //! ends (completed or stopped by a blow-up, which `summary.json` records),
@@ -292,7 +292,17 @@ impl RunOutput {
         )
         .map_err(|e| write_err(&self.staging.join("final.ply"), e))?;
         self.write("final.ply", &ply)?;
-        let png = crate::io::render::render_png(&final_mesh.positions, &final_mesh.faces, 400);
+        // Coloured by the first protein species' fraction, if any.
+        let phi = fields
+            .iter()
+            .find(|(name, _)| name.starts_with("phi_"))
+            .map(|(_, values)| &values[..]);
+        let png = crate::io::render::render_png_coloured(
+            &final_mesh.positions,
+            &final_mesh.faces,
+            phi,
+            400,
+        );
         self.write("final.png", &png)?;
         if let Some(state) = state_json {
             self.write("state.json", state.as_bytes())?;
