@@ -91,7 +91,7 @@
 //! | Output | `frames` ([`FrameWriter`]: only when a run opened an output directory) | [`OpenOutput`] |
 //! | TimeStep | [`adaptive_time_step`](systems::adaptive_time_step) | [`TimeStepChoice`] |
 //! | Integrate | [`langevin_integration`](systems::langevin_integration) (fold and inside-out checks), or [`fire_minimiser`](systems::fire_minimiser) with `method: Minimise`; then [`pin_positions`](systems::pin_positions) (with held boundary vertices) and [`constraint_projection`](systems::constraint_projection) (with `constraints`) | [`DensePositions`], [`Membrane`] (positions, forces), [`Clock`]; the minimiser also [`MinimiserStatus`], [`StopRequest`] |
-//! | BarrierCheck | [`barrier_check`](systems::barrier_check) | [`AbnormalEdges`] |
+//! | BarrierCheck | [`barrier_check`](systems::barrier_check), in the fluid model's dynamics with species [`species_remap`](systems::species_remap) (the proteins stay in place under the step's slides) | [`AbnormalEdges`], [`Membrane`] (the species' amounts) |
 //! | Remesh | [`maintenance_flips`](systems::maintenance_flips) (the fluid model's Delaunay flips; before `remesh`) | [`Membrane`] (faces and edges only), [`MaintenanceFlipStats`] |
 //! | Remesh | [`remesh`](systems::remesh) (when declared) | [`Membrane`], [`DensePositions`], [`DenseLipid`], [`AbnormalEdges`], [`RemeshStats`], [`RemeshTriggered`] |
 //! | Remesh | [`edge_flips`](systems::edge_flips) (when declared; after `remesh`) | [`Membrane`] (faces and edges only), [`FlipStats`] |
@@ -112,7 +112,7 @@
 //! | `remesh` | [`ValenceRange`], [`RemeshStats`], [`RemeshTriggered`] | `remesh` |
 //! | `edge_flips` | [`ValenceRange`], [`FlipStats`] | `edge_flips` |
 //! | `diffusion` | — | `lipid_diffusion` |
-//! | `species` ([`species`]) | `ProteinAmount` components, [`SpeciesAmounts`](species::state::SpeciesAmounts) in [`TermInputs`], [`SpeciesModel`](species::model::SpeciesModel), [`SpeciesStatus`](species::model::SpeciesStatus) | `species_gather`, term `species`, `species_relaxation` (with the minimiser), `species_transport` (in overdamped dynamics), recorder `species` |
+//! | `species` ([`species`]) | `ProteinAmount` components, [`SpeciesAmounts`](species::state::SpeciesAmounts) in [`TermInputs`], [`SpeciesModel`](species::model::SpeciesModel), [`SpeciesStatus`](species::model::SpeciesStatus) | `species_gather`, term `species`, `species_relaxation` (with the minimiser), `species_transport` (in overdamped dynamics), `species_remap` (the fluid model's dynamics), recorder `species` |
 //! | `recorders` | [`FrameSchedule`], [`CurrentFrame`] | `frame_clock`, a `record_<name>` system per recorder (Observe) |
 //! | `frame_output` ([`io::output::frame_output`]) | [`OpenOutput`] | `frames` (Output) |
 //!

@@ -35,5 +35,6 @@ pub mod pin_positions;
 pub mod remesh;
 pub mod species_gather;
 pub mod species_relaxation;
+pub mod species_remap;
 pub mod species_transport;
 pub mod vertex_normals;

@@ -388,7 +388,11 @@ pub fn boundary_conditions(conditions: Vec<crate::params::BoundaryCondition>) ->
 /// with the minimiser, the fields' relaxation (Gather, after it: the
 /// forces see the fields relaxed at the current shape), in overdamped
 /// dynamics the fields' transport (Diffuse) where a species moves (a
-/// mobility or a binding rate), the `species` recorder and summary section.
+/// mobility or a binding rate) and, in the fluid model, their remap under
+/// the step's slides (BarrierCheck, from the tick's start positions,
+/// [`SlideAnchors`]), the `species` recorder and summary section.
+///
+/// [`SlideAnchors`]: crate::species::remap::SlideAnchors
 pub fn species(
     set: crate::species::params::SpeciesSet,
     base: crate::species::free_energy::BaseBending,
@@ -465,6 +469,10 @@ pub fn species(
             ..Default::default()
         };
         let minimiser = b.resources().contains::<crate::minimise::MinimiserStatus>();
+        let fluid = matches!(
+            b.resource_mut::<crate::params::MembraneModel>().as_deref(),
+            Some(crate::params::MembraneModel::Fluid(_))
+        );
         b.publish_term_input(amounts);
         b.insert_resource(SpeciesModel {
             set: set.clone(),
@@ -483,15 +491,24 @@ pub fn species(
             )
             .after(crate::systems::species_gather::SPECIES_GATHER)
             .after("face_geometry");
-        } else if set
-            .species
-            .iter()
-            .any(|s| s.mobility > 0.0 || s.binding_rate > 0.0)
-        {
-            b.add_system(
-                Stage::Diffuse,
-                crate::systems::species_transport::SpeciesTransport::default(),
-            );
+        } else {
+            if fluid {
+                b.insert_resource(crate::species::remap::SlideAnchors::default());
+                b.add_system(
+                    Stage::BarrierCheck,
+                    crate::systems::species_remap::SpeciesRemap::default(),
+                );
+            }
+            if set
+                .species
+                .iter()
+                .any(|s| s.mobility > 0.0 || s.binding_rate > 0.0)
+            {
+                b.add_system(
+                    Stage::Diffuse,
+                    crate::systems::species_transport::SpeciesTransport::default(),
+                );
+            }
         }
         b.add_recorder(crate::io::recorders::SpeciesColumns);
         b.add_summary_section(ResourceSection::<SpeciesStatus>::new("species"))?;

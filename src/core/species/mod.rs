@@ -13,6 +13,7 @@ pub(crate) mod measured;
 pub mod model;
 pub mod params;
 pub mod relax;
+pub mod remap;
 pub mod state;
 pub mod surface;
 pub mod term;
