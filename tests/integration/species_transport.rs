@@ -287,3 +287,63 @@ fn the_fluid_models_remeshing_holds_every_count() {
     assert!(((now - count) / count).abs() <= 1e-12);
     assert!(((status.counts[0] - count) / count).abs() <= 1e-12);
 }
+
+/// `scenes/proteins/sorting_in_time.ron`: the proteins gather toward the
+/// poles as they move, monotonically, and end close to the fields the
+/// minimiser's relaxation gives on the final shape (the same count).
+#[test]
+#[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
+fn curvature_coupled_proteins_sort_in_time_toward_the_relaxed_fields() {
+    use remembrane::species::relax::{RelaxSettings, relax_fields};
+    let path = crate::common::scene("proteins/sorting_in_time.ron");
+    let scene = Scene::load(&path).unwrap();
+    let iterations = scene.dynamics.iterations;
+    let mut sim = scene.build(&path).unwrap();
+    let mut highest = Vec::new();
+    for tick in 1..=iterations {
+        sim.tick().unwrap();
+        if tick % 1000 == 0 {
+            let (_, phi, _) = fields(&mut sim);
+            highest.push(phi.iter().copied().fold(0.0, f64::max));
+        }
+    }
+    let (positions, phi, areas) = fields(&mut sim);
+    let (set, base) = {
+        let m = sim.resource::<SpeciesModel>();
+        (m.set.clone(), m.base)
+    };
+    let t = sim.membrane_mut().topology().unwrap().clone();
+    let mut geometry = Vec::new();
+    remembrane::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
+    let shape = remembrane::species::surface::Surface {
+        positions: &positions,
+        topology: &t,
+        geometry: &geometry,
+        boundary: None,
+    };
+    let mut relaxed = vec![phi.clone()];
+    let settings = RelaxSettings {
+        tolerance: 1e-12,
+        max_iterations: 100,
+    };
+    relax_fields(shape, base, &set, &mut relaxed, settings).unwrap();
+    let off = phi
+        .iter()
+        .zip(&relaxed[0])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let spread = relaxed[0].iter().copied().fold(0.0, f64::max)
+        - relaxed[0].iter().copied().fold(1.0, f64::min);
+    let count: f64 = phi.iter().zip(&areas).map(|(p, a)| p * a / 0.1).sum();
+    let initial = sim
+        .resource::<remembrane::species::model::SpeciesStatus>()
+        .initial_counts[0];
+    eprintln!(
+        "largest φ by 1000 iterations {highest:.4?}; at the end within {off:.2e} of the relaxed \
+         fields (their spread {spread:.4}); count drift {:.1e}",
+        count / initial - 1.0
+    );
+    assert!(highest[0] > 0.16 && highest.windows(2).take(3).all(|w| w[1] > w[0]));
+    assert!(off < 0.05 * spread, "{off} against {spread}");
+    assert!((count / initial - 1.0).abs() < 1e-12);
+}
