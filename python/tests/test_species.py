@@ -63,3 +63,29 @@ def test_a_scene_without_species_has_none():
         )
     )
     assert sim.species.keys() == [] and len(sim.species) == 0
+
+
+def test_a_field_set_from_python_relaxes_by_transport_at_the_diffusion_rate():
+    # A sphere (R = 4) whose shape holds still (vertex mobility 1e-9), one
+    # species with D = M k_BT / a_p = 1 l̄²/s: an l = 1 field set from
+    # Python decays at 2D/R² = 0.125/s, so by e^{-0.625} = 0.535 in 5 s.
+    sim = rm.Simulation(
+        rm.Scene.from_str(
+            """Scene(
+    name: "spreading",
+    membrane: Ellipsoid(level: 3, semi_axes: (4.0, 4.0, 4.0)),
+    energy: [Bending(kappa: 1.0)],
+    dynamics: (mobility: 1e-9, dt_max: 0.01, frames: 0),
+    species: (species: [(name: "p", area_per_protein: 0.01, initial: Fraction(0.05),
+                         mobility: 0.1)]),
+)"""
+        )
+    )
+    z = sim.positions[:, 2] / 4.0
+    field = 0.05 + 0.001 * z
+    sim.species["p"] = field
+    assert np.allclose(sim.species["p"], field, rtol=1e-12)
+    sim.step(500)
+    after = sim.species["p"]
+    amplitude = np.dot(after - after.mean(), z) / np.dot(z, z)
+    assert abs(amplitude / 0.001 / np.exp(-0.625) - 1) < 0.02, amplitude
