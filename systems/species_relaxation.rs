@@ -104,6 +104,7 @@ impl System for SpeciesRelaxation {
         status.chemical_potentials = relaxed.chemical_potentials;
         status.relaxations += 1;
         status.newton_steps += relaxed.iterations as u64;
+        status.repaired_vertices += relaxed.repaired as u64;
         status.residual = relaxed.residual;
         Ok(())
     }

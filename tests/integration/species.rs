@@ -431,12 +431,21 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
     let scene = crate::common::scene("proteins/tube_sorting.ron");
     let base = std::fs::read_to_string(&scene).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    for (c, phi_v) in [(0.5, 0.001), (-0.5, 0.01)] {
+    // Dilute (exponent 2), depleted (c < 0), and strong (exponent 5, φ_v
+    // = 0.01: crowding caps the sorting at φ_t/φ_v = 44.8), each with the
+    // bound on φ_t it meets (measured 2026-12-07: −2.0 %, +2.7 %, −0.05 %;
+    // the issue asks 2 %: docs/proteins.md).
+    let settings = [
+        (0.5, 0.001, 0.836, 0.06),
+        (-0.5, 0.01, 0.836, 0.06),
+        (0.5, 0.01, 2.0893, 0.02),
+    ];
+    for (c, phi_v, a_p, bound) in settings {
         let mut setting = TubeSetting {
             kappa: 1.0,
             sigma: 0.114544,
             temperature: 0.1,
-            area_per_protein: 0.836,
+            area_per_protein: a_p,
             coupling: c,
             chemical_potential: 0.0,
         };
@@ -450,11 +459,20 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
             .replace(
                 "Some(-0.6904664778648554)",
                 &format!("Some({})", setting.chemical_potential),
+            )
+            .replace(
+                "area_per_protein: 0.836,",
+                &format!("area_per_protein: {a_p},"),
+            )
+            .replace(
+                "initial: Fraction(0.007306),",
+                &format!("initial: Fraction({}),", tube.fraction),
             );
         assert!(text.contains(&format!("Some({})", setting.chemical_potential)));
         assert!(text.contains("Bending(kappa: 1.0,") && text.contains("sigma: 0.114544"));
-        assert!(text.contains("area_per_protein: 0.836,") && text.contains("temperature: 0.1,"));
-        let out = dir.path().join(format!("c{c}"));
+        assert!(text.contains(&format!("area_per_protein: {a_p},")));
+        assert!(text.contains("temperature: 0.1,"));
+        let out = dir.path().join(format!("c{c}_a{a_p}"));
         let last = run_to_rest(dir.path(), &text, &out);
         let radius = last("radius_tube");
         assert!(
@@ -480,16 +498,23 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
             .collect();
         let phi_t = middle.iter().sum::<f64>() / middle.len() as f64;
         println!(
-            "c = {c}: φ_t {phi_t:.6} against {:.6} ({:+.2} %), R {radius:.5} against {:.5}",
+            "c = {c}, a_p = {a_p}: φ_t {phi_t:.6} against {:.6} ({:+.2} %; φ_t/φ_v {:.2}), R \
+             {radius:.5} against {:.5}, f {:.5} against {:.5}",
             tube.fraction,
             100.0 * (phi_t / tube.fraction - 1.0),
-            tube.radius
+            tube.fraction / phi_v,
+            tube.radius,
+            last("force_top"),
+            tube.force
         );
         assert!(
-            (phi_t / tube.fraction - 1.0).abs() < 0.06,
+            (phi_t / tube.fraction - 1.0).abs() < bound,
             "c = {c}: φ_t {phi_t} against {}",
             tube.fraction
         );
+        if a_p > 1.0 {
+            assert!(tube.fraction / phi_v >= 5.0);
+        }
     }
 }
 

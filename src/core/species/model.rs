@@ -44,4 +44,9 @@ pub struct SpeciesStatus {
     /// run (they also count the draws of its noise).
     #[serde(default)]
     pub transport_steps: u64,
+    /// Vertices whose fields a relaxation first brought back inside (0, 1),
+    /// over the run (a remesh event had squeezed their cells under their
+    /// proteins; each amount kept).
+    #[serde(default)]
+    pub repaired_vertices: u64,
 }

@@ -44,6 +44,10 @@ pub struct Relaxed {
     pub chemical_potentials: Vec<f64>,
     /// The grand potential Ω at the end (Ē).
     pub grand_potential: f64,
+    /// Vertices whose start [`relax_amounts`] brought back inside the
+    /// fields' domain (a remesh event had squeezed their cells under their
+    /// proteins).
+    pub repaired: usize,
 }
 
 /// Why the relaxation failed.
@@ -202,7 +206,9 @@ pub fn relax_fields(
 
 /// [`relax_fields`] for the protein amounts n_s,i = A_i φ_s,i / a_s (by
 /// species, then dense slot), which are relaxed in place; the vertex areas
-/// are measured once for the conversions and the relaxation.
+/// are measured once for the conversions and the relaxation. A start that
+/// a shape change took outside the fields' domain is first brought back
+/// inside with each amount kept ([`Relaxed::repaired`]).
 pub fn relax_amounts(
     shape: Surface<'_>,
     base: BaseBending,
@@ -212,12 +218,69 @@ pub fn relax_amounts(
 ) -> Result<Relaxed, RelaxError> {
     let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
     let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
-    let relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;
+    let repaired = bring_inside(&mut phi, &v.areas);
+    let mut relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;
+    relaxed.repaired = repaired;
     let back = crate::species::state::amounts(set, &phi, &v.areas);
     for (n, x) in amounts.iter_mut().zip(back) {
         *n = x;
     }
     Ok(relaxed)
+}
+
+/// The most of a vertex's room (what the other species leave) a fraction
+/// brought back inside takes, and the least fraction.
+const ROOM_USED: f64 = 0.99;
+const LEAST_FRACTION: f64 = 1e-12;
+
+/// Brings every fraction of `phi` (by species, then vertex of area
+/// `areas`) back inside φ > 0, Σφ < 1 where a shape change took it out
+/// (a remesh event squeezing a cell under its proteins), keeping each
+/// species' amount Σ A_i φ_i: species by species, a fraction above
+/// [`ROOM_USED`] of its room is lowered to it and one below
+/// [`LEAST_FRACTION`] raised to it, and what that frees (or takes) is
+/// shared by the other vertices in proportion to their room (or their
+/// proteins). The relaxation that follows finds the same minimum from
+/// any start. Returns the vertices changed.
+fn bring_inside(phi: &mut [Vec<f64>], areas: &[f64]) -> usize {
+    let n = areas.len();
+    let mut changed = vec![false; n];
+    for k in 0..phi.len() {
+        let room = |phi: &[Vec<f64>], i: usize| {
+            let others: f64 = (0..phi.len()).filter(|&s| s != k).map(|s| phi[s][i]).sum();
+            ROOM_USED * (1.0 - others)
+        };
+        let (mut freed, mut headroom, mut held) = (0.0, 0.0, 0.0);
+        let mut clipped = vec![false; n];
+        for i in 0..n {
+            let top = room(phi, i);
+            let p = phi[k][i];
+            if p > top || p < LEAST_FRACTION {
+                let to = p.clamp(LEAST_FRACTION, top.max(LEAST_FRACTION));
+                freed += (p - to) * areas[i];
+                phi[k][i] = to;
+                clipped[i] = true;
+                changed[i] = true;
+            } else {
+                headroom += (top - p) * areas[i];
+                held += p * areas[i];
+            }
+        }
+        if freed > 0.0 && headroom > 0.0 {
+            // Share what was freed by the room left, at most all of it.
+            let share = (freed / headroom).min(1.0);
+            for i in (0..n).filter(|&i| !clipped[i]) {
+                phi[k][i] += share * (room(phi, i) - phi[k][i]);
+            }
+        } else if freed < 0.0 && held > 0.0 {
+            // Take what was added from the proteins elsewhere.
+            let share = (-freed / held).min(1.0 - LEAST_FRACTION);
+            for i in (0..n).filter(|&i| !clipped[i]) {
+                phi[k][i] *= 1.0 - share;
+            }
+        }
+    }
+    changed.iter().filter(|&&c| c).count()
 }
 
 /// [`relax_fields`] on the vertex quantities `v` of `shape`.
@@ -313,6 +376,7 @@ fn relax_measured(
                 residual: certified,
                 chemical_potentials: best,
                 grand_potential: value,
+                repaired: 0,
             });
         }
         // The local Hessian blocks and the solves (each block's S×S corner
@@ -387,6 +451,7 @@ fn relax_measured(
                 residual,
                 chemical_potentials: mus,
                 grand_potential: value,
+                repaired: 0,
             });
         }
         if iterations >= settings.max_iterations || slope.is_nan() {
@@ -672,5 +737,36 @@ mod tests {
             }
         }
         assert!(relaxed.iterations > 0 && relaxed.residual <= 1e-10);
+    }
+
+    #[test]
+    fn a_start_outside_the_domain_is_brought_inside_with_its_amounts() {
+        // Two species on eight vertices of unequal areas; vertex 2 is
+        // squeezed (φ sums above 1), vertex 5 has a negative fraction.
+        let areas = [1.0, 0.5, 0.2, 1.5, 0.8, 1.0, 0.7, 1.2];
+        let mut phi = vec![
+            vec![0.3, 0.2, 0.9, 0.1, 0.25, -0.01, 0.2, 0.3],
+            vec![0.1, 0.1, 0.3, 0.2, 0.1, 0.2, 0.1, 0.1],
+        ];
+        let amount = |phi: &[Vec<f64>], k: usize| -> f64 {
+            phi[k].iter().zip(&areas).map(|(p, a)| p * a).sum()
+        };
+        let before = [amount(&phi, 0), amount(&phi, 1)];
+        let changed = bring_inside(&mut phi, &areas);
+        assert_eq!(changed, 2);
+        for k in 0..2 {
+            assert!((amount(&phi, k) - before[k]).abs() <= 1e-15 * before[k]);
+        }
+        for i in 0..areas.len() {
+            let total = phi[0][i] + phi[1][i];
+            assert!(
+                phi[0][i] > 0.0 && phi[1][i] > 0.0 && total < 1.0,
+                "{i}: {total}"
+            );
+        }
+        // Inside already: nothing moves, to the bit.
+        let inside = phi.clone();
+        assert_eq!(bring_inside(&mut phi, &areas), 0);
+        assert_eq!(phi, inside);
     }
 }
