@@ -72,16 +72,7 @@ impl System for SpeciesRelaxation {
             face_geometry(positions, &topology.faces, &mut self.geometry);
             &self.geometry
         };
-        self.boundary.clear();
-        if topology.is_open() {
-            self.boundary = topology.boundary_mask();
-        }
-        let shape = Surface {
-            positions,
-            topology,
-            geometry,
-            boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
-        };
+        let shape = Surface::new(positions, topology, geometry, &mut self.boundary);
         let set = &model.set;
         let relaxed =
             relax_amounts(shape, model.base, set, &mut dense.0, model.relax).map_err(|source| {

@@ -59,16 +59,7 @@ impl System for SpeciesRemap {
                 .map(|(p, a)| *p - *a),
         );
         face_geometry(positions, &topology.faces, &mut self.geometry);
-        self.boundary.clear();
-        if topology.is_open() {
-            self.boundary = topology.boundary_mask();
-        }
-        let shape = Surface {
-            positions,
-            topology,
-            geometry: &self.geometry,
-            boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
-        };
+        let shape = Surface::new(positions, topology, &self.geometry, &mut self.boundary);
         let species = model.set.species.len();
         self.amounts.gather(&membrane.world, topology, species);
         remap_slides(

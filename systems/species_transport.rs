@@ -58,18 +58,14 @@ impl System for SpeciesTransport {
         let topology = membrane.cached_topology();
         membrane.gather_positions(&mut self.positions);
         face_geometry(&self.positions, &topology.faces, &mut self.geometry);
-        self.boundary.clear();
-        if topology.is_open() {
-            self.boundary = topology.boundary_mask();
-        }
         self.amounts
             .gather(&membrane.world, topology, set.species.len());
-        let shape = Surface {
-            positions: &self.positions,
+        let shape = Surface::new(
+            &self.positions,
             topology,
-            geometry: &self.geometry,
-            boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
-        };
+            &self.geometry,
+            &mut self.boundary,
+        );
         let noise = (dynamics.temperature > 0.0).then_some(Noise {
             seed: seed.0,
             steps: status.transport_steps,

@@ -33,7 +33,29 @@ pub struct Surface<'a> {
     pub boundary: Option<&'a [bool]>,
 }
 
-impl Surface<'_> {
+impl<'a> Surface<'a> {
+    /// The surface of `positions` on `topology` with its per-face
+    /// `geometry`; an open mesh's rim is marked in `rim` (a buffer the
+    /// caller keeps between calls), a closed mesh has none.
+    pub fn new(
+        positions: &'a [DVec3],
+        topology: &'a Topology,
+        geometry: &'a [Corners],
+        rim: &'a mut Vec<bool>,
+    ) -> Self {
+        rim.clear();
+        if topology.is_open() {
+            *rim = topology.boundary_mask();
+        }
+        let rim: &'a Vec<bool> = rim;
+        Self {
+            positions,
+            topology,
+            geometry,
+            boundary: (!rim.is_empty()).then_some(&rim[..]),
+        }
+    }
+
     /// The number of vertices.
     pub fn vertex_count(&self) -> usize {
         self.positions.len()

@@ -49,21 +49,12 @@ impl SpeciesForces {
                 &self.amounts
             }
         };
-        self.boundary.clear();
-        if t.is_open() {
-            self.boundary = t.boundary_mask();
-        }
         self.dphi.resize(self.set.species.len(), Vec::new());
         let out = force.map(|f| Derivatives {
             force: f,
             phi: &mut self.dphi,
         });
-        let surface = Surface {
-            positions: ctx.positions,
-            topology: t,
-            geometry: ctx.face_geometry,
-            boundary: (!self.boundary.is_empty()).then_some(&self.boundary[..]),
-        };
+        let surface = Surface::new(ctx.positions, t, ctx.face_geometry, &mut self.boundary);
         free_energy(
             surface,
             self.base,
