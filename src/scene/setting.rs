@@ -56,6 +56,17 @@ pub enum Setting {
     /// Target edge length h of the mesh scale (`resolution: EdgeLength(h)`,
     /// l̄; every mesh-scale length follows it).
     EdgeLength(f64),
+    /// Any numeric parameter by its dotted path, as the Python package's
+    /// keyword overrides name it ([`crate::scene::overrides`]): e.g.
+    /// `Parameter(path: "species.species.0.curvature_coupling", value: 2.0)`
+    /// or `Parameter(path: "energy.Bending.kappa", value: 2.0)`. The changed
+    /// scene is validated again, as a file would be.
+    Parameter {
+        /// The parameter's dotted path.
+        path: String,
+        /// Its value (in the parameter's own units).
+        value: f64,
+    },
 }
 
 impl Setting {
@@ -124,6 +135,18 @@ impl Setting {
                 }
                 scene.resolution = crate::scene::resolution::Resolution::EdgeLength(*h);
             }
+            Setting::Parameter { path, value } => {
+                let value = serde_json::Number::from_f64(*value)
+                    .ok_or_else(|| format!("{path}: the value {value} is not finite"))?;
+                let here = std::path::Path::new("");
+                *scene = crate::scene::overrides::set_parameter(scene, here, path, value.into())
+                    .map_err(|e| match e {
+                        crate::scene::SceneError::Invalid { field, reason, .. } => {
+                            format!("{field}: {reason}")
+                        }
+                        e => e.to_string(),
+                    })?;
+            }
         }
         Ok(())
     }
@@ -149,7 +172,8 @@ impl Setting {
             | Setting::ReducedVolume(v)
             | Setting::SpringStiffness(v)
             | Setting::EdgeLength(v)
-            | Setting::Duration(v) => Some(*v),
+            | Setting::Duration(v)
+            | Setting::Parameter { value: v, .. } => Some(*v),
             Setting::DiffusionInstant => Some(f64::INFINITY),
             Setting::Iterations(n) => Some(*n as f64),
             Setting::Barrier(_) => None,

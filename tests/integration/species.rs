@@ -892,3 +892,38 @@ fn a_remesh_event_moves_the_species_free_energy_by_a_small_part_of_k_bt() {
     assert!(per_event.len() > 10);
     assert!(median < 0.1 * kbt && largest < kbt, "{median} {largest}");
 }
+
+/// A sweep, a condition or a protocol phase sets any numeric parameter by
+/// its dotted path, a species' included; the changed scene is validated
+/// again, and a bad path or value names itself.
+#[test]
+fn a_setting_reaches_a_species_parameter_by_its_path() {
+    use remembrane::scene::setting::Setting;
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), &scene_text(BAR));
+    let mut scene = Scene::load(&path).unwrap();
+    let setting: Setting =
+        ron::from_str(r#"Parameter(path: "species.species.0.curvature_coupling", value: 2.5)"#)
+            .unwrap();
+    setting.apply(&mut scene).unwrap();
+    assert_eq!(
+        scene.species.as_ref().unwrap().species[0].curvature_coupling,
+        2.5
+    );
+    assert_eq!(setting.label(), "2.5");
+    let bad = Setting::Parameter {
+        path: "species.species.0.mobility".into(),
+        value: -1.0,
+    };
+    let msg = bad.apply(&mut scene).unwrap_err().to_string();
+    assert!(
+        msg.contains("mobility") && msg.contains("positive"),
+        "{msg}"
+    );
+    let nowhere = Setting::Parameter {
+        path: "species.species.3.mobility".into(),
+        value: 1.0,
+    };
+    let msg = nowhere.apply(&mut scene).unwrap_err().to_string();
+    assert!(msg.contains("species.species.3"), "{msg}");
+}
