@@ -212,7 +212,54 @@ pub(super) fn check(path: &Path) -> Result<(), String> {
     say_resolution(&scene, mesh_mean_edge);
     say_constraints_and_dynamics(&scene, &initial);
     say!("  control points {}", scene.control_points.len());
+    say_species(&scene);
     Ok(())
+}
+
+/// The species lines of `check`: each species' parameters, where its
+/// proteins come from, and how its field moves in this scene's dynamics.
+fn say_species(scene: &crate::scene::Scene) {
+    let Some(set) = &scene.species else {
+        return;
+    };
+    let minimiser = matches!(scene.dynamics.method, crate::params::Method::Minimise(_));
+    say!(
+        "  species      {} at k_BT {} Ē",
+        set.species.len(),
+        set.temperature
+    );
+    for s in &set.species {
+        use crate::species::params::Reservoir;
+        let source = match (s.reservoir, s.chemical_potential) {
+            (Reservoir::Bulk, Some(mu)) => format!("bound from a bulk at μ {mu} Ē"),
+            _ => "conserved".to_string(),
+        };
+        let moves = if minimiser {
+            "relaxed with the minimiser".to_string()
+        } else {
+            let mut how = Vec::new();
+            if s.mobility > 0.0 {
+                let d = s.mobility * set.temperature / s.area_per_protein;
+                how.push(format!("transport D = {d} l̄²/s"));
+            }
+            if s.reservoir == Reservoir::Bulk && s.binding_rate > 0.0 {
+                how.push(format!("binding at {} /s", s.binding_rate));
+            }
+            match how.is_empty() {
+                true => "held on the surface (no mobility or binding rate)".to_string(),
+                false => how.join(", "),
+            }
+        };
+        say!(
+            "    {}: a_p {} l̄², c {} /l̄, Δκ {} Ē, ε {} Ē/l̄², η {} Ē; {source}; {moves}",
+            s.name,
+            s.area_per_protein,
+            s.curvature_coupling,
+            s.rigidity_change,
+            s.binding_energy,
+            s.gradient_energy
+        );
+    }
 }
 
 /// The resolution line of `check`: the rescaled V_in well, triggers and

@@ -347,3 +347,21 @@ fn curvature_coupled_proteins_sort_in_time_toward_the_relaxed_fields() {
     assert!(off < 0.05 * spread, "{off} against {spread}");
     assert!((count / initial - 1.0).abs() < 1e-12);
 }
+
+/// `remembrane check` says how each species' field moves in the scene.
+#[test]
+fn check_names_each_species_and_how_it_moves() {
+    let scene = crate::common::scene("proteins/sorting_in_time.ron");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_remembrane"))
+        .args(["check".as_ref(), scene.as_os_str()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("species      1 at k_BT 0.1 Ē")
+            && text.contains("curver: a_p 0.1 l̄², c 2 /l̄")
+            && text.contains("conserved; transport D = 200 l̄²/s"),
+        "{text}"
+    );
+}
