@@ -373,15 +373,19 @@ fn model_ticks(c: &mut Criterion) {
 /// with the face-geometry pass it reads and, outside the schedule, its
 /// gather of the amounts from the world)
 /// and the relaxation of the fields at the shape (`species/relax`), from the
-/// same unrelaxed fields each time; and the term's domain check after a
-/// minimiser step (`species/admits`).
+/// same unrelaxed fields each time; the term's domain check after a
+/// minimiser step (`species/admits`); in dynamics, one step of the fields'
+/// transport (`species/transport_step`) and the fluid model's remap under a
+/// step's slides (`species/remap`).
 fn species(c: &mut Criterion) {
     use remembrane::species::free_energy::BaseBending;
     use remembrane::species::params::{Initial, Species, SpeciesSet};
     use remembrane::species::relax::{RelaxSettings, relax_amounts};
+    use remembrane::species::remap::remap_slides;
     use remembrane::species::state::{SpeciesAmounts, add_amounts};
     use remembrane::species::surface::{Surface, vertex_areas};
     use remembrane::species::term::SpeciesForces;
+    use remembrane::species::transport::Transport;
     let set = SpeciesSet {
         species: vec![Species {
             curvature_coupling: 1.0,
@@ -444,6 +448,35 @@ fn species(c: &mut Criterion) {
             b.iter(|| {
                 let mut fields = amounts.0.clone();
                 black_box(relax_amounts(shape, base, &set, &mut fields, settings).unwrap())
+            })
+        });
+        // One explicit step of the fields' transport in dynamics (a tick
+        // shorter than the stable step; D = M k_BT / a_p = 1 l̄²/s).
+        let mut moving = set.clone();
+        moving.species[0].mobility = 0.5;
+        let mut transport = Transport::default();
+        g.bench_with_input(BenchmarkId::new("transport_step", n), &n, |b, _| {
+            b.iter(|| {
+                let mut fields = amounts.0.clone();
+                black_box(
+                    transport
+                        .advance(shape, base, &moving, &mut fields, 1e-9, None)
+                        .unwrap(),
+                )
+            })
+        });
+        // The fluid model's remap under a step's slides (a rotation about
+        // the axis by 1e-4 rad: every vertex slides).
+        let slides: Vec<DVec3> = pos.iter().map(|p| DVec3::Z.cross(*p) * 1e-4).collect();
+        g.bench_with_input(BenchmarkId::new("remap", n), &n, |b, _| {
+            b.iter(|| {
+                let mut fields = amounts.0.clone();
+                black_box(remap_slides(
+                    shape,
+                    base.discretisation,
+                    &mut fields,
+                    &slides,
+                ))
             })
         });
         g.finish();

@@ -41,6 +41,15 @@ pub struct TubeSetting {
     pub chemical_potential: f64,
 }
 
+impl TubeSetting {
+    /// This setting bound at the chemical potential of a flat membrane at
+    /// the fraction `phi_v` ([`reservoir_potential`]).
+    pub fn bound_at(mut self, phi_v: f64) -> Self {
+        self.chemical_potential = reservoir_potential(&self, phi_v);
+        self
+    }
+}
+
 /// The stationary tube.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SortedTube {
@@ -131,16 +140,15 @@ mod tests {
     /// The bundled tether's tube: κ = 1, σ = 0.114544 (R0 = 2.0893,
     /// f0 = 3.0073), k_BT = 0.1.
     fn setting(a_p: f64, c: f64, phi_v: f64) -> TubeSetting {
-        let mut s = TubeSetting {
+        TubeSetting {
             kappa: 1.0,
             sigma: 0.114544,
             temperature: 0.1,
             area_per_protein: a_p,
             coupling: c,
             chemical_potential: 0.0,
-        };
-        s.chemical_potential = reservoir_potential(&s, phi_v);
-        s
+        }
+        .bound_at(phi_v)
     }
 
     fn djp(s: &TubeSetting) -> (f64, f64) {
@@ -208,7 +216,7 @@ mod tests {
             let force = |phi_v: f64| {
                 let mut s = setting(a_p, c, phi_v);
                 s.sigma += tension - reservoir_tension(&s, phi_v);
-                s.chemical_potential = reservoir_potential(&s, phi_v);
+                let s = s.bound_at(phi_v);
                 solve(&s).unwrap().force
             };
             let s = setting(a_p, c, 0.0);

@@ -427,7 +427,7 @@ fn two_species_end_on_the_fixed_shape_relation() {
 #[test]
 #[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
-    use remembrane::analysis::tube_sorting::{TubeSetting, reservoir_potential, solve};
+    use remembrane::analysis::tube_sorting::solve;
     let scene = crate::common::scene("proteins/tube_sorting.ron");
     let base = std::fs::read_to_string(&scene).unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -441,15 +441,7 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
         (0.5, 0.01, 2.0893, 0.02),
     ];
     for (c, phi_v, a_p, bound) in settings {
-        let mut setting = TubeSetting {
-            kappa: 1.0,
-            sigma: 0.114544,
-            temperature: 0.1,
-            area_per_protein: a_p,
-            coupling: c,
-            chemical_potential: 0.0,
-        };
-        setting.chemical_potential = reservoir_potential(&setting, phi_v);
+        let setting = tether_setting(a_p, c, phi_v);
         let tube = solve(&setting).unwrap();
         let text = base
             .replace(
@@ -530,25 +522,16 @@ fn a_tether_sorts_proteins_as_the_continuum_tube_does() {
 /// continuum) and −3.142 (−2πκc).
 #[test]
 fn a_tether_loses_force_to_weakly_sorted_proteins_as_the_continuum_tube_does() {
-    use remembrane::analysis::tube_sorting::{
-        TubeSetting, reservoir_potential, reservoir_tension, solve,
-    };
+    use remembrane::analysis::tube_sorting::{reservoir_tension, solve};
     let scene = crate::common::scene("proteins/tube_sorting.ron");
     let base = std::fs::read_to_string(&scene).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let tension = 0.114544;
     let mut points = Vec::new();
     for phi_v in [0.0001, 0.03, 0.06, 0.1] {
-        let mut setting = TubeSetting {
-            kappa: 1.0,
-            sigma: tension,
-            temperature: 0.1,
-            area_per_protein: 0.00836,
-            coupling: 0.5,
-            chemical_potential: 0.0,
-        };
+        let mut setting = tether_setting(0.00836, 0.5, phi_v);
         setting.sigma += tension - reservoir_tension(&setting, phi_v);
-        setting.chemical_potential = reservoir_potential(&setting, phi_v);
+        let setting = setting.bound_at(phi_v);
         let tube = solve(&setting).unwrap();
         let text = base
             .replace("sigma: 0.114544", &format!("sigma: {}", setting.sigma))
@@ -605,18 +588,9 @@ fn a_tether_loses_force_to_weakly_sorted_proteins_as_the_continuum_tube_does() {
 /// with φ = 1.0145 at a cap vertex (2026-12-07).
 #[test]
 fn a_minimiser_step_keeps_every_fraction_below_one() {
-    use remembrane::analysis::tube_sorting::{TubeSetting, reservoir_potential};
     let scene = crate::common::scene("proteins/tube_sorting.ron");
     let base = std::fs::read_to_string(&scene).unwrap();
-    let mut setting = TubeSetting {
-        kappa: 1.0,
-        sigma: 0.114544,
-        temperature: 0.1,
-        area_per_protein: 2.09,
-        coupling: 0.5,
-        chemical_potential: 0.0,
-    };
-    setting.chemical_potential = reservoir_potential(&setting, 0.01);
+    let setting = tether_setting(2.09, 0.5, 0.01);
     let text = base
         .replace("area_per_protein: 0.836,", "area_per_protein: 2.09,")
         .replace(
@@ -740,6 +714,21 @@ fn proteins_of_large_coupling_bud_a_vesicle_and_half_the_coupling_does_not() {
         get("phi_max_coat")
     );
     assert_eq!(neck(&profile), None);
+}
+
+/// The continuum tube of `tube_sorting.ron`'s membrane (κ = 1 Ē,
+/// σ = 0.114544 Ē/l̄², k_BT = 0.1 Ē) with a species of area `a_p` and
+/// coupling `c` bound at the μ of a flat membrane at `phi_v`.
+fn tether_setting(a_p: f64, c: f64, phi_v: f64) -> remembrane::analysis::tube_sorting::TubeSetting {
+    remembrane::analysis::tube_sorting::TubeSetting {
+        kappa: 1.0,
+        sigma: 0.114544,
+        temperature: 0.1,
+        area_per_protein: a_p,
+        coupling: c,
+        chemical_potential: 0.0,
+    }
+    .bound_at(phi_v)
 }
 
 /// Runs the scene `text` (written into `dir`) to `out` through the CLI,

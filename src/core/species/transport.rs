@@ -258,15 +258,17 @@ impl Transport {
             elapsed += h;
             steps += 1;
         }
-        let chemical_potentials = (0..ns)
-            .map(|s| match set.species[s].reservoir {
-                Reservoir::Bulk => set.species[s].chemical_potential.unwrap_or(0.0),
-                Reservoir::Conserved => {
-                    v.free_energy(shape, &local, set, &self.phi, Some(&mut self.grad));
-                    let a = set.species[s].area_per_protein;
-                    let area: f64 = v.areas.iter().sum();
-                    self.grad[s].iter().map(|g| g * a).sum::<f64>() / area
-                }
+        // A conserved species' μ: the area mean of μ_i at the end,
+        // Σ_i A_i μ_i / A = a_s Σ_i ∂F/∂φ_i / A.
+        v.free_energy(shape, &local, set, &self.phi, Some(&mut self.grad));
+        let area: f64 = v.areas.iter().sum();
+        let chemical_potentials = set
+            .species
+            .iter()
+            .zip(&self.grad)
+            .map(|(sp, grad)| match sp.reservoir {
+                Reservoir::Bulk => sp.chemical_potential.unwrap_or(0.0),
+                Reservoir::Conserved => sp.area_per_protein * grad.iter().sum::<f64>() / area,
             })
             .collect();
         Ok(Transported {
