@@ -120,20 +120,13 @@ impl ForceTerm for PyForceTerm {
         &self.name
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.call(ctx.positions, None).unwrap_or_else(|e| {
-            self.errors.keep(e);
-            f64::NAN
-        })
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        match self.call(ctx.positions, Some(force)) {
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, mut force: Option<&mut [DVec3]>) -> f64 {
+        match self.call(ctx.positions, force.as_deref_mut()) {
             Ok(energy) => energy,
             Err(e) => {
                 self.errors.keep(e);
                 // The finite check names this term and stops the step.
-                if let Some(f) = force.first_mut() {
+                if let Some(f) = force.and_then(|f| f.first_mut()) {
                     *f = DVec3::NAN;
                 }
                 f64::NAN

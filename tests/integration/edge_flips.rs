@@ -29,11 +29,8 @@ impl ForceTerm for PricedWhole {
     fn uses_face_geometry(&self) -> bool {
         self.0.uses_face_geometry()
     }
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.0.energy(ctx)
-    }
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.0.accumulate(ctx, force)
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        self.0.evaluate(ctx, force)
     }
 }
 

@@ -19,14 +19,11 @@ impl ForceTerm for UniformField {
     fn name(&self) -> &str {
         "uniform_field"
     }
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        -ctx.positions.iter().map(|p| self.0.dot(*p)).sum::<f64>()
-    }
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        for f in force.iter_mut() {
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        for f in force.into_iter().flatten() {
             *f += self.0;
         }
-        self.energy(ctx)
+        -ctx.positions.iter().map(|p| self.0.dot(*p)).sum::<f64>()
     }
 }
 
@@ -452,11 +449,10 @@ impl ForceTerm for Counting {
     fn name(&self) -> &str {
         "counting"
     }
-    fn energy(&mut self, _: &ForceContext<'_>) -> f64 {
-        0.0
-    }
-    fn accumulate(&mut self, _: &ForceContext<'_>, _: &mut [DVec3]) -> f64 {
-        self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    fn evaluate(&mut self, _: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        if force.is_some() {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
         0.0
     }
 }
@@ -539,17 +535,16 @@ impl ForceTerm for GrowingField {
     fn name(&self) -> &str {
         "growing_field"
     }
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        if let Some(force) = force {
+            self.evaluations += 1;
+            let f = self.step * self.evaluations as f64;
+            for x in force.iter_mut() {
+                *x += f;
+            }
+        }
         let f = self.step * self.evaluations as f64;
         -ctx.positions.iter().map(|p| f.dot(*p)).sum::<f64>()
-    }
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluations += 1;
-        let f = self.step * self.evaluations as f64;
-        for x in force.iter_mut() {
-            *x += f;
-        }
-        self.energy(ctx)
     }
     fn save_state(&self) -> Option<serde_json::Value> {
         Some(serde_json::json!(self.evaluations))

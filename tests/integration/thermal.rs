@@ -36,18 +36,20 @@ impl ForceTerm for Trap {
     fn name(&self) -> &str {
         "trap"
     }
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        for ((f, p), c) in force
+            .into_iter()
+            .flatten()
+            .zip(ctx.positions)
+            .zip(&self.centres)
+        {
+            *f += self.k * (*c - *p);
+        }
         ctx.positions
             .iter()
             .zip(&self.centres)
             .map(|(p, c)| 0.5 * self.k * p.distance_squared(*c))
             .sum()
-    }
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        for ((f, p), c) in force.iter_mut().zip(ctx.positions).zip(&self.centres) {
-            *f += self.k * (*c - *p);
-        }
-        self.energy(ctx)
     }
 }
 

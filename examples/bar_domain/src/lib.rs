@@ -180,7 +180,15 @@ impl BarDomainForces {
             c0: Vec::new(),
         }
     }
+}
 
+impl ForceTerm for BarDomainForces {
+    fn name(&self) -> &str {
+        "bar_domain"
+    }
+    fn uses_face_geometry(&self) -> bool {
+        true
+    }
     fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         coverage_by_slot(ctx.world, ctx.topology, &mut self.c0);
         for c in &mut self.c0 {
@@ -194,21 +202,6 @@ impl BarDomainForces {
             &mut self.scratch,
             force,
         )
-    }
-}
-
-impl ForceTerm for BarDomainForces {
-    fn name(&self) -> &str {
-        "bar_domain"
-    }
-    fn uses_face_geometry(&self) -> bool {
-        true
-    }
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
     }
     /// A flip changes the rings of its four vertices only, so ΔE is the
     /// change of their four vertex energies, each with its own C0 = φ C_p

@@ -149,18 +149,8 @@ impl ForceTerm for AdhesionForces {
         &self.params.name
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        adhesion_energy(&self.params, &ctx.topology.faces, ctx.positions, None).0
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        adhesion_energy(
-            &self.params,
-            &ctx.topology.faces,
-            ctx.positions,
-            Some(force),
-        )
-        .0
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        adhesion_energy(&self.params, &ctx.topology.faces, ctx.positions, force).0
     }
 
     /// W A_f |φ″(d_f)| per face within the range, a third to each of its

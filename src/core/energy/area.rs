@@ -49,21 +49,6 @@ impl AreaForces {
     }
 }
 
-impl AreaForces {
-    /// The energy (Ē), and with `force` its negative gradient added to it
-    /// (Ē/l̄).
-    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
-        area_penalty(
-            &ctx.topology.faces,
-            ctx.face_geometry,
-            self.k,
-            self.target,
-            &mut self.gradient,
-            force,
-        )
-    }
-}
-
 impl ForceTerm for AreaForces {
     fn name(&self) -> &str {
         "area"
@@ -77,12 +62,17 @@ impl ForceTerm for AreaForces {
         true
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
+    /// The energy (Ē), and with `force` its negative gradient added to it
+    /// (Ē/l̄).
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        area_penalty(
+            &ctx.topology.faces,
+            ctx.face_geometry,
+            self.k,
+            self.target,
+            &mut self.gradient,
+            force,
+        )
     }
 
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {

@@ -537,31 +537,6 @@ impl ForceTerm for BendingForces {
         true
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
-    }
-
-    /// The cotangent form's change at the four vertices whose rings the
-    /// flip changes; `None` for the dihedral form (priced whole).
-    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
-        let p = &self.params;
-        (p.discretisation == BendingDiscretisation::Cotangent).then(|| {
-            crate::energy::bending::flip_energy_change(
-                proposal.before.positions,
-                proposal.before.topology,
-                &proposal.flip,
-                p.kappa,
-                |_| p.c0,
-            )
-        })
-    }
-}
-
-impl BendingForces {
     /// The energy, and with `force` its negative gradient added to it.
     fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let t = ctx.topology;
@@ -602,6 +577,21 @@ impl BendingForces {
                 force,
             ),
         }
+    }
+
+    /// The cotangent form's change at the four vertices whose rings the
+    /// flip changes; `None` for the dihedral form (priced whole).
+    fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
+        let p = &self.params;
+        (p.discretisation == BendingDiscretisation::Cotangent).then(|| {
+            crate::energy::bending::flip_energy_change(
+                proposal.before.positions,
+                proposal.before.topology,
+                &proposal.flip,
+                p.kappa,
+                |_| p.c0,
+            )
+        })
     }
 }
 

@@ -131,14 +131,9 @@ impl ForceTerm for LineTensionForces {
         "line_tension"
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         self.resolve(ctx.topology);
-        line_energy(ctx.positions, &self.edges, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.resolve(ctx.topology);
-        line_energy(ctx.positions, &self.edges, Some(force))
+        line_energy(ctx.positions, &self.edges, force)
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {

@@ -51,22 +51,6 @@ impl LocalTensionForces {
     }
 }
 
-impl LocalTensionForces {
-    /// The energy (Ē), and with `force` its negative gradient added to it
-    /// (Ē/l̄).
-    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
-        local_tension(
-            &ctx.topology.faces,
-            ctx.face_geometry,
-            ctx.lipid,
-            self.k,
-            self.a0,
-            &mut self.scratch,
-            force,
-        )
-    }
-}
-
 impl ForceTerm for LocalTensionForces {
     fn name(&self) -> &str {
         "local_tension"
@@ -80,12 +64,18 @@ impl ForceTerm for LocalTensionForces {
         true
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
+    /// The energy (Ē), and with `force` its negative gradient added to it
+    /// (Ē/l̄).
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        local_tension(
+            &ctx.topology.faces,
+            ctx.face_geometry,
+            ctx.lipid,
+            self.k,
+            self.a0,
+            &mut self.scratch,
+            force,
+        )
     }
 }
 

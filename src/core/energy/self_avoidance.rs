@@ -138,6 +138,12 @@ impl SelfAvoidanceForces {
             cells: CellList::default(),
         }
     }
+}
+
+impl ForceTerm for SelfAvoidanceForces {
+    fn name(&self) -> &str {
+        "self_avoidance"
+    }
 
     fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let t = ctx.topology;
@@ -149,20 +155,6 @@ impl SelfAvoidanceForces {
             &mut self.cells,
             force,
         )
-    }
-}
-
-impl ForceTerm for SelfAvoidanceForces {
-    fn name(&self) -> &str {
-        "self_avoidance"
-    }
-
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
     }
 }
 

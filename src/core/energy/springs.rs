@@ -304,6 +304,16 @@ impl SpringForces {
             ..Default::default()
         }
     }
+}
+
+impl ForceTerm for SpringForces {
+    fn name(&self) -> &str {
+        "springs"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::External
+    }
 
     /// Gathers the control points, returns the spring energy and, with
     /// `force`, adds the spring forces.
@@ -323,24 +333,6 @@ impl SpringForces {
         }
         let (t, points, nearest) = (ctx.topology, &self.points, &self.nearest);
         control_point_springs(p, t, points, nearest, self.coupling, force)
-    }
-}
-
-impl ForceTerm for SpringForces {
-    fn name(&self) -> &str {
-        "springs"
-    }
-
-    fn kind(&self) -> ForceKind {
-        ForceKind::External
-    }
-
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
     }
 
     /// Zero: the springs act on each point's nearest vertex and its 1-ring,

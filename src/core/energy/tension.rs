@@ -74,17 +74,8 @@ impl ForceTerm for TensionForces {
         true
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        surface_tension(&ctx.topology.faces, ctx.face_geometry, self.sigma, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        surface_tension(
-            &ctx.topology.faces,
-            ctx.face_geometry,
-            self.sigma,
-            Some(force),
-        )
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        surface_tension(&ctx.topology.faces, ctx.face_geometry, self.sigma, force)
     }
 
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {

@@ -658,12 +658,8 @@ impl ForceTerm for VinForces {
         ForceKind::Maintenance
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.run(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.run(ctx, Some(force))
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        self.run(ctx, force)
     }
 
     /// V of the new edge c–d less V of the old edge a–b, in the form the

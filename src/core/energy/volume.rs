@@ -105,7 +105,15 @@ impl VolumeForces {
     }
 }
 
-impl VolumeForces {
+impl ForceTerm for VolumeForces {
+    fn name(&self) -> &str {
+        "volume"
+    }
+
+    fn kind(&self) -> ForceKind {
+        ForceKind::Penalty
+    }
+
     /// The energy (Ē), and with `force` its negative gradient added to it
     /// (Ē/l̄).
     fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
@@ -127,24 +135,6 @@ impl VolumeForces {
             &mut self.gradient,
             force,
         )
-    }
-}
-
-impl ForceTerm for VolumeForces {
-    fn name(&self) -> &str {
-        "volume"
-    }
-
-    fn kind(&self) -> ForceKind {
-        ForceKind::Penalty
-    }
-
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
     }
 
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {

@@ -259,14 +259,9 @@ impl ForceTerm for WallForces {
         &self.params.name
     }
 
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let p = &self.params;
-        wall_energy(&p.shape, p.strength, p.range, ctx.positions, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        let p = &self.params;
-        wall_energy(&p.shape, p.strength, p.range, ctx.positions, Some(force))
+        wall_energy(&p.shape, p.strength, p.range, ctx.positions, force)
     }
 
     /// A flip moves no vertex, and the energy is a sum over vertices.

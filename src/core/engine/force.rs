@@ -133,9 +133,11 @@ pub enum ForceKind {
 
 /// An energy term with an analytic force.
 ///
-/// Contract: [`ForceTerm::accumulate`] *adds* −∇E to `force` (never
-/// overwrites) and returns the same energy [`ForceTerm::energy`] would.
-/// Check a new term with [`crate::fd::check_force_term`].
+/// One method is required, [`ForceTerm::evaluate`]: it returns the energy
+/// and, given a force buffer, *adds* −∇E to it (never overwrites). The
+/// energy-only and force paths ([`ForceTerm::energy`],
+/// [`ForceTerm::accumulate`]) call it. Check a new term with
+/// [`crate::fd::check_force_term`].
 pub trait ForceTerm: Send {
     /// Unique name, used in reports, per-term force output and errors.
     fn name(&self) -> &str;
@@ -148,10 +150,20 @@ pub trait ForceTerm: Send {
     fn uses_face_geometry(&self) -> bool {
         false
     }
-    /// Energy of the current state (Ē).
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64;
-    /// Adds −∇E to `force` (Ē/l̄) and returns the energy (Ē).
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64;
+    /// The energy of the current state (Ē), and with `force` its negative
+    /// gradient −∇E added to it (Ē/l̄). The same energy with and without
+    /// `force`.
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64;
+    /// The energy of the current state (Ē): [`ForceTerm::evaluate`] without
+    /// a force.
+    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
+        self.evaluate(ctx, None)
+    }
+    /// Adds −∇E to `force` (Ē/l̄) and returns the energy (Ē):
+    /// [`ForceTerm::evaluate`] with a force.
+    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
+        self.evaluate(ctx, Some(force))
+    }
     /// ΔE (Ē) of a proposed edge flip ([`FlipProposal`]; positions do not
     /// move), for the Metropolis edge flips ([`crate::remesh::flip`]).
     ///
@@ -514,11 +526,8 @@ impl<T: ForceTerm + ?Sized> ForceTerm for Box<T> {
     fn uses_face_geometry(&self) -> bool {
         (**self).uses_face_geometry()
     }
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        (**self).energy(ctx)
-    }
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        (**self).accumulate(ctx, force)
+    fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
+        (**self).evaluate(ctx, force)
     }
     fn flip_energy_change(&mut self, proposal: &FlipProposal<'_>) -> Option<f64> {
         (**self).flip_energy_change(proposal)

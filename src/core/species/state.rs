@@ -37,39 +37,14 @@ impl<const K: usize> ScalarComponent for ProteinAmount<K> {
 /// (`ProteinAmount<0>` … `ProteinAmount<7>`).
 macro_rules! with_component {
     ($k:expr, $C:ident => $body:expr) => {
+        with_component!(@arms $k, $C => $body; 0 1 2 3 4 5 6 7)
+    };
+    (@arms $k:expr, $C:ident => $body:expr; $($n:literal)*) => {
         match $k {
-            0 => {
-                type $C = ProteinAmount<0>;
+            $($n => {
+                type $C = ProteinAmount<$n>;
                 $body
-            }
-            1 => {
-                type $C = ProteinAmount<1>;
-                $body
-            }
-            2 => {
-                type $C = ProteinAmount<2>;
-                $body
-            }
-            3 => {
-                type $C = ProteinAmount<3>;
-                $body
-            }
-            4 => {
-                type $C = ProteinAmount<4>;
-                $body
-            }
-            5 => {
-                type $C = ProteinAmount<5>;
-                $body
-            }
-            6 => {
-                type $C = ProteinAmount<6>;
-                $body
-            }
-            7 => {
-                type $C = ProteinAmount<7>;
-                $body
-            }
+            })*
             _ => unreachable!("at most {MAX_SPECIES} species (validated)"),
         }
     };

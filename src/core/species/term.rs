@@ -38,6 +38,16 @@ impl SpeciesForces {
             boundary: Vec::new(),
         }
     }
+}
+
+impl ForceTerm for SpeciesForces {
+    fn name(&self) -> &str {
+        "species"
+    }
+
+    fn uses_face_geometry(&self) -> bool {
+        true
+    }
 
     fn evaluate(&mut self, ctx: &ForceContext<'_>, force: Option<&mut [DVec3]>) -> f64 {
         let t = ctx.topology;
@@ -64,24 +74,6 @@ impl SpeciesForces {
             &mut self.scratch,
             out,
         )
-    }
-}
-
-impl ForceTerm for SpeciesForces {
-    fn name(&self) -> &str {
-        "species"
-    }
-
-    fn uses_face_geometry(&self) -> bool {
-        true
-    }
-
-    fn energy(&mut self, ctx: &ForceContext<'_>) -> f64 {
-        self.evaluate(ctx, None)
-    }
-
-    fn accumulate(&mut self, ctx: &ForceContext<'_>, force: &mut [DVec3]) -> f64 {
-        self.evaluate(ctx, Some(force))
     }
 
     /// Every fraction at the amounts held stays inside (0, 1), and their
