@@ -274,12 +274,10 @@ fn shared_phases_run_once_and_conditions_start_from_them() {
             .parse()
             .unwrap()
     };
-    let relax_area: f64 = {
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(relax.join("summary.json")).unwrap())
-                .unwrap();
-        s["area"].as_f64().unwrap()
-    };
+    let relax_area = remembrane::io::summary::RunSummary::read(&relax)
+        .unwrap()
+        .last
+        .area;
     assert!((area(cont) - relax_area).abs() < 1e-9 * relax_area);
     assert!((area(fresh) - relax_area).abs() > 1e-6 * relax_area);
     // A phase run under other overrides is not reused: it runs again.
