@@ -140,8 +140,21 @@ pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode 
         check_invariants: args.check_invariants,
         checkpoint,
     };
+    // Before the run, which such a setting can make very slow.
+    for caution in scene.cautions() {
+        eprintln!("warning: {}: {caution}", path.display());
+    }
     let result = crate::util::parallel::on_pool(|| run_scene(&scene, &path, &options, |_| Ok(())));
-    report_run(&path, &options.out, args.quiet, result)
+    report_run(&path, &options.out, args.quiet, result, Cautions::Shown)
+}
+
+/// Whether [`report_run`] still prints the summary's cautions.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Cautions {
+    /// Printed before the run started.
+    Shown,
+    /// Printed with the outcome (a resumed run).
+    WithOutcome,
 }
 
 /// Sets the global thread pool's size (`--threads`); a bad value is
@@ -193,21 +206,25 @@ pub(super) fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunAr
         crate::workflow::run::resume_run(dir, progress, args.checkpoint_every)
     });
     let out = crate::io::checkpoint::run_dir_of(dir);
-    report_run(dir, &out, args.quiet, result)
+    report_run(dir, &out, args.quiet, result, Cautions::WithOutcome)
 }
 
 /// Prints a run's outcome (its summary line and timing table, or its
-/// error) and gives the exit code.
+/// error; the summary's cautions unless they were shown before the run)
+/// and gives the exit code.
 pub(super) fn report_run(
     path: &Path,
     out: &Path,
     quiet: bool,
     result: Result<crate::io::summary::RunSummary, crate::workflow::run::RunError>,
+    cautions: Cautions,
 ) -> ExitCode {
     match result {
         Ok(summary) => {
-            for caution in &summary.cautions {
-                eprintln!("warning: {}: {caution}", path.display());
+            if cautions == Cautions::WithOutcome {
+                for caution in &summary.cautions {
+                    eprintln!("warning: {}: {caution}", path.display());
+                }
             }
             for note in &summary.time_notes {
                 eprintln!("note: {}: {note}", path.display());
