@@ -577,6 +577,53 @@ fn a_tether_loses_force_to_weakly_sorted_proteins_as_the_continuum_tube_does() {
     }
 }
 
+/// The bundled sweep `scenes/proteins/force_drop_sweep.ron` sets, in each
+/// condition, the σ and μ of the force-drop test above at its φ_v (named in
+/// the condition): the reservoir tension held at 0.114544 Ē/l̄² and the μ of
+/// a flat membrane at φ_v, to round-off.
+#[test]
+fn the_force_drop_sweep_holds_the_reservoir_tension_and_binds_at_phi_v() {
+    use remembrane::analysis::tube_sorting::reservoir_tension;
+    use remembrane::scene::setting::Setting;
+    let path = crate::common::scene("proteins/force_drop_sweep.ron");
+    let (sweep, scene) = remembrane::workflow::sweep::Sweep::load(&path).unwrap();
+    assert_eq!(sweep.conditions.len(), 4);
+    for condition in &sweep.conditions {
+        let phi_v: f64 = condition.name["phi_v_".len()..].parse().unwrap();
+        let value = |wanted: &str| {
+            condition
+                .set
+                .iter()
+                .find_map(|s| match s {
+                    Setting::Parameter { path, value } if path == wanted => Some(*value),
+                    _ => None,
+                })
+                .unwrap_or_else(|| panic!("{}: no {wanted}", condition.name))
+        };
+        let mut setting = tether_setting(value("species.species.0.area_per_protein"), 0.5, phi_v);
+        setting.sigma = value("energy.Tension.sigma");
+        let tension = reservoir_tension(&setting, phi_v);
+        assert!(
+            (tension / 0.114544 - 1.0).abs() < 1e-12,
+            "{}: Σ = {tension}",
+            condition.name
+        );
+        let mu = value("species.species.0.chemical_potential");
+        assert!(
+            (mu - setting.chemical_potential).abs() < 1e-12,
+            "{}: μ = {mu} against {}",
+            condition.name,
+            setting.chemical_potential
+        );
+        assert_eq!(value("species.species.0.initial.Fraction"), phi_v);
+        // Each condition's scene is valid.
+        let mut changed = scene.clone();
+        for s in &condition.set {
+            s.apply(&mut changed).unwrap();
+        }
+    }
+}
+
 /// A minimiser step never leaves the fractions' domain: the tether of
 /// `tube_sorting.ron` with strong sorting (a_p = 2.09 l̄², exponent 5,
 /// φ_v = 0.01) and no remeshing fills its caps' vertices nearly to φ = 1,
