@@ -12,7 +12,9 @@
 //! Stage: Gather, after `species_gather` and `face_geometry`. Reads:
 //! [`DensePositions`], [`FaceGeometry`],
 //! the topology (in [`Membrane`]), [`SpeciesModel`], [`Clock`]. Writes:
-//! the [`SpeciesAmounts`] in [`TermInputs`] and the world's
+//! the [`SpeciesAmounts`] and the surface's measure ([`MeasuredSurface`],
+//! which the species term then reuses at the same positions) in
+//! [`TermInputs`], the world's
 //! `ProteinAmount` components (in [`Membrane`]), [`SpeciesStatus`]. The
 //! conserved counts are rescaled to their initial values after each
 //! relaxation, so round-off does not accumulate over iterations.
@@ -26,9 +28,9 @@ use remembrane_core::mesh::geometry::{Corners, face_geometry};
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane_core::species::params::Reservoir;
-use remembrane_core::species::relax::relax_amounts;
+use remembrane_core::species::relax::relax_amounts_measured;
 use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
-use remembrane_core::species::surface::Surface;
+use remembrane_core::species::surface::{MeasuredSurface, Surface, VertexTerms};
 
 /// Its name in the schedule.
 pub const SPECIES_RELAXATION: &str = "species_relaxation";
@@ -38,6 +40,9 @@ pub const SPECIES_RELAXATION: &str = "species_relaxation";
 pub struct SpeciesRelaxation {
     geometry: Vec<Corners>,
     boundary: Vec<bool>,
+    /// The surface's measure at this tick (published in the term inputs
+    /// after the relaxation, swapped with the last one published).
+    measured: VertexTerms,
 }
 
 impl System for SpeciesRelaxation {
@@ -64,6 +69,7 @@ impl System for SpeciesRelaxation {
         };
         let positions = &positions.0;
         let topology = membrane.cached_topology();
+        let epoch = topology.epoch;
         // The tick's face geometry where the force pass has measured it
         // (the species term asks for it), else measured here.
         let geometry = if shared.0.len() == topology.faces.len() {
@@ -74,13 +80,19 @@ impl System for SpeciesRelaxation {
         };
         let shape = Surface::new(positions, topology, geometry, &mut self.boundary);
         let set = &model.set;
-        let relaxed =
-            relax_amounts(shape, model.base, set, &mut dense.0, model.relax).map_err(|source| {
-                SimError::Species {
-                    iteration: clock.iteration + 1,
-                    source,
-                }
-            })?;
+        self.measured.measure(shape, model.base.discretisation);
+        let relaxed = relax_amounts_measured(
+            shape,
+            &self.measured,
+            model.base,
+            set,
+            &mut dense.0,
+            model.relax,
+        )
+        .map_err(|source| SimError::Species {
+            iteration: clock.iteration + 1,
+            source,
+        })?;
         for (k, s) in set.species.iter().enumerate() {
             if s.reservoir == Reservoir::Conserved {
                 let target = status.initial_counts[k];
@@ -97,6 +109,17 @@ impl System for SpeciesRelaxation {
         status.newton_steps += relaxed.iterations as u64;
         status.repaired_vertices += relaxed.repaired as u64;
         status.residual = relaxed.residual;
+        // The measure, for the species term at the same positions.
+        let published = match inputs.get_mut::<MeasuredSurface>() {
+            Some(p) => p,
+            None => {
+                inputs.insert(MeasuredSurface::default());
+                inputs.get_mut::<MeasuredSurface>().expect("just inserted")
+            }
+        };
+        std::mem::swap(&mut published.terms, &mut self.measured);
+        published.positions.clone_from(positions);
+        published.epoch = epoch;
         Ok(())
     }
 }

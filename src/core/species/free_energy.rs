@@ -191,13 +191,33 @@ pub fn free_energy(
     fields: Fields<'_>,
     hold: Hold,
     scratch: &mut FreeEnergyScratch,
+    out: Option<Derivatives<'_>>,
+) -> f64 {
+    free_energy_on(surface, None, base, set, fields, hold, scratch, out)
+}
+
+/// [`free_energy`] on the surface's measure `measured` at `surface`'s
+/// positions, in `base`'s discretisation (copied, not measured again); with
+/// `None`, measured.
+#[allow(clippy::too_many_arguments)]
+pub fn free_energy_on(
+    surface: Surface<'_>,
+    measured: Option<&VertexTerms>,
+    base: BaseBending,
+    set: &SpeciesSet,
+    fields: Fields<'_>,
+    hold: Hold,
+    scratch: &mut FreeEnergyScratch,
     mut out: Option<Derivatives<'_>>,
 ) -> f64 {
     let s = scratch;
     let n = surface.vertex_count();
     let species = &set.species;
     let local = LocalEnergy::new(set, base);
-    s.terms.measure(surface, base.discretisation);
+    match measured {
+        Some(terms) => s.terms.clone_from(terms),
+        None => s.terms.measure(surface, base.discretisation),
+    }
     let converted;
     let phi = match fields {
         Fields::Fractions(phi) => phi,

@@ -61,9 +61,23 @@ impl MeasuredVertices {
         form: BendingDiscretisation,
         gradients: bool,
     ) -> Self {
-        let n = shape.vertex_count();
         let mut terms = VertexTerms::default();
         terms.measure(shape, form);
+        Self::with(shape, terms.areas, terms.curvature, gradients)
+    }
+
+    /// The quantities of `shape` from its measure `terms` (copied).
+    pub(crate) fn from_terms(shape: Surface<'_>, terms: &VertexTerms, gradients: bool) -> Self {
+        Self::with(
+            shape,
+            terms.areas.clone(),
+            terms.curvature.clone(),
+            gradients,
+        )
+    }
+
+    fn with(shape: Surface<'_>, areas: Vec<f64>, curvature: Vec<f64>, gradients: bool) -> Self {
+        let n = shape.vertex_count();
         let interior = (0..n).map(|i| shape.is_interior(i)).collect();
         let mut dirichlet = vec![0.0; n];
         let faces = if gradients { shape.faces() } else { &[] };
@@ -78,8 +92,8 @@ impl MeasuredVertices {
             *d = d.max(0.0);
         }
         Self {
-            areas: terms.areas,
-            curvature: terms.curvature,
+            areas,
+            curvature,
             interior,
             dirichlet,
         }

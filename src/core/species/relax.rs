@@ -20,7 +20,7 @@
 use crate::species::free_energy::{BaseBending, LocalEnergy};
 use crate::species::measured::{Block, HessianConstants, MeasuredVertices};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
-use crate::species::surface::Surface;
+use crate::species::surface::{Surface, VertexTerms};
 
 /// When the relaxation stops.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -217,6 +217,31 @@ pub fn relax_amounts(
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
     let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
+    relax_amounts_of(shape, v, base, set, amounts, settings)
+}
+
+/// [`relax_amounts`] on the surface's measure `terms` (in the bending's
+/// discretisation), taken at `shape`'s positions.
+pub fn relax_amounts_measured(
+    shape: Surface<'_>,
+    terms: &VertexTerms,
+    base: BaseBending,
+    set: &SpeciesSet,
+    amounts: &mut [Vec<f64>],
+    settings: RelaxSettings,
+) -> Result<Relaxed, RelaxError> {
+    let v = MeasuredVertices::from_terms(shape, terms, set.has_gradient_energy());
+    relax_amounts_of(shape, v, base, set, amounts, settings)
+}
+
+fn relax_amounts_of(
+    shape: Surface<'_>,
+    v: MeasuredVertices,
+    base: BaseBending,
+    set: &SpeciesSet,
+    amounts: &mut [Vec<f64>],
+    settings: RelaxSettings,
+) -> Result<Relaxed, RelaxError> {
     let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
     let repaired = bring_inside(&mut phi, &v.areas);
     let mut relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;

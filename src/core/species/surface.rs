@@ -107,6 +107,34 @@ pub fn vertex_areas(
     }
 }
 
+/// The species' measure of the surface at the tick's positions, which the
+/// relaxation system publishes in the term inputs so that the species term,
+/// evaluated next at the same positions, does not measure them again.
+#[derive(Clone, Debug, Default)]
+pub struct MeasuredSurface {
+    /// The positions measured (by dense slot).
+    pub positions: Vec<DVec3>,
+    /// The topology's epoch at the measure.
+    pub epoch: u64,
+    /// The measure.
+    pub terms: VertexTerms,
+}
+
+impl MeasuredSurface {
+    /// Whether this measure is of `positions` (to the bit) on a topology of
+    /// `epoch`, in `form`.
+    pub fn is_of(&self, positions: &[DVec3], epoch: u64, form: BendingDiscretisation) -> bool {
+        self.epoch == epoch
+            && self.terms.form == form
+            && self.positions.len() == positions.len()
+            && self
+                .positions
+                .iter()
+                .zip(positions)
+                .all(|(a, b)| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits))
+    }
+}
+
 /// Each vertex's area and curvature, with what the pull-back needs.
 #[derive(Clone, Debug, Default)]
 pub struct VertexTerms {

@@ -5,15 +5,17 @@
 //!
 //! Reads the dense amounts [`SpeciesAmounts`] from the term inputs (the
 //! `species_gather` system refreshes them each tick), or from the world
-//! outside the schedule (finite differences, flip proposals).
+//! outside the schedule (finite differences, flip proposals); and, where the
+//! relaxation has published the surface's measure at the same positions
+//! ([`MeasuredSurface`]), that measure instead of measuring again.
 
 use crate::engine::force::{ForceContext, ForceTerm};
 use crate::species::free_energy::{
-    BaseBending, Derivatives, Fields, FreeEnergyScratch, Hold, free_energy,
+    BaseBending, Derivatives, Fields, FreeEnergyScratch, Hold, free_energy_on,
 };
 use crate::species::params::SpeciesSet;
 use crate::species::state::SpeciesAmounts;
-use crate::species::surface::{Surface, vertex_areas};
+use crate::species::surface::{MeasuredSurface, Surface, vertex_areas};
 use glam::DVec3;
 
 /// The species term.
@@ -65,8 +67,16 @@ impl ForceTerm for SpeciesForces {
             phi: &mut self.dphi,
         });
         let surface = Surface::new(ctx.positions, t, ctx.face_geometry, &mut self.boundary);
-        free_energy(
+        // The relaxation's measure of these positions, where it has
+        // published one.
+        let measured = ctx
+            .inputs
+            .get::<MeasuredSurface>()
+            .filter(|m| m.is_of(ctx.positions, t.epoch, self.base.discretisation))
+            .map(|m| &m.terms);
+        free_energy_on(
             surface,
+            measured,
             self.base,
             &self.set,
             Fields::Amounts(&amounts.0),
@@ -157,6 +167,79 @@ mod tests {
             ],
             interactions: vec![],
             temperature: 0.1,
+        }
+    }
+
+    /// With the relaxation's measure of the same positions published, the
+    /// term's energy and force are the same to the bit as when it measures
+    /// itself; a measure of other positions is not used. In both forms.
+    #[test]
+    fn a_published_measure_is_used_only_for_its_own_positions() {
+        use crate::engine::term_inputs::TermInputs;
+        use crate::mesh::geometry::face_geometry;
+        use crate::species::surface::VertexTerms;
+        let mesh = perturbed_icosphere(1, 3);
+        let mut m = Membrane::from_mesh(&mesh, false).unwrap();
+        add_amounts(&mut m, &set(), |k, slot, _| {
+            (1.0 + (slot % 5) as f64) * [0.8, 2.0][k]
+        })
+        .unwrap();
+        let t = m.topology().unwrap().clone();
+        let mut geometry = Vec::new();
+        face_geometry(&mesh.positions, &t.faces, &mut geometry);
+        let moved: Vec<DVec3> = mesh.positions.iter().map(|p| *p * 1.01).collect();
+        let mut moved_geometry = Vec::new();
+        face_geometry(&moved, &t.faces, &mut moved_geometry);
+        let bits = |(e, f): (f64, Vec<DVec3>)| {
+            let mut b = vec![e.to_bits()];
+            b.extend(f.iter().flat_map(|v| v.to_array().map(f64::to_bits)));
+            b
+        };
+        for discretisation in [
+            crate::energy::bending::BendingDiscretisation::Cotangent,
+            crate::energy::bending::BendingDiscretisation::Dihedral,
+        ] {
+            let base = BaseBending {
+                discretisation,
+                kappa: 2.0,
+                c0: 0.1,
+            };
+            let evaluate = |inputs: &TermInputs| {
+                let mut term = SpeciesForces::new(set(), base);
+                let mut force = vec![DVec3::ZERO; mesh.positions.len()];
+                let ctx = ForceContext {
+                    world: &m.world,
+                    topology: &t,
+                    positions: &mesh.positions,
+                    lipid: &[],
+                    face_geometry: &geometry,
+                    inputs,
+                };
+                let e = term.evaluate(&ctx, Some(&mut force));
+                (e, force)
+            };
+            let measure = |positions: &[DVec3], geometry: &[crate::mesh::geometry::Corners]| {
+                let mut rim = Vec::new();
+                let mut terms = VertexTerms::default();
+                terms.measure(
+                    Surface::new(positions, &t, geometry, &mut rim),
+                    discretisation,
+                );
+                let mut inputs = TermInputs::default();
+                inputs.insert(MeasuredSurface {
+                    positions: positions.to_vec(),
+                    epoch: t.epoch,
+                    terms,
+                });
+                inputs
+            };
+            let own = bits(evaluate(TermInputs::none()));
+            assert_eq!(bits(evaluate(&measure(&mesh.positions, &geometry))), own);
+            assert_eq!(bits(evaluate(&measure(&moved, &moved_geometry))), own);
+            // Were the other positions' measure used, the energy would differ.
+            let mut other = measure(&moved, &moved_geometry);
+            other.get_mut::<MeasuredSurface>().unwrap().positions = mesh.positions.clone();
+            assert_ne!(bits(evaluate(&other)), own);
         }
     }
 
