@@ -621,28 +621,20 @@ fn a_mesh_generated_far_from_the_resolution_is_cautioned() {
         "{cautions:?}"
     );
     assert!(refined("0.7").is_empty(), "{:?}", refined("0.7"));
-    let mut scenes = vec![common::repo("scenes")];
-    while let Some(dir) = scenes.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                scenes.push(path);
-                continue;
-            }
-            let text = std::fs::read_to_string(&path).unwrap_or_default();
-            let is_scene = path.extension().is_some_and(|e| e == "ron")
-                && text.lines().any(|l| l.starts_with("Scene("));
-            if !is_scene {
-                continue;
-            }
-            let scene = Scene::from_ron_str(&text, &path)
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            let mismatch = scene
-                .cautions()
-                .into_iter()
-                .find(|c| c.contains("generated with edges"));
-            assert!(mismatch.is_none(), "{}: {mismatch:?}", path.display());
+    for path in common::files_under(&common::repo("scenes")) {
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        let is_scene = path.extension().is_some_and(|e| e == "ron")
+            && text.lines().any(|l| l.starts_with("Scene("));
+        if !is_scene {
+            continue;
         }
+        let scene =
+            Scene::from_ron_str(&text, &path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mismatch = scene
+            .cautions()
+            .into_iter()
+            .find(|c| c.contains("generated with edges"));
+        assert!(mismatch.is_none(), "{}: {mismatch:?}", path.display());
     }
 }
 

@@ -216,8 +216,9 @@ pub fn relax_amounts(
     amounts: &mut [Vec<f64>],
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
-    let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
-    relax_amounts_of(shape, v, base, set, amounts, settings)
+    let mut terms = VertexTerms::default();
+    terms.measure(shape, base.discretisation);
+    relax_amounts_measured(shape, &terms, base, set, amounts, settings)
 }
 
 /// [`relax_amounts`] on the surface's measure `terms` (in the bending's
@@ -231,17 +232,6 @@ pub fn relax_amounts_measured(
     settings: RelaxSettings,
 ) -> Result<Relaxed, RelaxError> {
     let v = MeasuredVertices::from_terms(shape, terms, set.has_gradient_energy());
-    relax_amounts_of(shape, v, base, set, amounts, settings)
-}
-
-fn relax_amounts_of(
-    shape: Surface<'_>,
-    v: MeasuredVertices,
-    base: BaseBending,
-    set: &SpeciesSet,
-    amounts: &mut [Vec<f64>],
-    settings: RelaxSettings,
-) -> Result<Relaxed, RelaxError> {
     let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
     let repaired = bring_inside(&mut phi, &v.areas);
     let mut relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;

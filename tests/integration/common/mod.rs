@@ -55,27 +55,36 @@ pub fn series_column(run_dir: &Path, name: &str) -> Vec<f64> {
 /// fields that measure wall time (and the notes drawn from them).
 pub fn run_contents(dir: &Path) -> std::collections::BTreeMap<std::path::PathBuf, Vec<u8>> {
     let mut out = std::collections::BTreeMap::new();
+    for path in files_under(dir) {
+        let mut bytes = std::fs::read(&path).unwrap();
+        if path.file_name().is_some_and(|n| n == "summary.json") {
+            let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+            let map = v.as_object_mut().unwrap();
+            map.remove("timings");
+            map.remove("wall_time_s");
+            map.remove("time_notes");
+            bytes = serde_json::to_vec(&v).unwrap();
+        }
+        out.insert(path.strip_prefix(dir).unwrap().to_path_buf(), bytes);
+    }
+    out
+}
+
+/// Every file under `dir`, in its subfolders too.
+pub fn files_under(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
         for entry in std::fs::read_dir(&d).unwrap() {
             let path = entry.unwrap().path();
             if path.is_dir() {
                 stack.push(path);
-                continue;
+            } else {
+                files.push(path);
             }
-            let mut bytes = std::fs::read(&path).unwrap();
-            if path.file_name().is_some_and(|n| n == "summary.json") {
-                let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
-                let map = v.as_object_mut().unwrap();
-                map.remove("timings");
-                map.remove("wall_time_s");
-                map.remove("time_notes");
-                bytes = serde_json::to_vec(&v).unwrap();
-            }
-            out.insert(path.strip_prefix(dir).unwrap().to_path_buf(), bytes);
         }
     }
-    out
+    files
 }
 
 /// The closest distance between two vertices that are not 1-ring
