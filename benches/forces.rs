@@ -378,12 +378,12 @@ fn model_ticks(c: &mut Criterion) {
 /// transport (`species/transport_step`) and the fluid model's remap under a
 /// step's slides (`species/remap`).
 fn species(c: &mut Criterion) {
+    use remembrane::energy::bending_measure::{Surface, vertex_areas};
     use remembrane::species::free_energy::BaseBending;
     use remembrane::species::params::{Initial, Species, SpeciesSet};
     use remembrane::species::relax::{RelaxSettings, relax_amounts};
     use remembrane::species::remap::remap_slides;
     use remembrane::species::state::{SpeciesAmounts, add_amounts};
-    use remembrane::species::surface::{Surface, vertex_areas};
     use remembrane::species::term::SpeciesForces;
     use remembrane::species::transport::Transport;
     let set = SpeciesSet {

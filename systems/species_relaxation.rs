@@ -19,6 +19,7 @@
 //! conserved counts are rescaled to their initial values after each
 //! relaxation, so round-off does not accumulate over iterations.
 
+use remembrane_core::energy::bending_measure::{MeasuredSurface, Surface, VertexTerms};
 use remembrane_core::engine::force::FaceGeometry;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
@@ -30,7 +31,6 @@ use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane_core::species::params::Reservoir;
 use remembrane_core::species::relax::relax_amounts_measured;
 use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
-use remembrane_core::species::surface::{MeasuredSurface, Surface, VertexTerms};
 
 /// Its name in the schedule.
 pub const SPECIES_RELAXATION: &str = "species_relaxation";

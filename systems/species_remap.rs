@@ -8,6 +8,7 @@
 //! (after the step), [`SpeciesModel`], the topology in [`Membrane`].
 //! Writes: the world's `ProteinAmount` components (in [`Membrane`]).
 
+use remembrane_core::energy::bending_measure::Surface;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{DensePositions, SimError};
@@ -16,7 +17,6 @@ use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::species::model::SpeciesModel;
 use remembrane_core::species::remap::{SlideAnchors, remap_slides};
 use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
-use remembrane_core::species::surface::Surface;
 
 /// Its name in the schedule.
 pub const SPECIES_REMAP: &str = "species_remap";

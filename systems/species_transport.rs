@@ -10,6 +10,7 @@
 //! counts, the chemical potentials, the steps taken, which also count the
 //! noise's draws, so a resumed checkpoint continues them).
 
+use remembrane_core::energy::bending_measure::Surface;
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{Clock, Seed, SimError};
@@ -18,7 +19,6 @@ use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::params::DynamicsParams;
 use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
-use remembrane_core::species::surface::Surface;
 use remembrane_core::species::transport::{Noise, Transport};
 use remembrane_core::timestep::TimeStepChoice;
 

@@ -399,10 +399,10 @@ pub fn species(
     relax: crate::species::relax::RelaxSettings,
 ) -> impl Plugin {
     move |b: &mut SimBuilder| {
+        use crate::energy::bending_measure::vertex_areas;
         use crate::species::model::{SpeciesModel, SpeciesStatus};
         use crate::species::params::{Initial, Reservoir};
         use crate::species::state::{SpeciesAmounts, add_amounts};
-        use crate::species::surface::vertex_areas;
         let membrane = b
             .resource_mut::<Membrane>()
             .ok_or_else(|| BuildError::Requires {

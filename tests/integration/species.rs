@@ -858,11 +858,11 @@ fn final_ply(out: &Path, names: &[&str]) -> (Vec<glam::DVec3>, Vec<Vec<f64>>, Ve
 #[test]
 #[ignore = "slow tier: `.ci/run` runs it; by hand: cargo test -- --ignored --skip by_hand_"]
 fn a_remesh_event_moves_the_species_free_energy_by_a_small_part_of_k_bt() {
+    use remembrane::energy::bending_measure::Surface;
     use remembrane::engine::schedule::Stage;
     use remembrane::species::free_energy::{Fields, FreeEnergyScratch, Hold, free_energy};
     use remembrane::species::model::SpeciesModel;
     use remembrane::species::state::SpeciesAmounts;
-    use remembrane::species::surface::Surface;
     let path = crate::common::scene("proteins/two_species.ron");
     let mut sim = Scene::load(&path).unwrap().build(&path).unwrap();
     let (set, base) = {

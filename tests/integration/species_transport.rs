@@ -41,8 +41,12 @@ fn fields(sim: &mut Simulation) -> (Vec<glam::DVec3>, Vec<f64>, Vec<f64>) {
     let phi = fractions_at(&set, &amounts.0, &positions, &t.faces, form);
     let mut geometry = Vec::new();
     remembrane::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
-    let areas =
-        remembrane::species::surface::vertex_areas(&t.faces, &geometry, positions.len(), form);
+    let areas = remembrane::energy::bending_measure::vertex_areas(
+        &t.faces,
+        &geometry,
+        positions.len(),
+        form,
+    );
     (positions, phi[0].clone(), areas)
 }
 
@@ -315,7 +319,7 @@ fn curvature_coupled_proteins_sort_in_time_toward_the_relaxed_fields() {
     let t = sim.membrane_mut().topology().unwrap().clone();
     let mut geometry = Vec::new();
     remembrane::mesh::geometry::face_geometry(&positions, &t.faces, &mut geometry);
-    let shape = remembrane::species::surface::Surface {
+    let shape = remembrane::energy::bending_measure::Surface {
         positions: &positions,
         topology: &t,
         geometry: &geometry,

@@ -31,7 +31,8 @@
 //! form). Writes: force accumulator. Units: κ in Ē, C0 in 1/l̄. See
 //! [`crate::energy::bending`] and [`crate::energy::bending_dihedral`].
 
-use crate::energy::bending_dihedral::{DihedralScratch, bending_dihedral};
+use crate::energy::bending_dihedral::{DihedralScratch, bending_dihedral_measured};
+use crate::energy::bending_measure::MeasuredSurface;
 use crate::engine::force::{FlipProposal, ForceContext, ForceTerm};
 use crate::engine::simulation::{Plugin, SimBuilder};
 use crate::mesh::geometry::{Corners, vertex_curvature_terms};
@@ -567,15 +568,30 @@ impl ForceTerm for BendingForces {
                 &mut self.scratch,
                 force,
             ),
-            BendingDiscretisation::Dihedral => bending_dihedral(
-                ctx.positions,
-                ctx.topology,
-                ctx.face_geometry,
-                p.kappa,
-                p.c0,
-                &mut self.dihedral,
-                force,
-            ),
+            BendingDiscretisation::Dihedral => {
+                // The tick's measure where a system has published it for
+                // these positions (the same arithmetic: the same bits).
+                let published = ctx
+                    .inputs
+                    .get::<MeasuredSurface>()
+                    .filter(|m| m.is_of(ctx.positions, t.epoch, p.discretisation))
+                    .map(|m| m.terms.dihedral());
+                if published.is_none() {
+                    self.dihedral
+                        .measure_mut()
+                        .measure(ctx.positions, t, ctx.face_geometry);
+                }
+                bending_dihedral_measured(
+                    ctx.positions,
+                    t,
+                    ctx.face_geometry,
+                    p.kappa,
+                    p.c0,
+                    &mut self.dihedral,
+                    published,
+                    force,
+                )
+            }
         }
     }
 
@@ -628,5 +644,76 @@ impl crate::energy::builtin::BuiltinTerm for BendingParams {
             bending_rigidity: Some(self.kappa),
             ..Default::default()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::energy::bending_measure::{Surface, VertexTerms};
+    use crate::engine::term_inputs::TermInputs;
+    use crate::mesh::geometry::face_geometry;
+    use crate::mesh::membrane::Membrane;
+
+    /// The dihedral form with a published measure of the same positions
+    /// gives the same bits as measuring itself; a measure of other
+    /// positions, or in the other form, is not used.
+    #[test]
+    fn the_dihedral_form_reads_a_published_measure_of_its_own_positions_only() {
+        let mesh = crate::fd::perturbed_icosphere(2, 5);
+        let mut m = Membrane::from_mesh(&mesh, false).unwrap();
+        let t = m.topology().unwrap().clone();
+        let at = |positions: &[DVec3]| {
+            let mut geometry = Vec::new();
+            face_geometry(positions, &t.faces, &mut geometry);
+            geometry
+        };
+        let geometry = at(&mesh.positions);
+        let moved: Vec<DVec3> = mesh.positions.iter().map(|p| *p * 1.01).collect();
+        let evaluate = |inputs: &TermInputs| {
+            let mut term = BendingForces::new(BendingParams {
+                kappa: 2.0,
+                c0: 0.3,
+                discretisation: BendingDiscretisation::Dihedral,
+            });
+            let mut force = vec![DVec3::ZERO; mesh.positions.len()];
+            let ctx = ForceContext {
+                world: &m.world,
+                topology: &t,
+                positions: &mesh.positions,
+                lipid: &[],
+                face_geometry: &geometry,
+                inputs,
+            };
+            let e = term.evaluate(&ctx, Some(&mut force));
+            let mut bits = vec![e.to_bits()];
+            bits.extend(force.iter().flat_map(|v| v.to_array().map(f64::to_bits)));
+            bits
+        };
+        let published = |positions: &[DVec3], form, label: &[DVec3]| {
+            let geometry = at(positions);
+            let mut rim = Vec::new();
+            let mut terms = VertexTerms::default();
+            terms.measure(Surface::new(positions, &t, &geometry, &mut rim), form);
+            let mut inputs = TermInputs::default();
+            inputs.insert(MeasuredSurface {
+                positions: label.to_vec(),
+                epoch: t.epoch,
+                terms,
+            });
+            inputs
+        };
+        let dihedral = BendingDiscretisation::Dihedral;
+        let own = evaluate(TermInputs::none());
+        let same = published(&mesh.positions, dihedral, &mesh.positions);
+        assert_eq!(evaluate(&same), own);
+        assert_eq!(evaluate(&published(&moved, dihedral, &moved)), own);
+        let cotangent = BendingDiscretisation::Cotangent;
+        assert_eq!(
+            evaluate(&published(&mesh.positions, cotangent, &mesh.positions)),
+            own
+        );
+        // Were the other positions' measure used, the result would differ.
+        assert_ne!(evaluate(&published(&moved, dihedral, &mesh.positions)), own);
     }
 }

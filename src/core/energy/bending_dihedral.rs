@@ -28,9 +28,12 @@ use crate::mesh::geometry::Corners;
 use crate::mesh::topology::{NO_SLOT, Topology};
 use glam::DVec3;
 
-/// Reusable buffers for [`bending_dihedral`].
+/// The dihedral form's measure of a surface: per edge its quad, length
+/// and angle, per vertex M_i and A_i. Read-only once taken, so a measure
+/// published for the tick's positions serves every consumer
+/// ([`DihedralMeasure::pull_back`] writes into the caller's buffers).
 #[derive(Clone, Debug, Default)]
-pub struct DihedralScratch {
+pub struct DihedralMeasure {
     /// Per edge: its four vertices [x0, x1, x2, x3], with face A = (x0, x1,
     /// x2) and face B = (x1, x0, x3) in their own orientation.
     quads: Vec<[u32; 4]>,
@@ -41,14 +44,27 @@ pub struct DihedralScratch {
     /// Per vertex: M_i, A_i.
     m: Vec<f64>,
     a: Vec<f64>,
-    /// Per vertex: ∂H/∂M_i, ∂H/∂A_i.
-    g_m: Vec<f64>,
-    g_a: Vec<f64>,
-    edge_gradients: Vec<(f64, [DVec3; 4])>,
-    face_gradients: Vec<(f64, [DVec3; 3])>,
     /// The topology the quads were built for: its structure epoch and its
     /// edge and face counts (a remesh event or flip changes the epoch).
     oriented_for: Option<(u64, usize, usize)>,
+}
+
+/// The buffers of a pull-back onto the positions ([`DihedralMeasure::pull_back`]).
+#[derive(Clone, Debug, Default)]
+pub struct DihedralBuffers {
+    edge_gradients: Vec<(f64, [DVec3; 4])>,
+    face_gradients: Vec<(f64, [DVec3; 3])>,
+}
+
+/// Reusable buffers for [`bending_dihedral`]: a measure, the adjoints and
+/// the pull-back's buffers.
+#[derive(Clone, Debug, Default)]
+pub struct DihedralScratch {
+    measure: DihedralMeasure,
+    /// Per vertex: ∂H/∂M_i, ∂H/∂A_i.
+    g_m: Vec<f64>,
+    g_a: Vec<f64>,
+    buffers: DihedralBuffers,
 }
 
 /// The signed dihedral angle θ of an edge x0 → x1 between face A (normal
@@ -58,7 +74,7 @@ fn dihedral(na: DVec3, nb: DVec3, e_hat: DVec3) -> f64 {
     na.cross(nb).dot(e_hat).atan2(na.dot(nb))
 }
 
-impl DihedralScratch {
+impl DihedralMeasure {
     /// Fills the per-edge quads from the topology. A boundary edge's quad
     /// repeats its face (x3 = x2, face B = face A): its angle is 0.
     fn orient(&mut self, topology: &Topology) {
@@ -110,38 +126,69 @@ pub fn bending_dihedral(
     scratch: &mut DihedralScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
+    scratch.measure.measure(positions, topology, geometry);
+    bending_dihedral_measured(
+        positions, topology, geometry, kappa, c0, scratch, None, force,
+    )
+}
+
+/// [`bending_dihedral`] on a measure taken at these positions: `measured`
+/// (read, not copied) where given, else the scratch's own (taken by the
+/// caller).
+#[allow(clippy::too_many_arguments)]
+pub fn bending_dihedral_measured(
+    positions: &[DVec3],
+    topology: &Topology,
+    geometry: &[Corners],
+    kappa: f64,
+    c0: f64,
+    scratch: &mut DihedralScratch,
+    measured: Option<&DihedralMeasure>,
+    force: Option<&mut [DVec3]>,
+) -> f64 {
     let n = positions.len();
-    let s = scratch;
-    s.measure(positions, topology, geometry);
+    let DihedralScratch {
+        measure: own,
+        g_m,
+        g_a,
+        buffers,
+    } = scratch;
+    let measure = measured.unwrap_or(own);
+    g_m.resize(n, 0.0);
+    g_a.resize(n, 0.0);
     let mut energy = 0.0;
     for i in 0..n {
         if topology.is_boundary_vertex(i) {
-            s.g_m[i] = 0.0;
-            s.g_a[i] = 0.0;
+            g_m[i] = 0.0;
+            g_a[i] = 0.0;
             continue;
         }
-        let a = s.a[i];
-        let h = 2.0 * s.m[i] / a;
+        let a = measure.a[i];
+        let h = 2.0 * measure.m[i] / a;
         let dh = h - c0;
         energy += 0.5 * kappa * a * dh * dh;
-        s.g_m[i] = 2.0 * kappa * dh;
-        s.g_a[i] = 0.5 * kappa * dh * dh - kappa * dh * h;
+        g_m[i] = 2.0 * kappa * dh;
+        g_a[i] = 0.5 * kappa * dh * dh - kappa * dh * h;
     }
     if let Some(force) = force {
-        s.pull_back(positions, topology, geometry, force);
+        measure.pull_back(g_m, g_a, buffers, positions, topology, geometry, force);
     }
     energy
 }
 
 impl DihedralScratch {
+    /// The scratch's own measure, to be taken by
+    /// [`DihedralMeasure::measure`] before [`bending_dihedral_measured`]
+    /// reads it.
+    pub fn measure_mut(&mut self) -> &mut DihedralMeasure {
+        &mut self.measure
+    }
+}
+
+impl DihedralMeasure {
     /// Measures every edge's length ℓ_e and angle θ_e, and every vertex's
-    /// M_i = ¼ Σ_{e∋i} ℓ_e θ_e and barycentric area A_i; sizes the adjoints.
-    pub(crate) fn measure(
-        &mut self,
-        positions: &[DVec3],
-        topology: &Topology,
-        geometry: &[Corners],
-    ) {
+    /// M_i = ¼ Σ_{e∋i} ℓ_e θ_e and barycentric area A_i.
+    pub fn measure(&mut self, positions: &[DVec3], topology: &Topology, geometry: &[Corners]) {
         let n = positions.len();
         let s = self;
         s.orient(topology);
@@ -173,30 +220,26 @@ impl DihedralScratch {
                 .sum::<f64>()
                 / 6.0
         });
-        s.g_m.resize(n, 0.0);
-        s.g_a.resize(n, 0.0);
     }
 
-    /// M_i of the last [`DihedralScratch::measure`] (l̄).
+    /// M_i of the last [`DihedralMeasure::measure`] (l̄).
     pub(crate) fn integrated_curvature(&self) -> &[f64] {
         &self.m
     }
 
-    /// A_i of the last [`DihedralScratch::measure`] (l̄²).
+    /// A_i of the last [`DihedralMeasure::measure`] (l̄²).
     pub(crate) fn areas(&self) -> &[f64] {
         &self.a
     }
 
-    /// The adjoints ∂E/∂M_i and ∂E/∂A_i, which [`DihedralScratch::pull_back`]
-    /// reads.
-    pub(crate) fn adjoints_mut(&mut self) -> (&mut [f64], &mut [f64]) {
-        (&mut self.g_m, &mut self.g_a)
-    }
-
-    /// Subtracts ∇E from `force` for an energy E(M, A) whose adjoints were
-    /// written with [`DihedralScratch::adjoints_mut`], at the measured state.
+    /// Subtracts ∇E from `force` for an energy E(M, A) with the adjoints
+    /// `g_m` = ∂E/∂M_i and `g_a` = ∂E/∂A_i, at the measured state.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn pull_back(
-        &mut self,
+        &self,
+        g_m: &[f64],
+        g_a: &[f64],
+        buffers: &mut DihedralBuffers,
         positions: &[DVec3],
         topology: &Topology,
         geometry: &[Corners],
@@ -204,7 +247,6 @@ impl DihedralScratch {
     ) {
         let s = self;
         let (quads, quad_faces, edges) = (&s.quads, &s.quad_faces, &s.edges);
-        let (g_m, g_a) = (&s.g_m, &s.g_a);
         let edge_gradient = |e: usize| {
             let [i0, i1, ..] = quads[e];
             let [x0, x1, x2, x3] = quads[e].map(|v| positions[v as usize]);
@@ -229,7 +271,7 @@ impl DihedralScratch {
                 [ct * t0 - cl * e_hat, ct * t1 + cl * e_hat, ct * t2, ct * t3],
             )
         };
-        subtract(quads, force, &mut s.edge_gradients, edge_gradient);
+        subtract(quads, force, &mut buffers.edge_gradients, edge_gradient);
         let faces = &topology.faces;
         let face_gradient = |k: usize| {
             let [i0, i1, i2] = faces[k].map(|v| v as usize);
@@ -238,7 +280,7 @@ impl DihedralScratch {
             let w = (g_a[i0] + g_a[i1] + g_a[i2]) / 6.0;
             (0.0, c.e.map(|e| w * c.n_hat.cross(e)))
         };
-        subtract(faces, force, &mut s.face_gradients, face_gradient);
+        subtract(faces, force, &mut buffers.face_gradients, face_gradient);
     }
 }
 
@@ -277,13 +319,9 @@ mod tests {
         scratch: &mut DihedralScratch,
     ) -> (Vec<f64>, Vec<f64>) {
         bending_dihedral(positions, topology, geometry, 0.0, 0.0, scratch, None);
-        let h = scratch
-            .m
-            .iter()
-            .zip(&scratch.a)
-            .map(|(m, a)| 2.0 * m / a)
-            .collect();
-        (h, scratch.a.clone())
+        let m = &scratch.measure;
+        let h = m.m.iter().zip(&m.a).map(|(m, a)| 2.0 * m / a).collect();
+        (h, m.a.clone())
     }
 
     fn sphere(level: u32) -> (Vec<DVec3>, Topology) {

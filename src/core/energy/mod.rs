@@ -8,13 +8,16 @@
 //! The line tension of free boundary loops ([`line_tension`]) is added by
 //! the boundary conditions, not listed here. Shared kernels: the penalty machinery
 //! ([`penalty`]: volume, area and local-tension kernels, 1-ring
-//! smoothing), the dihedral form of bending ([`bending_dihedral`]); and the in-plane
+//! smoothing), the dihedral form of bending ([`bending_dihedral`]), the
+//! bending's measure of a surface in either form, which a system may
+//! publish for the tick's positions ([`bending_measure`]); and the in-plane
 //! elasticity V_in gives a fixed mesh ([`vin_elasticity`], a measurement,
 //! not a term).
 
 pub mod builtin;
 
 pub mod bending_dihedral;
+pub mod bending_measure;
 pub mod line_tension;
 pub mod penalty;
 pub mod vin_edge_samples;

@@ -18,9 +18,9 @@
 //! ∂φ_i/∂A_i = −φ_i/A_i).
 
 use crate::energy::bending::BendingDiscretisation;
+use crate::energy::bending_measure::{PullBackBuffers, Surface, VertexTerms};
 use crate::mesh::geometry::Corners;
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
-use crate::species::surface::{Surface, VertexTerms};
 use glam::DVec3;
 
 /// What stays fixed when the shape moves.
@@ -47,6 +47,7 @@ pub struct BaseBending {
 #[derive(Clone, Debug, Default)]
 pub struct FreeEnergyScratch {
     terms: VertexTerms,
+    buffers: PullBackBuffers,
     df_dh: Vec<f64>,
     g_area: Vec<f64>,
 }
@@ -181,7 +182,7 @@ pub enum Fields<'a> {
 
 /// The species' free energy (Ē) on `surface` for the `fields`, with the
 /// curvature and the vertex areas in the discretisation of `base`
-/// ([`crate::species::surface`]). A rim vertex of an open mesh carries no
+/// ([`crate::energy::bending_measure`]). A rim vertex of an open mesh carries no
 /// bending (as in [`crate::energy::bending`]). With `out`, adds the shape
 /// force to `out.force` under `hold` and writes ∂F/∂φ to `out.phi`.
 pub fn free_energy(
@@ -197,7 +198,7 @@ pub fn free_energy(
 }
 
 /// [`free_energy`] on the surface's measure `measured` at `surface`'s
-/// positions, in `base`'s discretisation (copied, not measured again); with
+/// positions, in `base`'s discretisation (read, not measured again); with
 /// `None`, measured.
 #[allow(clippy::too_many_arguments)]
 pub fn free_energy_on(
@@ -210,26 +211,34 @@ pub fn free_energy_on(
     scratch: &mut FreeEnergyScratch,
     mut out: Option<Derivatives<'_>>,
 ) -> f64 {
-    let s = scratch;
+    let FreeEnergyScratch {
+        terms: own,
+        buffers,
+        df_dh: s_df_dh,
+        g_area: s_g_area,
+    } = scratch;
     let n = surface.vertex_count();
     let species = &set.species;
     let local = LocalEnergy::new(set, base);
-    match measured {
-        Some(terms) => s.terms.clone_from(terms),
-        None => s.terms.measure(surface, base.discretisation),
-    }
+    let terms: &VertexTerms = match measured {
+        Some(terms) => terms,
+        None => {
+            own.measure(surface, base.discretisation);
+            own
+        }
+    };
     let converted;
     let phi = match fields {
         Fields::Fractions(phi) => phi,
         Fields::Amounts(amounts) => {
-            converted = crate::species::state::fractions(set, amounts, &s.terms.areas);
+            converted = crate::species::state::fractions(set, amounts, &terms.areas);
             &converted[..]
         }
     };
-    s.df_dh.clear();
-    s.df_dh.resize(n, 0.0);
-    s.g_area.clear();
-    s.g_area.resize(n, 0.0);
+    s_df_dh.clear();
+    s_df_dh.resize(n, 0.0);
+    s_g_area.clear();
+    s_g_area.resize(n, 0.0);
     if let Some(o) = out.as_mut() {
         for d in o.phi.iter_mut() {
             d.clear();
@@ -240,19 +249,19 @@ pub fn free_energy_on(
     let mut at = [0.0; MAX_SPECIES];
     let mut dphi = [0.0; MAX_SPECIES];
     for i in 0..n {
-        let a = s.terms.areas[i];
+        let a = terms.areas[i];
         for (k, p) in phi.iter().enumerate() {
             at[k] = p[i];
         }
         // The coupled bending on interior vertices only.
         let interior = surface.is_interior(i);
-        let h = s.terms.curvature[i];
+        let h = terms.curvature[i];
         let (f, df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
-        s.df_dh[i] = df_dh;
+        s_df_dh[i] = df_dh;
         energy += a * f;
         // ∂(A f)/∂A at fixed h, less h f'(h) (h varies as 1/A; on a rim
         // both are 0).
-        s.g_area[i] = f - df_dh * h;
+        s_g_area[i] = f - df_dh * h;
         if let Some(o) = out.as_mut() {
             for (k, d) in dphi.iter().take(species.len()).enumerate() {
                 o.phi[k][i] = a * d;
@@ -278,26 +287,25 @@ pub fn free_energy_on(
     if hold == Hold::Amount {
         // φ_i = a_p n_i / A_i: ∂φ_i/∂A_i = −φ_i/A_i.
         for i in 0..n {
-            let a = s.terms.areas[i];
+            let a = terms.areas[i];
             for (k, d) in o.phi.iter().enumerate() {
-                s.g_area[i] -= d[i] * phi[k][i] / a;
+                s_g_area[i] -= d[i] * phi[k][i] / a;
             }
         }
     }
-    s.terms
-        .pull_back(surface, &s.df_dh, &s.g_area, &cot_adjoints, o.force);
+    terms.pull_back(surface, s_df_dh, s_g_area, &cot_adjoints, buffers, o.force);
     energy
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::energy::bending_measure::vertex_areas;
     use crate::fd::{perturbed_icosphere, perturbed_patches};
     use crate::mesh::SurfaceMesh;
     use crate::mesh::geometry::face_geometry;
     use crate::mesh::topology::Topology;
     use crate::species::params::{Interaction, Species};
-    use crate::species::surface::vertex_areas;
     use rand::{RngExt, SeedableRng};
 
     fn two_species() -> SpeciesSet {

@@ -7,9 +7,9 @@
 //! ([`crate::species::transport`]) evaluate these many times per shape.
 
 use crate::energy::bending::BendingDiscretisation;
+use crate::energy::bending_measure::{Surface, VertexTerms};
 use crate::species::free_energy::{BaseBending, LocalEnergy, gradient_energy};
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
-use crate::species::surface::{Surface, VertexTerms};
 
 /// A dense symmetric S×S block, S ≤ [`MAX_SPECIES`].
 pub(crate) type Block = [[f64; MAX_SPECIES]; MAX_SPECIES];

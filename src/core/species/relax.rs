@@ -17,10 +17,10 @@
 //! (for one species the Fermi-Dirac relation
 //! φ_i = 1/(1 + e^{(ε_i − μ)/k_BT}), ε_i = −a_p κ c (h_i − c φ_i)).
 
+use crate::energy::bending_measure::{Surface, VertexTerms};
 use crate::species::free_energy::{BaseBending, LocalEnergy};
 use crate::species::measured::{Block, HessianConstants, MeasuredVertices};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
-use crate::species::surface::{Surface, VertexTerms};
 
 /// When the relaxation stops.
 #[derive(Clone, Copy, Debug, PartialEq)]

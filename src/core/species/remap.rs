@@ -18,7 +18,7 @@
 //! the patch are not remapped.)
 
 use crate::energy::bending::BendingDiscretisation;
-use crate::species::surface::{Surface, vertex_areas};
+use crate::energy::bending_measure::{Surface, vertex_areas};
 use glam::DVec3;
 
 /// The vertex positions at the start of a tick (written at the Gather

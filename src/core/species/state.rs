@@ -11,11 +11,11 @@
 //! refreshed from the world each tick.
 
 use crate::energy::bending::BendingDiscretisation;
+use crate::energy::bending_measure::vertex_areas;
 use crate::mesh::membrane::{Membrane, gather_field};
 use crate::mesh::topology::{Topology, TopologyError};
 use crate::mesh::vertex_field::{ScalarComponent, TransferPolicy};
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
-use crate::species::surface::vertex_areas;
 use glam::DVec3;
 use hecs::World;
 

@@ -9,13 +9,13 @@
 //! relaxation has published the surface's measure at the same positions
 //! ([`MeasuredSurface`]), that measure instead of measuring again.
 
+use crate::energy::bending_measure::{MeasuredSurface, Surface, vertex_areas};
 use crate::engine::force::{ForceContext, ForceTerm};
 use crate::species::free_energy::{
     BaseBending, Derivatives, Fields, FreeEnergyScratch, Hold, free_energy_on,
 };
 use crate::species::params::SpeciesSet;
 use crate::species::state::SpeciesAmounts;
-use crate::species::surface::{MeasuredSurface, Surface, vertex_areas};
 use glam::DVec3;
 
 /// The species term.
@@ -175,9 +175,9 @@ mod tests {
     /// itself; a measure of other positions is not used. In both forms.
     #[test]
     fn a_published_measure_is_used_only_for_its_own_positions() {
+        use crate::energy::bending_measure::VertexTerms;
         use crate::engine::term_inputs::TermInputs;
         use crate::mesh::geometry::face_geometry;
-        use crate::species::surface::VertexTerms;
         let mesh = perturbed_icosphere(1, 3);
         let mut m = Membrane::from_mesh(&mesh, false).unwrap();
         add_amounts(&mut m, &set(), |k, slot, _| {

@@ -32,10 +32,10 @@
 //! rate (the mobility times the local Hessian ∂μ/∂n). A step that takes a
 //! field out of φ > 0, Σφ < 1 is halved, its draws kept.
 
+use crate::energy::bending_measure::Surface;
 use crate::species::free_energy::{BaseBending, LocalEnergy};
 use crate::species::measured::{Block, HessianConstants, MeasuredVertices};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
-use crate::species::surface::Surface;
 use crate::util::rng::stream_seed;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -442,7 +442,7 @@ mod tests {
         }
 
         fn areas(&self) -> Vec<f64> {
-            crate::species::surface::vertex_areas(
+            crate::energy::bending_measure::vertex_areas(
                 &self.topology.faces,
                 &self.geometry,
                 self.mesh.vertex_count(),

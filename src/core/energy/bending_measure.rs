@@ -1,9 +1,8 @@
-//! The surface the proteins live on, and what each vertex's proteins feel
-//! of it: its area A_i and its signed total curvature h_i, in the
-//! discretisation of the membrane's bending
-//! ([`crate::energy::bending::BendingDiscretisation`]), so that the
-//! coupling κ/2 (h − c φ)² modifies the same curvature the bending term
-//! measures.
+//! The bending's measure of a surface: each vertex's area A_i and signed
+//! total curvature h_i in the discretisation of the membrane's bending
+//! ([`crate::energy::bending::BendingDiscretisation`]). The protein species
+//! feel the surface through it, so that their coupling κ/2 (h − c φ)²
+//! modifies the same curvature the bending term measures.
 //!
 //! - Cotangent: h_i = s|L_i|/(2A_i), L_i the cotangent Laplacian, A_i the
 //!   mixed Voronoi area, s the sign of L_i against the vertex normal.
@@ -12,9 +11,14 @@
 //!
 //! [`VertexTerms::pull_back`] turns the adjoints of a per-vertex energy
 //! A_i f(h_i, …) into forces on the positions in either form.
+//!
+//! A system that measures the tick's positions publishes the measure in the
+//! term inputs ([`MeasuredSurface`]: the species' relaxation does); the
+//! species term and the dihedral bending then read it for the same
+//! positions instead of measuring again.
 
 use crate::energy::bending::BendingDiscretisation;
-use crate::energy::bending_dihedral::DihedralScratch;
+use crate::energy::bending_dihedral::{DihedralBuffers, DihedralMeasure};
 use crate::mesh::geometry::{Corners, vertex_curvature_terms};
 use crate::mesh::topology::Topology;
 use glam::DVec3;
@@ -107,9 +111,10 @@ pub fn vertex_areas(
     }
 }
 
-/// The species' measure of the surface at the tick's positions, which the
-/// relaxation system publishes in the term inputs so that the species term,
-/// evaluated next at the same positions, does not measure them again.
+/// The measure of the surface at the tick's positions, which a system
+/// (the species' relaxation) publishes in the term inputs so that the terms
+/// evaluated next at the same positions (the species term, the dihedral
+/// bending) do not measure them again.
 #[derive(Clone, Debug, Default)]
 pub struct MeasuredSurface {
     /// The positions measured (by dense slot).
@@ -147,11 +152,26 @@ pub struct VertexTerms {
     laplacians: Vec<DVec3>,
     normals: Vec<DVec3>,
     signs: Vec<(f64, f64)>,
+    dihedral: DihedralMeasure,
+}
+
+/// The buffers of [`VertexTerms::pull_back`], kept by its caller so that a
+/// measure is only read.
+#[derive(Clone, Debug, Default)]
+pub struct PullBackBuffers {
     g_lap: Vec<DVec3>,
-    dihedral: DihedralScratch,
+    g_m: Vec<f64>,
+    g_a: Vec<f64>,
+    dihedral: DihedralBuffers,
 }
 
 impl VertexTerms {
+    /// The dihedral form's edge and vertex measure (empty in the cotangent
+    /// form).
+    pub fn dihedral(&self) -> &DihedralMeasure {
+        &self.dihedral
+    }
+
     /// Measures `surface` in `form`.
     pub fn measure(&mut self, surface: Surface<'_>, form: BendingDiscretisation) {
         let n = surface.vertex_count();
@@ -196,28 +216,32 @@ impl VertexTerms {
     /// `df_dh` = ∂f_i/∂h_i (ignored on a rim) and `g_area` = ∂E/∂A_i at
     /// fixed h_i minus h_i ∂f_i/∂h_i (the total ∂E/∂A_i through h as well),
     /// and optionally per face the adjoints `cot_adjoints` of its
-    /// cotangents. The state is the last [`VertexTerms::measure`]'s.
+    /// cotangents. The state is the last [`VertexTerms::measure`]'s; the
+    /// caller's `buffers` take the intermediate adjoints.
+    #[allow(clippy::too_many_arguments)]
     pub fn pull_back(
-        &mut self,
+        &self,
         surface: Surface<'_>,
         df_dh: &[f64],
         g_area: &[f64],
         cot_adjoints: &[[f64; 3]],
+        buffers: &mut PullBackBuffers,
         force: &mut [DVec3],
     ) {
         let n = surface.vertex_count();
         match self.form {
             BendingDiscretisation::Cotangent => {
                 // h = s|L|/(2A): ∂(A f)/∂L = ½ f'(h) s L/|L|.
-                self.g_lap.clear();
-                self.g_lap.resize(n, DVec3::ZERO);
+                let g_lap = &mut buffers.g_lap;
+                g_lap.clear();
+                g_lap.resize(n, DVec3::ZERO);
                 for i in 0..n {
                     let (sign, len) = self.signs[i];
                     if surface.is_interior(i) && len > 0.0 {
-                        self.g_lap[i] = self.laplacians[i] * (0.5 * df_dh[i] * sign / len);
+                        g_lap[i] = self.laplacians[i] * (0.5 * df_dh[i] * sign / len);
                     }
                 }
-                let g_lap = &self.g_lap;
+                let g_lap = &buffers.g_lap;
                 for (fi, (face, c)) in surface.faces().iter().zip(surface.geometry).enumerate() {
                     let [i0, i1, i2] = face.map(|v| v as usize);
                     let mut g = c.backward(
@@ -237,7 +261,9 @@ impl VertexTerms {
             }
             BendingDiscretisation::Dihedral => {
                 // h = 2M/A: ∂(A f)/∂M = 2 f'(h).
-                let (g_m, g_a) = self.dihedral.adjoints_mut();
+                let (g_m, g_a) = (&mut buffers.g_m, &mut buffers.g_a);
+                g_m.resize(n, 0.0);
+                g_a.resize(n, 0.0);
                 for i in 0..n {
                     g_m[i] = if surface.is_interior(i) {
                         2.0 * df_dh[i]
@@ -247,6 +273,9 @@ impl VertexTerms {
                     g_a[i] = g_area[i];
                 }
                 self.dihedral.pull_back(
+                    g_m,
+                    g_a,
+                    &mut buffers.dihedral,
                     surface.positions,
                     surface.topology,
                     surface.geometry,
