@@ -483,10 +483,84 @@ fn species(c: &mut Criterion) {
     }
 }
 
+/// Whole minimiser ticks with one protein species against the same scene
+/// without it, mid-run: the fluid red blood cell at 642 vertices
+/// (`scenes/fluid/red_blood_cell.ron`, Sobolev FIRE) with one conserved
+/// species of c = 0 (a_p = 0.05 l̄², φ = 0.2, so that both follow the same
+/// 475-iteration path), and `scenes/proteins/tube_sorting.ron` (plain FIRE,
+/// the dihedral form, one bulk species) against the same tube without its
+/// species. Each sample builds the scene, runs 100 ticks, then times the
+/// next 100 (ticks 101-200, before either converges).
+fn species_ticks(c: &mut Criterion) {
+    use criterion::BatchSize;
+    use remembrane::scene::Scene;
+    let rbc = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
+    let protein = "    species: (species: [(name: \"bar\", area_per_protein: 0.05, \
+                   curvature_coupling: 0.0, initial: Fraction(0.2))]),\n)";
+    let rbc_species = format!("{}{protein}\n", rbc.trim_end().strip_suffix(')').unwrap());
+    let tube = std::fs::read_to_string("scenes/proteins/tube_sorting.ron").unwrap();
+    let (from, to) = (
+        tube.find("    species: (").unwrap(),
+        tube.rfind("\n)").unwrap(),
+    );
+    let tube_without = format!("{}{}", &tube[..from], &tube[to + 1..]);
+    let cases = [
+        (
+            "red_blood_cell_642/with",
+            "scenes/fluid/red_blood_cell.ron",
+            rbc_species,
+        ),
+        (
+            "red_blood_cell_642/without",
+            "scenes/fluid/red_blood_cell.ron",
+            rbc,
+        ),
+        (
+            "tube_sorting/with",
+            "scenes/proteins/tube_sorting.ron",
+            tube,
+        ),
+        (
+            "tube_sorting/without",
+            "scenes/proteins/tube_sorting.ron",
+            tube_without,
+        ),
+    ];
+    let mut g = c.benchmark_group("species_tick");
+    g.warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(6))
+        .sample_size(15);
+    for (label, path, text) in &cases {
+        let path = std::path::Path::new(path);
+        let scene = Scene::from_ron_str(text, path).unwrap();
+        let start = || {
+            let mut sim = scene.build(path).unwrap();
+            for _ in 0..100 {
+                sim.tick().unwrap();
+            }
+            sim
+        };
+        g.bench_function(*label, |b| {
+            b.iter_batched(
+                start,
+                |mut sim| {
+                    for _ in 0..100 {
+                        sim.tick().unwrap();
+                    }
+                    sim
+                },
+                BatchSize::PerIteration,
+            )
+        });
+    }
+    g.finish();
+}
+
 criterion_group!(
     benches,
     each_system,
     species,
+    species_ticks,
     rbc_all_forces,
     constraints,
     models,

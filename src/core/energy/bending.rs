@@ -57,6 +57,19 @@ pub struct BendingScratch {
     face_pull_backs: Vec<[DVec3; 3]>,
 }
 
+impl BendingScratch {
+    /// Takes the vertex areas, Laplacians and normals of the face loops
+    /// from a published measure of the same positions (the same sums).
+    fn copy_measure(&mut self, areas: &[f64], laplacians: &[DVec3], normals: &[DVec3]) {
+        self.areas.clear();
+        self.areas.extend_from_slice(areas);
+        self.laplacians.clear();
+        self.laplacians.extend_from_slice(laplacians);
+        self.normals.clear();
+        self.normals.extend_from_slice(normals);
+    }
+}
+
 /// Bending energy (Ē) for bending modulus `kappa` (Ē) and spontaneous
 /// curvature `c0` (1/l̄) of a closed mesh with `n` vertices, from its faces
 /// and their precomputed geometry. With `force = Some(f)`, adds −∇H to `f`.
@@ -89,14 +102,15 @@ pub fn bending_open(
     force: Option<&mut [DVec3]>,
 ) -> f64 {
     bending_open_in(
-        n, faces, geometry, kappa, c0, boundary, None, scratch, force,
+        n, faces, geometry, kappa, c0, boundary, None, false, scratch, force,
     )
 }
 
 /// [`bending_open`], as a gather over the faces' `incidence` (from the
 /// topology, [`crate::mesh::topology::Topology::face_incidence`]) when
 /// one is given and the force is asked for: the same bits, every loop in
-/// parallel.
+/// parallel. With `measured`, the face loops' vertex areas, Laplacians and
+/// normals are already in the scratch ([`BendingScratch::copy_measure`]).
 #[allow(clippy::too_many_arguments)]
 fn bending_open_in(
     n: usize,
@@ -106,6 +120,7 @@ fn bending_open_in(
     c0: f64,
     boundary: Option<&[bool]>,
     incidence: Option<&Incidence>,
+    measured: bool,
     scratch: &mut BendingScratch,
     mut force: Option<&mut [DVec3]>,
 ) -> f64 {
@@ -136,7 +151,9 @@ fn bending_open_in(
     }
     if c0 == 0.0 {
         let s = &mut *scratch;
-        vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, None, n);
+        if !measured {
+            vertex_curvature_terms(faces, geometry, &mut s.areas, &mut s.laplacians, None, n);
+        }
         s.g_lap.resize(n, DVec3::ZERO);
         s.g_area.resize(n, 0.0);
         let mut energy = 0.0;
@@ -158,7 +175,10 @@ fn bending_open_in(
         }
         energy
     } else {
-        bending_with(n, faces, geometry, kappa, |_| c0, boundary, scratch, force)
+        if !measured {
+            signed_terms(n, faces, geometry, scratch);
+        }
+        bending_measured(n, faces, geometry, kappa, |_| c0, boundary, scratch, force)
     }
 }
 
@@ -174,7 +194,8 @@ pub fn bending_varying(
     scratch: &mut BendingScratch,
     force: Option<&mut [DVec3]>,
 ) -> f64 {
-    bending_with(
+    signed_terms(c0.len(), faces, geometry, scratch);
+    bending_measured(
         c0.len(),
         faces,
         geometry,
@@ -227,10 +248,11 @@ fn sign(laplacian: DVec3, normal: DVec3) -> f64 {
     }
 }
 
-/// The signed-curvature form with spontaneous curvature `c0(i)` at vertex i;
-/// the `boundary` vertices (if any) carry no energy.
+/// The signed-curvature form with spontaneous curvature `c0(i)` at vertex i,
+/// on the scratch's areas, Laplacians and normals ([`signed_terms`]); the
+/// `boundary` vertices (if any) carry no energy.
 #[allow(clippy::too_many_arguments)]
-fn bending_with(
+fn bending_measured(
     n: usize,
     faces: &[[u32; 3]],
     geometry: &[Corners],
@@ -241,7 +263,6 @@ fn bending_with(
     force: Option<&mut [DVec3]>,
 ) -> f64 {
     let s = scratch;
-    signed_terms(n, faces, geometry, s);
     s.g_lap.resize(n, DVec3::ZERO);
     s.g_area.resize(n, 0.0);
     let mut energy = 0.0;
@@ -273,7 +294,7 @@ fn bending_with(
 
 /// A signed-curvature vertex's energy ½κA(h − c0)² and adjoints ∂H/∂L_i,
 /// ∂H/∂A_i, from its area `a`, Laplacian `l` and normal `nrm` (the
-/// expressions of [`bending_with`]'s vertex loop).
+/// expressions of [`bending_measured`]'s vertex loop).
 #[inline(always)]
 fn signed_vertex_terms(kappa: f64, c0: f64, a: f64, l: DVec3, nrm: DVec3) -> (f64, DVec3, f64) {
     let len = l.length();
@@ -293,7 +314,7 @@ fn signed_vertex_terms(kappa: f64, c0: f64, a: f64, l: DVec3, nrm: DVec3) -> (f6
 /// The bending force as gathers: each vertex sums its faces' terms in
 /// ascending face order ([`Incidence`]), which are the additions the face
 /// loops make into it, in the same order, so the same bits as
-/// [`bending_open`] and [`bending_with`]; every pass runs in parallel and
+/// [`bending_open`] and [`bending_measured`]; every pass runs in parallel and
 /// only the energy is summed on one thread, in vertex order.
 struct Gathered<'a> {
     faces: &'a [[u32; 3]],
@@ -556,26 +577,35 @@ impl ForceTerm for BendingForces {
         // incidence would cost more than the gathers save).
         let incidence = (force.is_some() && crate::util::parallel::splits(t.vertex_count()))
             .then(|| t.face_incidence());
+        // The tick's measure where a system has published it for these
+        // positions (the same sums: the same bits).
+        let published = ctx
+            .inputs
+            .get::<MeasuredSurface>()
+            .filter(|m| m.is_of(ctx.positions, t.epoch, p.discretisation))
+            .map(|m| &m.terms);
         match p.discretisation {
-            BendingDiscretisation::Cotangent => bending_open_in(
-                ctx.positions.len(),
-                &ctx.topology.faces,
-                ctx.face_geometry,
-                p.kappa,
-                p.c0,
-                (!self.boundary.is_empty()).then_some(&self.boundary[..]),
-                incidence.as_deref(),
-                &mut self.scratch,
-                force,
-            ),
+            BendingDiscretisation::Cotangent => {
+                let measured = incidence.is_none()
+                    && published
+                        .and_then(|m| m.cotangent())
+                        .map(|(a, l, n)| self.scratch.copy_measure(a, l, n))
+                        .is_some();
+                bending_open_in(
+                    ctx.positions.len(),
+                    &ctx.topology.faces,
+                    ctx.face_geometry,
+                    p.kappa,
+                    p.c0,
+                    (!self.boundary.is_empty()).then_some(&self.boundary[..]),
+                    incidence.as_deref(),
+                    measured,
+                    &mut self.scratch,
+                    force,
+                )
+            }
             BendingDiscretisation::Dihedral => {
-                // The tick's measure where a system has published it for
-                // these positions (the same arithmetic: the same bits).
-                let published = ctx
-                    .inputs
-                    .get::<MeasuredSurface>()
-                    .filter(|m| m.is_of(ctx.positions, t.epoch, p.discretisation))
-                    .map(|m| m.terms.dihedral());
+                let published = published.map(|m| m.dihedral());
                 if published.is_none() {
                     self.dihedral
                         .measure_mut()
@@ -655,11 +685,12 @@ mod tests {
     use crate::mesh::geometry::face_geometry;
     use crate::mesh::membrane::Membrane;
 
-    /// The dihedral form with a published measure of the same positions
-    /// gives the same bits as measuring itself; a measure of other
-    /// positions, or in the other form, is not used.
+    /// With a published measure of the same positions the bending gives the
+    /// same bits as measuring itself, in both forms (and the cotangent
+    /// form with and without a spontaneous curvature, two paths); a measure
+    /// of other positions, or in the other form, is not used.
     #[test]
-    fn the_dihedral_form_reads_a_published_measure_of_its_own_positions_only() {
+    fn a_published_measure_is_read_for_its_own_positions_only() {
         let mesh = crate::fd::perturbed_icosphere(2, 5);
         let mut m = Membrane::from_mesh(&mesh, false).unwrap();
         let t = m.topology().unwrap().clone();
@@ -670,26 +701,6 @@ mod tests {
         };
         let geometry = at(&mesh.positions);
         let moved: Vec<DVec3> = mesh.positions.iter().map(|p| *p * 1.01).collect();
-        let evaluate = |inputs: &TermInputs| {
-            let mut term = BendingForces::new(BendingParams {
-                kappa: 2.0,
-                c0: 0.3,
-                discretisation: BendingDiscretisation::Dihedral,
-            });
-            let mut force = vec![DVec3::ZERO; mesh.positions.len()];
-            let ctx = ForceContext {
-                world: &m.world,
-                topology: &t,
-                positions: &mesh.positions,
-                lipid: &[],
-                face_geometry: &geometry,
-                inputs,
-            };
-            let e = term.evaluate(&ctx, Some(&mut force));
-            let mut bits = vec![e.to_bits()];
-            bits.extend(force.iter().flat_map(|v| v.to_array().map(f64::to_bits)));
-            bits
-        };
         let published = |positions: &[DVec3], form, label: &[DVec3]| {
             let geometry = at(positions);
             let mut rim = Vec::new();
@@ -703,17 +714,45 @@ mod tests {
             });
             inputs
         };
-        let dihedral = BendingDiscretisation::Dihedral;
-        let own = evaluate(TermInputs::none());
-        let same = published(&mesh.positions, dihedral, &mesh.positions);
-        assert_eq!(evaluate(&same), own);
-        assert_eq!(evaluate(&published(&moved, dihedral, &moved)), own);
-        let cotangent = BendingDiscretisation::Cotangent;
-        assert_eq!(
-            evaluate(&published(&mesh.positions, cotangent, &mesh.positions)),
-            own
+        let (dihedral, cotangent) = (
+            BendingDiscretisation::Dihedral,
+            BendingDiscretisation::Cotangent,
         );
-        // Were the other positions' measure used, the result would differ.
-        assert_ne!(evaluate(&published(&moved, dihedral, &mesh.positions)), own);
+        for (form, c0) in [(dihedral, 0.3), (cotangent, 0.3), (cotangent, 0.0)] {
+            let other_form = if form == dihedral {
+                cotangent
+            } else {
+                dihedral
+            };
+            let evaluate = |inputs: &TermInputs| {
+                let mut term = BendingForces::new(BendingParams {
+                    kappa: 2.0,
+                    c0,
+                    discretisation: form,
+                });
+                let mut force = vec![DVec3::ZERO; mesh.positions.len()];
+                let ctx = ForceContext {
+                    world: &m.world,
+                    topology: &t,
+                    positions: &mesh.positions,
+                    lipid: &[],
+                    face_geometry: &geometry,
+                    inputs,
+                };
+                let e = term.evaluate(&ctx, Some(&mut force));
+                let mut bits = vec![e.to_bits()];
+                bits.extend(force.iter().flat_map(|v| v.to_array().map(f64::to_bits)));
+                bits
+            };
+            let own = evaluate(TermInputs::none());
+            let same = published(&mesh.positions, form, &mesh.positions);
+            assert_eq!(evaluate(&same), own, "{form:?}, C0 {c0}");
+            assert_eq!(evaluate(&published(&moved, form, &moved)), own);
+            let other = published(&mesh.positions, other_form, &mesh.positions);
+            assert_eq!(evaluate(&other), own);
+            // Were the other positions' measure used, the result would differ.
+            let mislabeled = published(&moved, form, &mesh.positions);
+            assert_ne!(evaluate(&mislabeled), own, "{form:?}, C0 {c0}");
+        }
     }
 }

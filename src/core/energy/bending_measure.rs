@@ -172,6 +172,17 @@ impl VertexTerms {
         &self.dihedral
     }
 
+    /// The cotangent form's vertex areas, Laplacians L_i and area-weighted
+    /// normals N_i (the sums of [`vertex_curvature_terms`]); `None` in the
+    /// dihedral form.
+    pub fn cotangent(&self) -> Option<(&[f64], &[DVec3], &[DVec3])> {
+        (self.form == BendingDiscretisation::Cotangent).then_some((
+            &self.areas[..],
+            &self.laplacians[..],
+            &self.normals[..],
+        ))
+    }
+
     /// Measures `surface` in `form`.
     pub fn measure(&mut self, surface: Surface<'_>, form: BendingDiscretisation) {
         let n = surface.vertex_count();
