@@ -12,8 +12,10 @@
 //! Stage: Gather, after `species_gather` and `face_geometry`. Reads:
 //! [`DensePositions`], [`FaceGeometry`],
 //! the topology (in [`Membrane`]), [`SpeciesModel`], [`Clock`]. Writes:
-//! the [`SpeciesAmounts`] and the surface's measure ([`MeasuredSurface`],
-//! which the species term then reuses at the same positions) in
+//! the [`SpeciesAmounts`], the surface's measure ([`MeasuredSurface`],
+//! which the species term and the bending then reuse at the same positions)
+//! and the relaxation's last evaluation ([`Evaluated`], which the species
+//! term reuses for the same amounts) in
 //! [`TermInputs`], the world's
 //! `ProteinAmount` components (in [`Membrane`]), [`SpeciesStatus`]. The
 //! conserved counts are rescaled to their initial values after each
@@ -27,9 +29,10 @@ use remembrane_core::engine::simulation::{Clock, DensePositions, SimError};
 use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::geometry::{Corners, face_geometry};
 use remembrane_core::mesh::membrane::Membrane;
+use remembrane_core::species::free_energy::Evaluated;
 use remembrane_core::species::model::{SpeciesModel, SpeciesStatus};
 use remembrane_core::species::params::Reservoir;
-use remembrane_core::species::relax::relax_amounts_measured;
+use remembrane_core::species::relax::{copy_into, relax_amounts_measured};
 use remembrane_core::species::state::{SpeciesAmounts, write_amounts};
 
 /// Its name in the schedule.
@@ -43,6 +46,8 @@ pub struct SpeciesRelaxation {
     /// The surface's measure at this tick (published in the term inputs
     /// after the relaxation, swapped with the last one published).
     measured: VertexTerms,
+    /// The relaxation's last evaluation at this tick (published likewise).
+    evaluated: Evaluated,
 }
 
 impl System for SpeciesRelaxation {
@@ -88,6 +93,7 @@ impl System for SpeciesRelaxation {
             set,
             &mut dense.0,
             model.relax,
+            Some(&mut self.evaluated),
         )
         .map_err(|source| SimError::Species {
             iteration: clock.iteration + 1,
@@ -120,6 +126,14 @@ impl System for SpeciesRelaxation {
         std::mem::swap(&mut published.terms, &mut self.measured);
         published.positions.clone_from(positions);
         published.epoch = epoch;
+        // The last evaluation, of the amounts as written (the conserved
+        // counts' rescaling included), for the term at the same amounts.
+        let dense = inputs.get::<SpeciesAmounts>().expect("read above");
+        copy_into(&mut self.evaluated.amounts, &dense.0);
+        match inputs.get_mut::<Evaluated>() {
+            Some(e) => std::mem::swap(e, &mut self.evaluated),
+            None => inputs.insert(std::mem::take(&mut self.evaluated)),
+        }
         Ok(())
     }
 }

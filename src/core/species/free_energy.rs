@@ -60,6 +60,35 @@ pub struct Derivatives<'a> {
     pub phi: &'a mut [Vec<f64>],
 }
 
+/// Each vertex's local energy per area f_i (Ē/l̄²) and its derivative
+/// ∂f_i/∂h_i (Ē/l̄), as an evaluation of the free energy found them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LocalValues {
+    /// f_i by dense slot.
+    pub f: Vec<f64>,
+    /// ∂f_i/∂h_i by dense slot (0 on a rim).
+    pub df_dh: Vec<f64>,
+}
+
+/// An evaluation of the local free energy at some fractions, with what the
+/// species term needs of it: the relaxation's last
+/// ([`crate::species::relax::relax_amounts_measured`]), which the
+/// relaxation system publishes in the term inputs so that the term,
+/// evaluated next at the same positions and amounts, does not evaluate it
+/// again ([`Fields::Evaluated`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Evaluated {
+    /// The amounts these values stand for (by species, then dense slot):
+    /// the term uses them only for these amounts, to the bit.
+    pub amounts: Vec<Vec<f64>>,
+    /// The fractions evaluated (by species, then dense slot).
+    pub phi: Vec<Vec<f64>>,
+    /// Each vertex's f_i and ∂f_i/∂h_i there.
+    pub local: LocalValues,
+    /// ∂F/∂φ_s,i there (Ē; the gradient energies' included).
+    pub grad: Vec<Vec<f64>>,
+}
+
 /// (x ln x, ln x), the first continued by 0 at x = 0.
 fn x_ln_x(x: f64) -> (f64, f64) {
     let ln = x.ln();
@@ -178,6 +207,10 @@ pub enum Fields<'a> {
     /// The protein amounts n = A φ / a_p, turned into fractions at the
     /// vertex areas the evaluation measures.
     Amounts(&'a [Vec<f64>]),
+    /// Fractions whose local energies and ∂F/∂φ were evaluated on the same
+    /// measure (the relaxation's last evaluation): only the gradient
+    /// energies' shape adjoints and the pull-back remain.
+    Evaluated(&'a Evaluated),
 }
 
 /// The species' free energy (Ē) on `surface` for the `fields`, with the
@@ -228,21 +261,28 @@ pub fn free_energy_on(
         }
     };
     let converted;
-    let phi = match fields {
-        Fields::Fractions(phi) => phi,
+    let (phi, evaluated) = match fields {
+        Fields::Fractions(phi) => (phi, None),
         Fields::Amounts(amounts) => {
             converted = crate::species::state::fractions(set, amounts, &terms.areas);
-            &converted[..]
+            (&converted[..], None)
         }
+        Fields::Evaluated(e) => (&e.phi[..], Some(e)),
     };
     s_df_dh.clear();
     s_df_dh.resize(n, 0.0);
     s_g_area.clear();
     s_g_area.resize(n, 0.0);
     if let Some(o) = out.as_mut() {
-        for d in o.phi.iter_mut() {
-            d.clear();
-            d.resize(n, 0.0);
+        for (k, d) in o.phi.iter_mut().enumerate() {
+            match evaluated {
+                // ∂F/∂φ as evaluated, the gradient energies' included.
+                Some(e) => d.clone_from(&e.grad[k]),
+                None => {
+                    d.clear();
+                    d.resize(n, 0.0);
+                }
+            }
         }
     }
     let mut energy = 0.0;
@@ -250,25 +290,31 @@ pub fn free_energy_on(
     let mut dphi = [0.0; MAX_SPECIES];
     for i in 0..n {
         let a = terms.areas[i];
-        for (k, p) in phi.iter().enumerate() {
-            at[k] = p[i];
-        }
-        // The coupled bending on interior vertices only.
-        let interior = surface.is_interior(i);
         let h = terms.curvature[i];
-        let (f, df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
+        let (f, df_dh) = match evaluated {
+            Some(e) => (e.local.f[i], e.local.df_dh[i]),
+            None => {
+                for (k, p) in phi.iter().enumerate() {
+                    at[k] = p[i];
+                }
+                // The coupled bending on interior vertices only.
+                let interior = surface.is_interior(i);
+                let (f, df_dh) = local.at(&at[..species.len()], interior.then_some(h), &mut dphi);
+                if let Some(o) = out.as_mut() {
+                    for (k, d) in dphi.iter().take(species.len()).enumerate() {
+                        o.phi[k][i] = a * d;
+                    }
+                }
+                (f, df_dh)
+            }
+        };
         s_df_dh[i] = df_dh;
         energy += a * f;
         // ∂(A f)/∂A at fixed h, less h f'(h) (h varies as 1/A; on a rim
         // both are 0).
         s_g_area[i] = f - df_dh * h;
-        if let Some(o) = out.as_mut() {
-            for (k, d) in dphi.iter().take(species.len()).enumerate() {
-                o.phi[k][i] = a * d;
-            }
-        }
     }
-    // The gradient energies.
+    // The gradient energies (their ∂/∂φ already in an evaluation's).
     let mut cot_adjoints = Vec::new();
     if set.has_gradient_energy() {
         cot_adjoints.resize(surface.faces().len(), [0.0; 3]);
@@ -277,7 +323,9 @@ pub fn free_energy_on(
             surface.geometry,
             set,
             phi,
-            out.as_mut().map(|o| &mut *o.phi),
+            out.as_mut()
+                .filter(|_| evaluated.is_none())
+                .map(|o| &mut *o.phi),
             Some(&mut cot_adjoints),
         );
     }

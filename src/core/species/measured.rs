@@ -8,7 +8,7 @@
 
 use crate::energy::bending::BendingDiscretisation;
 use crate::energy::bending_measure::{Surface, VertexTerms};
-use crate::species::free_energy::{BaseBending, LocalEnergy, gradient_energy};
+use crate::species::free_energy::{BaseBending, LocalEnergy, LocalValues, gradient_energy};
 use crate::species::params::{MAX_SPECIES, SpeciesSet};
 
 /// A dense symmetric S×S block, S ≤ [`MAX_SPECIES`].
@@ -108,8 +108,26 @@ impl MeasuredVertices {
         local: &LocalEnergy<'_>,
         set: &SpeciesSet,
         phi: &[Vec<f64>],
-        mut grad: Option<&mut [Vec<f64>]>,
+        grad: Option<&mut [Vec<f64>]>,
     ) -> f64 {
+        self.free_energy_recorded(shape, local, set, phi, grad, None)
+    }
+
+    /// [`MeasuredVertices::free_energy`], writing each vertex's local
+    /// energy per area f_i and ∂f_i/∂h_i into `record` (sized here).
+    pub(crate) fn free_energy_recorded(
+        &self,
+        shape: Surface<'_>,
+        local: &LocalEnergy<'_>,
+        set: &SpeciesSet,
+        phi: &[Vec<f64>],
+        mut grad: Option<&mut [Vec<f64>]>,
+        mut record: Option<&mut LocalValues>,
+    ) -> f64 {
+        if let Some(r) = record.as_deref_mut() {
+            r.f.resize(self.areas.len(), 0.0);
+            r.df_dh.resize(self.areas.len(), 0.0);
+        }
         let ns = set.species.len();
         let (mut at, mut d) = ([0.0; MAX_SPECIES], [0.0; MAX_SPECIES]);
         let mut f = 0.0;
@@ -118,7 +136,11 @@ impl MeasuredVertices {
                 at[k] = p[i];
             }
             let h = self.interior[i].then_some(self.curvature[i]);
-            f += self.areas[i] * local.at(&at[..ns], h, &mut d).0;
+            let (fi, df_dh) = local.at(&at[..ns], h, &mut d);
+            f += self.areas[i] * fi;
+            if let Some(r) = record.as_deref_mut() {
+                (r.f[i], r.df_dh[i]) = (fi, df_dh);
+            }
             if let Some(g) = grad.as_deref_mut() {
                 for (k, g) in g.iter_mut().enumerate() {
                     g[i] = self.areas[i] * d[k];

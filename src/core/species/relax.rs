@@ -18,7 +18,7 @@
 //! φ_i = 1/(1 + e^{(ε_i − μ)/k_BT}), ε_i = −a_p κ c (h_i − c φ_i)).
 
 use crate::energy::bending_measure::{Surface, VertexTerms};
-use crate::species::free_energy::{BaseBending, LocalEnergy};
+use crate::species::free_energy::{BaseBending, Evaluated, LocalEnergy, LocalValues};
 use crate::species::measured::{Block, HessianConstants, MeasuredVertices};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
 
@@ -201,6 +201,7 @@ pub fn relax_fields(
         set,
         phi,
         settings,
+        None,
     )
 }
 
@@ -218,11 +219,13 @@ pub fn relax_amounts(
 ) -> Result<Relaxed, RelaxError> {
     let mut terms = VertexTerms::default();
     terms.measure(shape, base.discretisation);
-    relax_amounts_measured(shape, &terms, base, set, amounts, settings)
+    relax_amounts_measured(shape, &terms, base, set, amounts, settings, None)
 }
 
 /// [`relax_amounts`] on the surface's measure `terms` (in the bending's
-/// discretisation), taken at `shape`'s positions.
+/// discretisation), taken at `shape`'s positions; with `record`, the last
+/// evaluation is written there (all but its `amounts`, which are the
+/// caller's to set once it is done with them).
 pub fn relax_amounts_measured(
     shape: Surface<'_>,
     terms: &VertexTerms,
@@ -230,17 +233,26 @@ pub fn relax_amounts_measured(
     set: &SpeciesSet,
     amounts: &mut [Vec<f64>],
     settings: RelaxSettings,
+    record: Option<&mut Evaluated>,
 ) -> Result<Relaxed, RelaxError> {
     let v = MeasuredVertices::from_terms(shape, terms, set.has_gradient_energy());
     let mut phi = crate::species::state::fractions(set, amounts, &v.areas);
     let repaired = bring_inside(&mut phi, &v.areas);
-    let mut relaxed = relax_measured(shape, &v, base, set, &mut phi, settings)?;
+    let mut relaxed = relax_measured(shape, &v, base, set, &mut phi, settings, record)?;
     relaxed.repaired = repaired;
     let back = crate::species::state::amounts(set, &phi, &v.areas);
     for (n, x) in amounts.iter_mut().zip(back) {
         *n = x;
     }
     Ok(relaxed)
+}
+
+/// Copies `src` into `dst`, reusing its buffers.
+pub fn copy_into(dst: &mut Vec<Vec<f64>>, src: &[Vec<f64>]) {
+    dst.resize(src.len(), Vec::new());
+    for (d, s) in dst.iter_mut().zip(src) {
+        d.clone_from(s);
+    }
 }
 
 /// The most of a vertex's room (what the other species leave) a fraction
@@ -298,7 +310,8 @@ fn bring_inside(phi: &mut [Vec<f64>], areas: &[f64]) -> usize {
     changed.iter().filter(|&&c| c).count()
 }
 
-/// [`relax_fields`] on the vertex quantities `v` of `shape`.
+/// [`relax_fields`] on the vertex quantities `v` of `shape`; with `record`,
+/// the last evaluation is written there (but its `amounts`).
 fn relax_measured(
     shape: Surface<'_>,
     v: &MeasuredVertices,
@@ -306,6 +319,7 @@ fn relax_measured(
     set: &SpeciesSet,
     phi: &mut [Vec<f64>],
     settings: RelaxSettings,
+    mut record: Option<&mut Evaluated>,
 ) -> Result<Relaxed, RelaxError> {
     let n = shape.vertex_count();
     let ns = set.species.len();
@@ -342,14 +356,16 @@ fn relax_measured(
     let mut grad = vec![vec![0.0; n]; ns];
     // Ω and, with `grad`, ∂F/∂φ: the local energies at the vertices'
     // areas and curvatures, measured once, and the gradient energies.
-    let omega = |phi: &[Vec<f64>], grad: Option<&mut Vec<Vec<f64>>>| {
-        let f = v.free_energy(shape, &local, set, phi, grad.map(|g| &mut g[..]));
-        let exchanged: f64 = (0..ns)
-            .filter(|s| !conserved.contains(s))
-            .map(|s| bulk_mu[s] * (0..n).map(|i| weight(i, s) * phi[s][i]).sum::<f64>())
-            .sum();
-        f - exchanged
-    };
+    let omega =
+        |phi: &[Vec<f64>], grad: Option<&mut Vec<Vec<f64>>>, record: Option<&mut LocalValues>| {
+            let grad = grad.map(|g| &mut g[..]);
+            let f = v.free_energy_recorded(shape, &local, set, phi, grad, record);
+            let exchanged: f64 = (0..ns)
+                .filter(|s| !conserved.contains(s))
+                .map(|s| bulk_mu[s] * (0..n).map(|i| weight(i, s) * phi[s][i]).sum::<f64>())
+                .sum();
+            f - exchanged
+        };
     let nc = conserved.len();
     // Per vertex: H⁻¹G and H⁻¹(w e_c) for each conserved c.
     let mut u = vec![0.0; n * ns];
@@ -359,7 +375,18 @@ fn relax_measured(
     let mut trial: Vec<Vec<f64>> = phi.to_vec();
     let mut iterations = 0;
     loop {
-        let value = omega(phi, Some(&mut grad));
+        let value = omega(
+            phi,
+            Some(&mut grad),
+            record.as_deref_mut().map(|r| &mut r.local),
+        );
+        // Every return below is at these fractions.
+        let mut recorded = |phi: &[Vec<f64>], grad: &[Vec<f64>]| {
+            if let Some(r) = record.as_deref_mut() {
+                copy_into(&mut r.phi, phi);
+                copy_into(&mut r.grad, grad);
+            }
+        };
         // The residual at the best multipliers, without the Hessian: a
         // bulk species' |∂F/∂φ − μw|/A at its μ; a conserved species'
         // (a_s ∂F/∂φ / A) spreads about its multiplier, best placed at
@@ -386,6 +413,7 @@ fn relax_measured(
             }
         }
         if certified <= settings.tolerance {
+            recorded(phi, &grad);
             return Ok(Relaxed {
                 iterations,
                 residual: certified,
@@ -461,6 +489,7 @@ fn relax_measured(
             }
         }
         if residual <= settings.tolerance {
+            recorded(phi, &grad);
             return Ok(Relaxed {
                 iterations,
                 residual,
@@ -517,7 +546,7 @@ fn relax_measured(
                         trial[s][i] = phi[s][i] + alpha * step[s][i];
                     }
                 }
-                let tried = omega(&trial, None);
+                let tried = omega(&trial, None, None);
                 if tried <= value + 1e-4 * alpha * slope || -alpha * slope <= roundoff {
                     // (A slope ≥ 0 is round-off near the minimum: the step is
                     // taken as it is.)

@@ -7,12 +7,15 @@
 //! `species_gather` system refreshes them each tick), or from the world
 //! outside the schedule (finite differences, flip proposals); and, where the
 //! relaxation has published the surface's measure at the same positions
-//! ([`MeasuredSurface`]), that measure instead of measuring again.
+//! ([`MeasuredSurface`]), that measure instead of measuring again, and its
+//! last evaluation of the fields where it is of the same amounts
+//! ([`Evaluated`]: the fractions it ended on, which differ from the
+//! amounts' by round-off, and the local energies there).
 
 use crate::energy::bending_measure::{MeasuredSurface, Surface, vertex_areas};
 use crate::engine::force::{ForceContext, ForceTerm};
 use crate::species::free_energy::{
-    BaseBending, Derivatives, Fields, FreeEnergyScratch, Hold, free_energy_on,
+    BaseBending, Derivatives, Evaluated, Fields, FreeEnergyScratch, Hold, free_energy_on,
 };
 use crate::species::params::SpeciesSet;
 use crate::species::state::SpeciesAmounts;
@@ -74,12 +77,27 @@ impl ForceTerm for SpeciesForces {
             .get::<MeasuredSurface>()
             .filter(|m| m.is_of(ctx.positions, t.epoch, self.base.discretisation))
             .map(|m| &m.terms);
+        // And its last evaluation of the fields, where it is of these
+        // amounts (to the bit) on that measure.
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        let fields = match ctx.inputs.get::<Evaluated>() {
+            Some(e)
+                if measured.is_some()
+                    && e.amounts.len() == amounts.0.len()
+                    && e.amounts.iter().zip(&amounts.0).all(|(a, b)| same(a, b)) =>
+            {
+                Fields::Evaluated(e)
+            }
+            _ => Fields::Amounts(&amounts.0),
+        };
         free_energy_on(
             surface,
             measured,
             self.base,
             &self.set,
-            Fields::Amounts(&amounts.0),
+            fields,
             Hold::Amount,
             &mut self.scratch,
             out,
@@ -240,6 +258,107 @@ mod tests {
             let mut other = measure(&moved, &moved_geometry);
             other.get_mut::<MeasuredSurface>().unwrap().positions = mesh.positions.clone();
             assert_ne!(bits(evaluate(&other)), own);
+        }
+    }
+
+    /// With the relaxation's last evaluation published for the same amounts
+    /// (and its measure for the same positions), the term reads it instead of
+    /// evaluating the fields again: the same energy and force but for
+    /// round-off (the evaluation's fractions are the relaxation's, the
+    /// amounts' differ from them in the last bits). An evaluation of other
+    /// amounts is not used. In both forms.
+    #[test]
+    fn the_relaxations_last_evaluation_is_used_only_for_its_own_amounts() {
+        use crate::energy::bending_measure::VertexTerms;
+        use crate::engine::term_inputs::TermInputs;
+        use crate::mesh::geometry::face_geometry;
+        use crate::species::relax::{RelaxSettings, relax_amounts_measured};
+        let mesh = perturbed_icosphere(1, 3);
+        let mut m = Membrane::from_mesh(&mesh, false).unwrap();
+        add_amounts(&mut m, &set(), |k, slot, _| {
+            (1.0 + (slot % 5) as f64) * [0.8, 2.0][k]
+        })
+        .unwrap();
+        let t = m.topology().unwrap().clone();
+        let mut geometry = Vec::new();
+        face_geometry(&mesh.positions, &t.faces, &mut geometry);
+        for discretisation in [
+            crate::energy::bending::BendingDiscretisation::Cotangent,
+            crate::energy::bending::BendingDiscretisation::Dihedral,
+        ] {
+            let base = BaseBending {
+                discretisation,
+                kappa: 2.0,
+                c0: 0.1,
+            };
+            let mut rim = Vec::new();
+            let surface = Surface::new(&mesh.positions, &t, &geometry, &mut rim);
+            let mut terms = VertexTerms::default();
+            terms.measure(surface, discretisation);
+            let mut amounts = SpeciesAmounts::default();
+            amounts.gather(&m.world, &t, 2);
+            let mut evaluated = Evaluated::default();
+            let settings = RelaxSettings {
+                tolerance: 1e-9,
+                max_iterations: 100,
+            };
+            relax_amounts_measured(
+                surface,
+                &terms,
+                base,
+                &set(),
+                &mut amounts.0,
+                settings,
+                Some(&mut evaluated),
+            )
+            .unwrap();
+            evaluated.amounts = amounts.0.clone();
+            let inputs = |evaluated: Option<Evaluated>| {
+                let mut inputs = TermInputs::default();
+                inputs.insert(amounts.clone());
+                inputs.insert(MeasuredSurface {
+                    positions: mesh.positions.clone(),
+                    epoch: t.epoch,
+                    terms: terms.clone(),
+                });
+                if let Some(e) = evaluated {
+                    inputs.insert(e);
+                }
+                inputs
+            };
+            let evaluate = |inputs: &TermInputs| {
+                let mut term = SpeciesForces::new(set(), base);
+                let mut force = vec![DVec3::ZERO; mesh.positions.len()];
+                let ctx = ForceContext {
+                    world: &m.world,
+                    topology: &t,
+                    positions: &mesh.positions,
+                    lipid: &[],
+                    face_geometry: &geometry,
+                    inputs,
+                };
+                let e = term.evaluate(&ctx, Some(&mut force));
+                (e, force)
+            };
+            let (e_own, f_own) = evaluate(&inputs(None));
+            let (e_read, f_read) = evaluate(&inputs(Some(evaluated.clone())));
+            let largest = f_own.iter().map(|f| f.length()).fold(0.0, f64::max);
+            assert!(
+                (e_read - e_own).abs() <= 1e-12 * e_own.abs(),
+                "{e_read} against {e_own}"
+            );
+            for (a, b) in f_read.iter().zip(&f_own) {
+                assert!((*a - *b).length() <= 1e-10 * largest, "{a} against {b}");
+            }
+            // A doctored evaluation of these amounts is read; of others, not.
+            let mut doctored = evaluated.clone();
+            doctored.local.f.iter_mut().for_each(|f| *f *= 2.0);
+            let (e_doctored, _) = evaluate(&inputs(Some(doctored.clone())));
+            assert!((e_doctored - e_own).abs() > 1e-3 * e_own.abs());
+            doctored.amounts[1][0] *= 1.0 + 1e-15;
+            let (e_other, f_other) = evaluate(&inputs(Some(doctored)));
+            assert_eq!(e_other.to_bits(), e_own.to_bits());
+            assert_eq!(f_other, f_own);
         }
     }
 
