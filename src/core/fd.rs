@@ -109,6 +109,30 @@ pub fn normal_stiffness_against_translation(
     (stiffness.iter().sum(), fd)
 }
 
+/// `term`'s energy and force at `positions` (faces' `geometry` given) with
+/// the term inputs `inputs`, as the schedule's force pass would evaluate it
+/// (no lipid field): for tests of what a term reads from the inputs.
+pub fn evaluate_with_inputs(
+    term: &mut dyn ForceTerm,
+    world: &World,
+    topology: &Topology,
+    positions: &[DVec3],
+    geometry: &[crate::mesh::geometry::Corners],
+    inputs: &crate::engine::term_inputs::TermInputs,
+) -> (f64, Vec<DVec3>) {
+    let mut force = vec![DVec3::ZERO; positions.len()];
+    let ctx = ForceContext {
+        world,
+        topology,
+        positions,
+        lipid: &[],
+        face_geometry: geometry,
+        inputs,
+    };
+    let energy = term.evaluate(&ctx, Some(&mut force));
+    (energy, force)
+}
+
 /// Checks `term`'s analytic force against finite differences of its energy
 /// at every vertex (or at the `vertices` given).
 pub fn check_force_term(

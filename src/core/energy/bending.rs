@@ -730,16 +730,14 @@ mod tests {
                     c0,
                     discretisation: form,
                 });
-                let mut force = vec![DVec3::ZERO; mesh.positions.len()];
-                let ctx = ForceContext {
-                    world: &m.world,
-                    topology: &t,
-                    positions: &mesh.positions,
-                    lipid: &[],
-                    face_geometry: &geometry,
+                let (e, force) = crate::fd::evaluate_with_inputs(
+                    &mut term,
+                    &m.world,
+                    &t,
+                    &mesh.positions,
+                    &geometry,
                     inputs,
-                };
-                let e = term.evaluate(&ctx, Some(&mut force));
+                );
                 let mut bits = vec![e.to_bits()];
                 bits.extend(force.iter().flat_map(|v| v.to_array().map(f64::to_bits)));
                 bits

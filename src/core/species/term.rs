@@ -165,7 +165,9 @@ impl ForceTerm for SpeciesForces {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fd::{FdOptions, check_force_term, perturbed_icosphere, perturbed_patches};
+    use crate::fd::{
+        FdOptions, check_force_term, evaluate_with_inputs, perturbed_icosphere, perturbed_patches,
+    };
     use crate::mesh::membrane::Membrane;
     use crate::species::params::Species;
     use crate::species::state::add_amounts;
@@ -188,14 +190,14 @@ mod tests {
         }
     }
 
-    /// With the relaxation's measure of the same positions published, the
-    /// term's energy and force are the same to the bit as when it measures
-    /// itself; a measure of other positions is not used. In both forms.
-    #[test]
-    fn a_published_measure_is_used_only_for_its_own_positions() {
-        use crate::energy::bending_measure::VertexTerms;
-        use crate::engine::term_inputs::TermInputs;
-        use crate::mesh::geometry::face_geometry;
+    /// The perturbed icosphere carrying amounts of both species (0.1-0.3 of
+    /// the area), with its topology and faces' geometry.
+    fn carrying() -> (
+        crate::mesh::SurfaceMesh,
+        Membrane,
+        crate::mesh::topology::Topology,
+        Vec<crate::mesh::geometry::Corners>,
+    ) {
         let mesh = perturbed_icosphere(1, 3);
         let mut m = Membrane::from_mesh(&mesh, false).unwrap();
         add_amounts(&mut m, &set(), |k, slot, _| {
@@ -204,7 +206,19 @@ mod tests {
         .unwrap();
         let t = m.topology().unwrap().clone();
         let mut geometry = Vec::new();
-        face_geometry(&mesh.positions, &t.faces, &mut geometry);
+        crate::mesh::geometry::face_geometry(&mesh.positions, &t.faces, &mut geometry);
+        (mesh, m, t, geometry)
+    }
+
+    /// With the relaxation's measure of the same positions published, the
+    /// term's energy and force are the same to the bit as when it measures
+    /// itself; a measure of other positions is not used. In both forms.
+    #[test]
+    fn a_published_measure_is_used_only_for_its_own_positions() {
+        use crate::energy::bending_measure::VertexTerms;
+        use crate::engine::term_inputs::TermInputs;
+        use crate::mesh::geometry::face_geometry;
+        let (mesh, m, t, geometry) = carrying();
         let moved: Vec<DVec3> = mesh.positions.iter().map(|p| *p * 1.01).collect();
         let mut moved_geometry = Vec::new();
         face_geometry(&moved, &t.faces, &mut moved_geometry);
@@ -224,17 +238,7 @@ mod tests {
             };
             let evaluate = |inputs: &TermInputs| {
                 let mut term = SpeciesForces::new(set(), base);
-                let mut force = vec![DVec3::ZERO; mesh.positions.len()];
-                let ctx = ForceContext {
-                    world: &m.world,
-                    topology: &t,
-                    positions: &mesh.positions,
-                    lipid: &[],
-                    face_geometry: &geometry,
-                    inputs,
-                };
-                let e = term.evaluate(&ctx, Some(&mut force));
-                (e, force)
+                evaluate_with_inputs(&mut term, &m.world, &t, &mesh.positions, &geometry, inputs)
             };
             let measure = |positions: &[DVec3], geometry: &[crate::mesh::geometry::Corners]| {
                 let mut rim = Vec::new();
@@ -271,17 +275,8 @@ mod tests {
     fn the_relaxations_last_evaluation_is_used_only_for_its_own_amounts() {
         use crate::energy::bending_measure::VertexTerms;
         use crate::engine::term_inputs::TermInputs;
-        use crate::mesh::geometry::face_geometry;
         use crate::species::relax::{RelaxSettings, relax_amounts_measured};
-        let mesh = perturbed_icosphere(1, 3);
-        let mut m = Membrane::from_mesh(&mesh, false).unwrap();
-        add_amounts(&mut m, &set(), |k, slot, _| {
-            (1.0 + (slot % 5) as f64) * [0.8, 2.0][k]
-        })
-        .unwrap();
-        let t = m.topology().unwrap().clone();
-        let mut geometry = Vec::new();
-        face_geometry(&mesh.positions, &t.faces, &mut geometry);
+        let (mesh, m, t, geometry) = carrying();
         for discretisation in [
             crate::energy::bending::BendingDiscretisation::Cotangent,
             crate::energy::bending::BendingDiscretisation::Dihedral,
@@ -328,17 +323,7 @@ mod tests {
             };
             let evaluate = |inputs: &TermInputs| {
                 let mut term = SpeciesForces::new(set(), base);
-                let mut force = vec![DVec3::ZERO; mesh.positions.len()];
-                let ctx = ForceContext {
-                    world: &m.world,
-                    topology: &t,
-                    positions: &mesh.positions,
-                    lipid: &[],
-                    face_geometry: &geometry,
-                    inputs,
-                };
-                let e = term.evaluate(&ctx, Some(&mut force));
-                (e, force)
+                evaluate_with_inputs(&mut term, &m.world, &t, &mesh.positions, &geometry, inputs)
             };
             let (e_own, f_own) = evaluate(&inputs(None));
             let (e_read, f_read) = evaluate(&inputs(Some(evaluated.clone())));
