@@ -235,7 +235,7 @@ impl DihedralMeasure {
     /// Subtracts ∇E from `force` for an energy E(M, A) with the adjoints
     /// `g_m` = ∂E/∂M_i and `g_a` = ∂E/∂A_i, at the measured state.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn pull_back(
+    pub fn pull_back(
         &self,
         g_m: &[f64],
         g_a: &[f64],
