@@ -8,12 +8,16 @@
 //! positions and topology in [`Membrane`]. Writes: the world's
 //! `ProteinAmount` components (in [`Membrane`]), [`SpeciesStatus`] (the
 //! counts, the chemical potentials, the steps taken, which also count the
-//! noise's draws, so a resumed checkpoint continues them).
+//! noise's draws, so a resumed checkpoint continues them), and the
+//! measure of the tick's final mesh in [`TermInputs`] ([`MeasuredSurface`]:
+//! the next tick's forces are evaluated at the same positions, where the
+//! species term and the bending read it instead of measuring again).
 
-use remembrane_core::energy::bending_measure::Surface;
+use remembrane_core::energy::bending_measure::{MeasuredSurface, Surface};
 use remembrane_core::engine::resources::{Res, ResMut};
 use remembrane_core::engine::schedule::System;
 use remembrane_core::engine::simulation::{Clock, Seed, SimError};
+use remembrane_core::engine::term_inputs::TermInputs;
 use remembrane_core::mesh::geometry::{Corners, face_geometry};
 use remembrane_core::mesh::membrane::Membrane;
 use remembrane_core::params::DynamicsParams;
@@ -44,6 +48,7 @@ impl System for SpeciesTransport {
         Res<'a, Clock>,
         ResMut<'a, Membrane>,
         ResMut<'a, SpeciesStatus>,
+        ResMut<'a, TermInputs>,
     );
 
     fn name(&self) -> &str {
@@ -52,7 +57,9 @@ impl System for SpeciesTransport {
 
     fn run(
         &mut self,
-        (time_step, dynamics, seed, model, clock, mut membrane, mut status): Self::Data<'_>,
+        (time_step, dynamics, seed, model, clock, mut membrane, mut status, mut inputs): Self::Data<
+            '_,
+        >,
     ) -> Result<(), SimError> {
         let set = &model.set;
         let topology = membrane.cached_topology();
@@ -90,6 +97,17 @@ impl System for SpeciesTransport {
         status.counts = self.amounts.counts();
         status.chemical_potentials = done.chemical_potentials;
         status.transport_steps += done.steps;
+        let epoch = membrane.cached_topology().epoch;
+        let published = match inputs.get_mut::<MeasuredSurface>() {
+            Some(p) => p,
+            None => {
+                inputs.insert(MeasuredSurface::default());
+                inputs.get_mut::<MeasuredSurface>().expect("just inserted")
+            }
+        };
+        std::mem::swap(&mut published.terms, self.transport.measure_mut());
+        published.positions.clone_from(&self.positions);
+        published.epoch = epoch;
         Ok(())
     }
 }

@@ -369,3 +369,31 @@ fn check_names_each_species_and_how_it_moves() {
         "{text}"
     );
 }
+
+/// In dynamics the transport publishes its measure of the tick's final
+/// mesh, the mesh the next tick's forces are evaluated on (where the
+/// species term and the bending read it instead of measuring again): after
+/// each tick the published measure is of the membrane's positions and
+/// topology as they stand.
+#[test]
+fn the_transport_publishes_the_measure_of_the_next_ticks_positions() {
+    use remembrane::energy::bending_measure::MeasuredSurface;
+    use remembrane::engine::term_inputs::TermInputs;
+    let mut sim = frozen(
+        "Ellipsoid(level: 2, semi_axes: (3.0, 3.0, 3.0))",
+        "(name: \"p\", area_per_protein: 0.05, curvature_coupling: 1.0, initial: Fraction(0.2), mobility: 0.1)",
+        1e-3,
+        0.0,
+    );
+    let form = sim.resource::<SpeciesModel>().base.discretisation;
+    for _ in 0..3 {
+        sim.tick().unwrap();
+        let membrane = sim.membrane_mut();
+        let epoch = membrane.topology().unwrap().epoch;
+        let mut positions = Vec::new();
+        membrane.gather_positions(&mut positions);
+        let inputs = sim.resource::<TermInputs>();
+        let published = inputs.get::<MeasuredSurface>();
+        assert!(published.is_some_and(|m| m.is_of(&positions, epoch, form)));
+    }
+}

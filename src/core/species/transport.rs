@@ -32,7 +32,7 @@
 //! rate (the mobility times the local Hessian ∂μ/∂n). A step that takes a
 //! field out of φ > 0, Σφ < 1 is halved, its draws kept.
 
-use crate::energy::bending_measure::Surface;
+use crate::energy::bending_measure::{Surface, VertexTerms};
 use crate::species::free_energy::{BaseBending, LocalEnergy};
 use crate::species::measured::{Block, HessianConstants, MeasuredVertices};
 use crate::species::params::{MAX_SPECIES, Reservoir, SpeciesSet};
@@ -97,6 +97,8 @@ pub enum TransportError {
 /// The reusable buffers of the transport.
 #[derive(Default)]
 pub struct Transport {
+    /// The measure of the shape of the last advance.
+    terms: VertexTerms,
     phi: Vec<Vec<f64>>,
     grad: Vec<Vec<f64>>,
     mu: Vec<Vec<f64>>,
@@ -111,6 +113,13 @@ pub struct Transport {
 }
 
 impl Transport {
+    /// The measure of the shape of the last [`Transport::advance`] (given
+    /// up to the caller, who may publish it for the terms evaluated next at
+    /// the same positions; the next advance measures again).
+    pub fn measure_mut(&mut self) -> &mut VertexTerms {
+        &mut self.terms
+    }
+
     /// Advances the `amounts` (proteins, by species then dense slot) on
     /// the fixed `shape` by `dt` (s), with `noise` at temperature.
     pub fn advance(
@@ -124,7 +133,8 @@ impl Transport {
     ) -> Result<Transported, TransportError> {
         let ns = set.species.len();
         let n = shape.vertex_count();
-        let v = MeasuredVertices::measure(shape, base.discretisation, set.has_gradient_energy());
+        self.terms.measure(shape, base.discretisation);
+        let v = MeasuredVertices::from_terms(shape, &self.terms, set.has_gradient_energy());
         let local = LocalEnergy::new(set, base);
         let constants = HessianConstants::new(set);
         let kbt = set.temperature;
