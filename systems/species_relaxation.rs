@@ -116,16 +116,7 @@ impl System for SpeciesRelaxation {
         status.repaired_vertices += relaxed.repaired as u64;
         status.residual = relaxed.residual;
         // The measure, for the species term at the same positions.
-        let published = match inputs.get_mut::<MeasuredSurface>() {
-            Some(p) => p,
-            None => {
-                inputs.insert(MeasuredSurface::default());
-                inputs.get_mut::<MeasuredSurface>().expect("just inserted")
-            }
-        };
-        std::mem::swap(&mut published.terms, &mut self.measured);
-        published.positions.clone_from(positions);
-        published.epoch = epoch;
+        MeasuredSurface::publish(&mut inputs, &mut self.measured, positions, epoch);
         // The last evaluation, of the amounts as written (the conserved
         // counts' rescaling included), for the term at the same amounts.
         let dense = inputs.get::<SpeciesAmounts>().expect("read above");

@@ -98,16 +98,12 @@ impl System for SpeciesTransport {
         status.chemical_potentials = done.chemical_potentials;
         status.transport_steps += done.steps;
         let epoch = membrane.cached_topology().epoch;
-        let published = match inputs.get_mut::<MeasuredSurface>() {
-            Some(p) => p,
-            None => {
-                inputs.insert(MeasuredSurface::default());
-                inputs.get_mut::<MeasuredSurface>().expect("just inserted")
-            }
-        };
-        std::mem::swap(&mut published.terms, self.transport.measure_mut());
-        published.positions.clone_from(&self.positions);
-        published.epoch = epoch;
+        MeasuredSurface::publish(
+            &mut inputs,
+            self.transport.measure_mut(),
+            &self.positions,
+            epoch,
+        );
         Ok(())
     }
 }

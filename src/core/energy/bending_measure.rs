@@ -126,6 +126,26 @@ pub struct MeasuredSurface {
 }
 
 impl MeasuredSurface {
+    /// Publishes `terms`, the measure of `positions` on a topology of
+    /// `epoch`, in the term `inputs` (inserting the value the first time):
+    /// the measure is swapped in, and the caller gets the last one's buffers
+    /// back to measure into next.
+    pub fn publish(
+        inputs: &mut crate::engine::term_inputs::TermInputs,
+        terms: &mut VertexTerms,
+        positions: &[DVec3],
+        epoch: u64,
+    ) {
+        if inputs.get::<MeasuredSurface>().is_none() {
+            inputs.insert(MeasuredSurface::default());
+        }
+        let published = inputs.get_mut::<MeasuredSurface>().expect("inserted above");
+        std::mem::swap(&mut published.terms, terms);
+        published.positions.clear();
+        published.positions.extend_from_slice(positions);
+        published.epoch = epoch;
+    }
+
     /// Whether this measure is of `positions` (to the bit) on a topology of
     /// `epoch`, in `form`.
     pub fn is_of(&self, positions: &[DVec3], epoch: u64, form: BendingDiscretisation) -> bool {

@@ -247,6 +247,27 @@ pub fn relax_amounts_measured(
     Ok(relaxed)
 }
 
+/// The limits of a step `dp` from the fractions `p` of one vertex (pairs
+/// (p, dp) by species): the largest multiple of it, at most 1, that goes
+/// [`TO_BOUNDARY`] of the way to a bound φ > 0 or Σφ < 1, and the largest
+/// change of a fraction, or of the solvent's, relative to it.
+fn step_limits(steps: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
+    let (mut alpha, mut relative): (f64, f64) = (1.0, 0.0);
+    let (mut total_step, mut bare) = (0.0, 1.0);
+    for (p, dp) in steps {
+        if dp < 0.0 {
+            alpha = alpha.min(TO_BOUNDARY * p / -dp);
+        }
+        relative = relative.max(dp.abs() / p);
+        total_step += dp;
+        bare -= p;
+    }
+    if total_step > 0.0 {
+        alpha = alpha.min(TO_BOUNDARY * bare / total_step);
+    }
+    (alpha, relative.max(total_step.abs() / bare))
+}
+
 /// Copies `src` into `dst`, reusing its buffers.
 pub fn copy_into(dst: &mut Vec<Vec<f64>>, src: &[Vec<f64>]) {
     dst.resize(src.len(), Vec::new());
@@ -384,23 +405,12 @@ fn relax_independent(
             factorise(&mut h, ns);
             step[..ns].copy_from_slice(&g[..ns]);
             cholesky_solve(&h, ns, &mut step[..ns]);
-            let (mut alpha, mut relative, mut slope): (f64, f64, f64) = (1.0, 0.0, 0.0);
-            let (mut total_step, mut bare) = (0.0, 1.0);
+            let mut slope = 0.0;
             for s in 0..ns {
                 step[s] = -step[s];
-                let (p, dp) = (at[s], step[s]);
-                if dp < 0.0 {
-                    alpha = alpha.min(TO_BOUNDARY * p / -dp);
-                }
-                relative = relative.max(dp.abs() / p);
-                total_step += dp;
-                bare -= p;
-                slope += g[s] * dp;
+                slope += g[s] * step[s];
             }
-            if total_step > 0.0 {
-                alpha = alpha.min(TO_BOUNDARY * bare / total_step);
-            }
-            relative = relative.max(total_step.abs() / bare);
+            let (mut alpha, relative) = step_limits((0..ns).map(|s| (at[s], step[s])));
             if relative > QUADRATIC_REGIME {
                 // Armijo backtracking on this vertex's part of Ω.
                 let roundoff = 1e-14 * value.abs().max(1.0);
@@ -655,21 +665,9 @@ fn relax_measured(
         let mut alpha: f64 = 1.0;
         let mut relative: f64 = 0.0;
         for i in 0..n {
-            let mut total_step = 0.0;
-            let mut bare = 1.0;
-            for s in 0..ns {
-                let (p, dp) = (phi[s][i], step[s][i]);
-                if dp < 0.0 {
-                    alpha = alpha.min(TO_BOUNDARY * p / -dp);
-                }
-                relative = relative.max(dp.abs() / p);
-                total_step += dp;
-                bare -= p;
-            }
-            if total_step > 0.0 {
-                alpha = alpha.min(TO_BOUNDARY * bare / total_step);
-            }
-            relative = relative.max(total_step.abs() / bare);
+            let (a, r) = step_limits((0..ns).map(|s| (phi[s][i], step[s][i])));
+            alpha = alpha.min(a);
+            relative = relative.max(r);
         }
         if relative <= QUADRATIC_REGIME {
             // The full Newton step, without measuring Ω there: the
