@@ -13,7 +13,8 @@
 //! The force stage of the paper's and the fluid model (`model`), and a
 //! whole minimiser tick of the red blood cell in each (`model_tick`).
 //!
-//! `cargo bench --bench forces`; filter with e.g. `-- rbc_all/642`.
+//! `cargo bench -p remembrane-benches --bench forces`; filter with e.g.
+//! `-- rbc_all/642`.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::DVec3;
@@ -36,6 +37,13 @@ use std::sync::Arc;
 use std::time::Duration;
 
 const LEVELS: [u32; 4] = [3, 4, 5, 6];
+
+/// A path of the repository (`cargo bench` runs in `benches/`).
+fn repo(path: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(path)
+}
 
 fn membrane(level: u32) -> Membrane {
     let mut mesh = icosphere(level, 1.0);
@@ -337,7 +345,7 @@ fn models(c: &mut Criterion) {
 /// h = 1/2 (2562), each after 4000 warm-up ticks.
 fn model_ticks(c: &mut Criterion) {
     use remembrane::scene::Scene;
-    let base = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
+    let base = std::fs::read_to_string(repo("scenes/fluid/red_blood_cell.ron")).unwrap();
     let mut g = configure(c, "model_tick");
     for (level, h) in [(3u32, 1.0), (4, 0.5)] {
         for (label, model) in [("paper", "Paper"), ("fluid", "Fluid()")] {
@@ -347,7 +355,7 @@ fn model_ticks(c: &mut Criterion) {
                     "model: Fluid(),",
                     &format!("model: {model}, resolution: EdgeLength({h}),"),
                 );
-            let path = std::path::Path::new("scenes/fluid/red_blood_cell.ron");
+            let path = &repo("scenes/fluid/red_blood_cell.ron");
             let mut sim = Scene::from_ron_str(&text, path)
                 .unwrap()
                 .build(path)
@@ -495,11 +503,11 @@ fn species_ticks(c: &mut Criterion) {
     use criterion::BatchSize;
     use remembrane::engine::simulation::{Simulation, StopRequest};
     use remembrane::scene::Scene;
-    let rbc = std::fs::read_to_string("scenes/fluid/red_blood_cell.ron").unwrap();
+    let rbc = std::fs::read_to_string(repo("scenes/fluid/red_blood_cell.ron")).unwrap();
     let protein = "    species: (species: [(name: \"bar\", area_per_protein: 0.05, \
                    curvature_coupling: 0.0, initial: Fraction(0.2))]),\n)";
     let rbc_species = format!("{}{protein}\n", rbc.trim_end().strip_suffix(')').unwrap());
-    let tube = std::fs::read_to_string("scenes/proteins/tube_sorting.ron").unwrap();
+    let tube = std::fs::read_to_string(repo("scenes/proteins/tube_sorting.ron")).unwrap();
     let (from, to) = (
         tube.find("    species: (").unwrap(),
         tube.rfind("\n)").unwrap(),
@@ -541,7 +549,7 @@ fn species_ticks(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(8))
         .sample_size(10);
     for (label, path, text) in &cases {
-        let path = std::path::Path::new(path);
+        let path = &repo(path);
         let scene = Scene::from_ron_str(text, path).unwrap();
         let iterations = run(&mut scene.build(path).unwrap());
         g.throughput(Throughput::Elements(iterations));

@@ -9,7 +9,8 @@
 //! (`remembrane::minimise::cholesky`), with the same bits on any thread
 //! count.
 //!
-//! `cargo bench --bench minimiser`; filter with e.g. `-- direction/10242`.
+//! `cargo bench -p remembrane-benches --bench minimiser`; filter with e.g.
+//! `-- direction/10242`.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::DVec3;

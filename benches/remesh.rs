@@ -6,7 +6,7 @@
 //! Lévy kicks). Edge flips: the energy change of one proposal (V_in,
 //! bending, volume, area) and one flip through the mesh-edit layer.
 //!
-//! `cargo bench --bench remesh`.
+//! `cargo bench -p remembrane-benches --bench remesh`.
 #![allow(missing_docs)]
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
