@@ -60,7 +60,8 @@ fn run_options(
     RunOptions {
         overwrite,
         progress,
-        check_invariants,
+        // `False` keeps the build's default (off in a release build).
+        check_invariants: check_invariants.then_some(true),
         ..RunOptions::quiet(out)
     }
 }

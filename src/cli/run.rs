@@ -37,9 +37,14 @@ pub(super) struct RunArgs {
     /// No progress output.
     #[arg(long)]
     quiet: bool,
-    /// Check every mesh invariant after each remesh edit (debug mode; slow).
-    #[arg(long)]
+    /// Check every mesh invariant after each remesh edit (debug mode; slow;
+    /// always on in a debug build unless `--no-check-invariants`).
+    #[arg(long, conflicts_with = "no_check_invariants")]
     check_invariants: bool,
+    /// Skip the invariant checks a debug build runs after each remesh edit
+    /// (for a debug build's runs that need only their outputs).
+    #[arg(long)]
+    no_check_invariants: bool,
     /// Start from the saved state of an earlier run (its state.json)
     /// instead of the scene's membrane.
     #[arg(long, value_name = "STATE.json")]
@@ -54,6 +59,18 @@ pub(super) struct RunArgs {
     /// --checkpoint-every may be given).
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
+}
+
+impl RunArgs {
+    /// `--check-invariants` or `--no-check-invariants`, if either was given
+    /// (`None`: the build's default).
+    fn invariant_checks(&self) -> Option<bool> {
+        match (self.check_invariants, self.no_check_invariants) {
+            (true, _) => Some(true),
+            (_, true) => Some(false),
+            _ => None,
+        }
+    }
 }
 
 pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode {
@@ -80,6 +97,7 @@ pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode 
             (args.from.is_some(), "--from"),
             (args.checkpoint_every.is_some(), "--checkpoint-every"),
             (args.check_invariants, "--check-invariants"),
+            (args.no_check_invariants, "--no-check-invariants"),
         ] {
             if given {
                 eprintln!("error: {flag}: not available for a shape diagram");
@@ -125,6 +143,7 @@ pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode 
         scene_text: text,
     });
     let name = crate::workflow::run::run_name(&scene, &path);
+    let check_invariants = args.invariant_checks();
     let out = args
         .out
         .unwrap_or_else(|| free_directory(Path::new("out").join(&name)));
@@ -137,7 +156,7 @@ pub(super) fn run_command(scene_path: Option<&Path>, args: RunArgs) -> ExitCode 
         frames: args.frames,
         from: args.from,
         progress,
-        check_invariants: args.check_invariants,
+        check_invariants,
         checkpoint,
     };
     // Before the run, which such a setting can make very slow.
@@ -182,6 +201,7 @@ pub(super) fn resume_command(scene_path: Option<&Path>, dir: &Path, args: &RunAr
         (args.frames.is_some(), "--frames"),
         (args.from.is_some(), "--from"),
         (args.check_invariants, "--check-invariants"),
+        (args.no_check_invariants, "--no-check-invariants"),
     ];
     if let Some((_, what)) = fixed.iter().find(|(given, _)| *given) {
         eprintln!(
@@ -344,6 +364,7 @@ pub(super) fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
     if let Err(code) = set_threads(args.threads) {
         return code;
     }
+    let check_invariants = args.invariant_checks();
     let out = args
         .out
         .unwrap_or_else(|| free_directory(Path::new("out").join(&loaded.protocol.name)));
@@ -352,7 +373,7 @@ pub(super) fn protocol_command(path: &Path, args: RunArgs) -> ExitCode {
         progress,
         iterations: args.iterations,
         frames: args.frames,
-        check_invariants: args.check_invariants,
+        check_invariants,
         skip_completed: false,
         checkpoint_every: args.checkpoint_every,
         resume: false,

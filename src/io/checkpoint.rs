@@ -55,8 +55,9 @@ pub struct RunSource {
     pub frames: Option<u32>,
     /// `--from` (absolute).
     pub from: Option<PathBuf>,
-    /// `--check-invariants`.
-    pub check_invariants: bool,
+    /// `--check-invariants` (`Some(true)`), `--no-check-invariants`
+    /// (`Some(false)`), or the build's default.
+    pub check_invariants: Option<bool>,
     /// Iterations between checkpoints.
     pub every: u64,
 }

@@ -492,7 +492,7 @@ fn sweep_phases(
                 },
                 iterations: options.iterations,
                 frames: None,
-                check_invariants: false,
+                check_invariants: None,
                 skip_completed: true,
                 checkpoint_every: None,
                 resume: false,

@@ -214,6 +214,41 @@ fn run_rejects_bad_scenes_and_flags_cleanly() {
     assert!(!dir.path().join("o").exists() && !dir.path().join("o.incomplete").exists());
 }
 
+/// `--check-invariants` and `--no-check-invariants` override the build's
+/// default (on in the debug builds the tests run, off in release); given
+/// together they are refused before anything is written.
+#[test]
+fn invariant_checks_follow_the_flags_over_the_builds_default() {
+    use remembrane::engine::simulation::CheckInvariants;
+    use remembrane::workflow::run::{RunOptions, prepare_run};
+    let path = crate::common::scene("sphere.ron");
+    let sphere = remembrane::scene::Scene::load(&path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for (given, checks) in [
+        (None, cfg!(debug_assertions)),
+        (Some(true), true),
+        (Some(false), false),
+    ] {
+        let mut options = RunOptions::quiet(dir.path().join("run"));
+        options.check_invariants = given;
+        let run = prepare_run(&sphere, &path, &options).unwrap();
+        assert_eq!(run.sim.resource::<CheckInvariants>().0, checks, "{given:?}");
+    }
+    let out = dir.path().join("both");
+    let both = remembrane(&[
+        "run",
+        &scene("sphere.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--check-invariants",
+        "--no-check-invariants",
+    ]);
+    let err = String::from_utf8_lossy(&both.stderr);
+    assert_eq!(both.status.code(), Some(2), "{err}");
+    assert!(err.contains("--no-check-invariants"), "{err}");
+    assert!(!out.exists() && !dir.path().join("both.incomplete").exists());
+}
+
 #[test]
 fn compare_runs_both_scenes_and_writes_table_csv_and_chart() {
     let dir = tempfile::tempdir().unwrap();
@@ -256,10 +291,7 @@ fn compare_runs_both_scenes_and_writes_table_csv_and_chart() {
 /// Commands the README shows that this test does not run, each with what
 /// runs it.
 const README_COMMANDS_RUN_ELSEWHERE: [(&str, &str); 4] = [
-    (
-        "cargo test --workspace",
-        ".ci/run: cargo test --workspace --locked",
-    ),
+    ("cargo test", ".ci/run: cargo test --locked"),
     (
         "cargo run --release -p bar_domain -- run examples/bar_domain/scenes/bud.ron",
         "examples/bar_domain/tests/bud.rs: the same arguments through main_with, 2000 iterations",

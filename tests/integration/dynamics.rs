@@ -377,7 +377,7 @@ fn short_rbc_run_lowers_the_energy_and_approaches_the_target_volume() {
 
 fn options(out: &Path) -> RunOptions {
     RunOptions {
-        check_invariants: true,
+        check_invariants: Some(true),
         ..RunOptions::quiet(out)
     }
 }

@@ -307,7 +307,7 @@ fn direct_edits_let_a_stretched_fluid_mesh_follow_an_elongation() {
     let scene = Scene::from_ron_str(&text, path).unwrap();
     let mut options = RunOptions::quiet(out.path().join("run"));
     options.iterations = Some(600);
-    options.check_invariants = true;
+    options.check_invariants = Some(true);
     let summary = remembrane::workflow::run::run_scene(&scene, path, &options, |_| Ok(())).unwrap();
     let r = &summary.remesh;
     // Measured: 46 splits, 3 merges and 6 maintenance flips (96 kept by

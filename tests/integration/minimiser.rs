@@ -315,7 +315,7 @@ fn a_badly_shaped_start_relaxes_without_folding() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("flat");
     let mut options = RunOptions::quiet(&out);
-    options.check_invariants = true;
+    options.check_invariants = Some(true);
     run_scene(&scene, Path::new("flat.ron"), &options, |_| Ok(())).unwrap();
     let s = summary_of(&out);
     assert_eq!(s.status, RunStatus::Completed);

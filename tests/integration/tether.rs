@@ -15,7 +15,7 @@ fn options(out: &Path, iterations: u64, from: Option<PathBuf>) -> RunOptions {
         iterations: Some(iterations),
         frames: Some(2),
         from,
-        check_invariants: true,
+        check_invariants: Some(true),
         ..RunOptions::quiet(out)
     }
 }

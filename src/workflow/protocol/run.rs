@@ -37,8 +37,9 @@ pub struct PhaseRunOptions {
     pub iterations: Option<u64>,
     /// Override every phase's frames.
     pub frames: Option<u32>,
-    /// Check every mesh invariant after each remesh edit.
-    pub check_invariants: bool,
+    /// Check every mesh invariant after each remesh edit (`None`: the
+    /// build's default, on in debug builds).
+    pub check_invariants: Option<bool>,
     /// Keep phases that completed before (their `summary.json` says so)
     /// instead of running them again.
     pub skip_completed: bool,
@@ -62,8 +63,9 @@ pub struct ProtocolRun {
     pub iterations: Option<u64>,
     /// `--frames`.
     pub frames: Option<u32>,
-    /// `--check-invariants`.
-    pub check_invariants: bool,
+    /// `--check-invariants` (`Some(true)`), `--no-check-invariants`
+    /// (`Some(false)`), or the build's default.
+    pub check_invariants: Option<bool>,
     /// `--checkpoint-every`.
     pub checkpoint_every: u64,
 }

@@ -62,9 +62,10 @@ pub struct RunOptions {
     pub from: Option<PathBuf>,
     /// Progress reporting.
     pub progress: Progress,
-    /// Check every mesh invariant after each topology edit (slow; always on
-    /// in debug builds).
-    pub check_invariants: bool,
+    /// Check every mesh invariant after each topology edit (slow): `None`
+    /// keeps the build's default (on in debug builds, off in release),
+    /// `Some(on)` overrides it.
+    pub check_invariants: Option<bool>,
     /// Write a checkpoint every so many iterations (`--checkpoint-every`).
     pub checkpoint: Option<CheckpointSettings>,
 }
@@ -82,7 +83,7 @@ impl RunOptions {
             frames: None,
             from: None,
             progress: Progress::Quiet,
-            check_invariants: false,
+            check_invariants: None,
             checkpoint: None,
         }
     }
@@ -203,7 +204,7 @@ impl PendingRun {
         let name = run_name(&scene, scene_path);
         let mut builder = scene.builder(scene_path)?;
         if let Some(c) = builder.resource_mut::<CheckInvariants>() {
-            c.0 |= options.check_invariants;
+            c.0 = options.check_invariants.unwrap_or(c.0);
         }
         Ok(Self {
             scene,
