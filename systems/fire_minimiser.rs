@@ -416,6 +416,9 @@ impl System for FireMinimiser {
                 buffers.normal_stiffness(&ctx, out)
             };
             if !metric.sobolev.is_built() {
+                // Rigid motions are free only when nothing holds a vertex.
+                metric.sobolev.stiffen_rigid_patterns =
+                    pinned.as_deref().is_none_or(|p| p.vertices.is_empty());
                 metric.stiff = stiffness(&s.metric_positions, &mut metric.stiffness);
                 metric
                     .sobolev

@@ -27,7 +27,26 @@
 //! to the diagonal: εM becomes EM with E_ii = ε + √(S_i / (s_n M_i)), so
 //! that s_n A M⁻¹ A gains S_i at vertex i (its other new terms, s_n (L E +
 //! E L), only stiffen the metric further there). The adhered vesicle then
-//! converges in about 1100 iterations instead of 33 000. Weights are |cot|/2 per face corner (capped at [`COT_CAP`]): an
+//! converges in about 1100 iterations instead of 33 000.
+//!
+//! On a free closed membrane the normal block would move the normal
+//! components of rigid motions (n·e, n·(e × (x − c)): three translations,
+//! three rotations) almost for free: A is weakest on such smooth fields.
+//! Moved along its normal alone, such a pattern is no rigid motion but one
+//! plus a slide of the vertices in their planes, which V_in resists with a
+//! stiffness that grows as 1/h² while the metric's stays. At 40962
+//! vertices the direction then carried a translation-like pattern that
+//! flipped sign every iteration and grew (the minimiser's uphill steps in
+//! the last phase of the oblate; benches/RESULTS.md, 2026-12-07). With
+//! [`SobolevMetric::stiffen_rigid_patterns`] the normal block becomes
+//! P_n + β U Uᵀ, U the six patterns (M-weighted, normalised), β =
+//! [`RIGID_PATTERN_STIFFNESS`] s_t ε: still positive definite (its fixed
+//! point is still F = 0), applied by the Woodbury identity with the same
+//! factor (six more columns solved at each build). The normal
+//! component of a rigid motion changes no shape to first order, so nothing
+//! the shape needs is slowed.
+//!
+//! Weights are |cot|/2 per face corner (capped at [`COT_CAP`]): an
 //! obtuse corner would otherwise give a negative weight, and P need not
 //! equal the Hessian, only be close to it and positive definite.
 //!
@@ -52,6 +71,65 @@ use std::time::{Duration, Instant};
 
 /// Largest |cot| of a corner in the metric's Laplacian.
 pub const COT_CAP: f64 = 100.0;
+
+/// γ in β = γ s_t ε, the stiffness the metric gives the normal patterns
+/// of rigid motions (per unit of their M-norm). A slide of the vertices
+/// by a rigid motion's tangential part costs about 4 s_t ε in the
+/// tangential block. Measured (benches/RESULTS.md, 2026-12-07): on the
+/// oblate at 40962 vertices γ = 4, 40 and 400 gave the same iterations
+/// (762 to the force tolerance against 1023 without); on the 642-vertex
+/// prolate flow with remeshing γ = 0.4, 1, 4 and 40 took 498, 378, 393
+/// and 613 iterations (485 without), the last stopped by the energy change.
+pub const RIGID_PATTERN_STIFFNESS: f64 = 4.0;
+
+/// The normal patterns of the six rigid motions in the metric
+/// (the Woodbury form of P_n + β U Uᵀ).
+#[derive(Default)]
+struct RigidPatterns {
+    /// U: six columns of n values, M p_k / |p_k|_M.
+    columns: Vec<f64>,
+    /// Y = A⁻¹ M A⁻¹ U (s_n P_n⁻¹ U).
+    solved: Vec<f64>,
+    /// G⁻¹ with G = (s_n/β) I + Uᵀ Y.
+    inverse: [[f64; 6]; 6],
+    /// β (Ē/l̄² per unit of M-norm).
+    stiffness: f64,
+}
+
+impl RigidPatterns {
+    /// y ← y − Y G⁻¹ Uᵀ y for one normal column y (in units of
+    /// A⁻¹ M A⁻¹ f): P_n⁻¹ becomes (P_n + β U Uᵀ)⁻¹.
+    fn correct(&self, y: &mut [f64]) {
+        let n = y.len();
+        let mut r = [0.0; 6];
+        for (k, rk) in r.iter_mut().enumerate() {
+            *rk = dot_slices(&self.columns[k * n..(k + 1) * n], y);
+        }
+        for k in 0..6 {
+            let c: f64 = (0..6).map(|j| self.inverse[k][j] * r[j]).sum();
+            for (x, w) in y.iter_mut().zip(&self.solved[k * n..(k + 1) * n]) {
+                *x -= c * w;
+            }
+        }
+    }
+
+    /// β U Uᵀ u for the normal components `u` (by vertex slot).
+    fn apply(&self, u: &[f64], out: &mut [f64]) {
+        let n = u.len();
+        for k in 0..6 {
+            let column = &self.columns[k * n..(k + 1) * n];
+            let c = self.stiffness * dot_slices(column, u);
+            for (o, w) in out.iter_mut().zip(column) {
+                *o += c * w;
+            }
+        }
+    }
+}
+
+/// Σ a_i b_i in index order.
+fn dot_slices(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
 
 /// The two scales of the metric.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -78,6 +156,12 @@ pub struct SobolevMetric {
     key: Option<(u64, usize)>,
     symbolic: Option<SymbolicFactor>,
     factor: Option<Factor>,
+    /// Whether the next [`build`](Self::build) stiffens the normal
+    /// patterns of rigid motions (a free closed membrane; set by the
+    /// caller, off by default).
+    pub stiffen_rigid_patterns: bool,
+    /// The stiffened patterns of the last build, if any.
+    rigid: Option<RigidPatterns>,
     /// Lumped vertex areas at the build (l̄²).
     mass: Vec<f64>,
     scales: Option<MetricScales>,
@@ -206,14 +290,78 @@ impl SobolevMetric {
             self.analyses += 1;
         }
         let symbolic = self.symbolic.as_ref().expect("analysed above");
-        let factor = symbolic
+        let mut factor = symbolic
             .factorise(matrix.as_ref())
             .map_err(MetricError::Factor)?;
+        self.rigid = match self.stiffen_rigid_patterns && !topology.is_open() {
+            true => Some(self.rigid_patterns(positions, topology, &mut factor, scales, shift)),
+            false => None,
+        };
         self.scales = Some(scales);
         self.factorisations += 1;
         self.factor = Some(factor);
         self.factor_time += start.elapsed();
         Ok(())
+    }
+
+    /// U, Y and G⁻¹ of the six rigid normal patterns at `positions`, with
+    /// the numeric `factor` of A just built and ε = `shift`.
+    fn rigid_patterns(
+        &mut self,
+        positions: &[DVec3],
+        topology: &Topology,
+        factor: &mut Factor,
+        scales: MetricScales,
+        shift: f64,
+    ) -> RigidPatterns {
+        let n = positions.len();
+        crate::fluid::vertex_normals(positions, topology, &mut self.normals);
+        let normals = &self.normals;
+        let centre = positions.iter().copied().sum::<DVec3>() / n.max(1) as f64;
+        let mut columns = vec![0.0; 6 * n];
+        for (k, column) in columns.chunks_mut(n).enumerate() {
+            let e = [DVec3::X, DVec3::Y, DVec3::Z][k % 3];
+            let mut norm2 = 0.0;
+            for (i, c) in column.iter_mut().enumerate() {
+                let motion = if k < 3 {
+                    e
+                } else {
+                    e.cross(positions[i] - centre)
+                };
+                let p = normals[i].dot(motion);
+                *c = self.mass[i] * p;
+                norm2 += self.mass[i] * p * p;
+            }
+            let scale = 1.0 / norm2.max(f64::MIN_POSITIVE).sqrt();
+            column.iter_mut().for_each(|c| *c *= scale);
+        }
+        let mut solved = columns.clone();
+        factor.solve_in_place(&mut solved, 6);
+        for column in solved.chunks_mut(n) {
+            for (x, m) in column.iter_mut().zip(&self.mass) {
+                *x *= m;
+            }
+        }
+        factor.solve_in_place(&mut solved, 6);
+        let stiffness = RIGID_PATTERN_STIFFNESS * scales.tangential * shift;
+        let g = faer::Mat::<f64>::from_fn(6, 6, |a, b| {
+            let diagonal = if a == b {
+                scales.normal / stiffness
+            } else {
+                0.0
+            };
+            diagonal + dot_slices(&columns[a * n..(a + 1) * n], &solved[b * n..(b + 1) * n])
+        });
+        let inverse = {
+            use faer::linalg::solvers::DenseSolveCore;
+            g.partial_piv_lu().inverse()
+        };
+        RigidPatterns {
+            columns,
+            solved,
+            inverse: std::array::from_fn(|a| std::array::from_fn(|b| inverse[(a, b)])),
+            stiffness,
+        }
     }
 
     /// Whether `stiffness` (by vertex slot, as given to
@@ -284,6 +432,13 @@ impl SobolevMetric {
             *x /= m.max(f64::MIN_POSITIVE);
         }
         product(&|i| a[i], b);
+        if let Some(rigid) = &self.rigid {
+            // b is s_n⁻¹ P_n u: add s_n⁻¹ β U Uᵀ u.
+            let u: Vec<f64> = (0..n)
+                .map(|i| v[i].dot(normals[i]) / scales.normal)
+                .collect();
+            rigid.apply(&u, b);
+        }
         for (axis, column) in [&mut *tx, &mut *ty, &mut *tz].into_iter().enumerate() {
             product(
                 &|i| (v[i] - v[i].dot(normals[i]) * normals[i])[axis],
@@ -382,6 +537,9 @@ impl SobolevMetric {
             }
         }
         factor.solve_in_place(normal, normal_columns);
+        if let Some(rigid) = &self.rigid {
+            normal.chunks_mut(n).for_each(|y| rigid.correct(y));
+        }
         self.solve_time += start.elapsed();
         let (sn, st) = (1.0 / scales.normal, 1.0 / scales.tangential);
         let rhs = &self.rhs;
