@@ -26,6 +26,28 @@ fn perturbed_sphere() -> remembrane::mesh::SurfaceMesh {
     mesh
 }
 
+/// [`perturbed_sphere`] and its topology.
+fn perturbed_sphere_with_topology() -> (
+    remembrane::mesh::SurfaceMesh,
+    remembrane::mesh::topology::Topology,
+) {
+    let mesh = perturbed_sphere();
+    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
+    let topology = membrane.topology().unwrap().clone();
+    (mesh, topology)
+}
+
+/// Uniform numbers in [−0.5, 0.5) from `seed` (a linear congruential
+/// generator: the same sequence on every platform).
+fn uniform_from(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+}
+
 #[test]
 fn constraint_gradients_match_central_differences() {
     let mesh = perturbed_sphere();
@@ -82,9 +104,7 @@ fn removing_the_reactions_leaves_a_force_that_keeps_area_and_volume() {
 
 #[test]
 fn the_projection_reaches_both_targets_and_approaches_far_ones_in_bounded_steps() {
-    let mesh = perturbed_sphere();
-    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
-    let topology = membrane.topology().unwrap().clone();
+    let (mesh, topology) = perturbed_sphere_with_topology();
     let mut g = Gradients::default();
     g.measure(&mesh.positions, &mesh.faces);
     let (area, volume) = (g.area, g.volume);
@@ -705,19 +725,11 @@ fn a_minimiser_waits_at_rest_for_each_scheduled_change() {
 #[test]
 fn the_sobolev_direction_descends_and_is_tangent_to_the_constraints() {
     use remembrane::minimise::sobolev::{MetricScales, SobolevMetric};
-    let mesh = perturbed_sphere();
-    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
-    let topology = membrane.topology().unwrap().clone();
+    let (mesh, topology) = perturbed_sphere_with_topology();
     let x = &mesh.positions;
     let mut g = Gradients::default();
     g.measure(x, &mesh.faces);
-    let mut state = 12345_u64;
-    let mut uniform = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut uniform = uniform_from(12345);
     let scales = MetricScales {
         normal: 5.0,
         tangential: 0.2,
@@ -807,9 +819,7 @@ fn the_sobolev_direction_descends_and_is_tangent_to_the_constraints() {
 #[test]
 fn stiffened_rigid_patterns_keep_the_metric_one_operator() {
     use remembrane::minimise::sobolev::{MetricScales, SobolevMetric};
-    let mesh = perturbed_sphere();
-    let mut membrane = remembrane::mesh::membrane::Membrane::from_mesh(&mesh, false).unwrap();
-    let topology = membrane.topology().unwrap().clone();
+    let (mesh, topology) = perturbed_sphere_with_topology();
     let x = &mesh.positions;
     let scales = MetricScales {
         normal: 5.0,
@@ -817,13 +827,7 @@ fn stiffened_rigid_patterns_keep_the_metric_one_operator() {
     };
     let mut normals = Vec::new();
     remembrane::fluid::vertex_normals(x, &topology, &mut normals);
-    let mut state = 99_u64;
-    let mut uniform = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut uniform = uniform_from(99);
     // A normal force: random, and along n·x̂ (a translation's normal part).
     let random: Vec<DVec3> = normals.iter().map(|n| uniform() * *n).collect();
     let along_translation: Vec<DVec3> = normals.iter().map(|n| n.x * *n).collect();
