@@ -417,8 +417,8 @@ impl System for FireMinimiser {
             };
             if !metric.sobolev.is_built() {
                 // Rigid motions are free only when nothing holds a vertex.
-                metric.sobolev.stiffen_rigid_patterns =
-                    pinned.as_deref().is_none_or(|p| p.vertices.is_empty());
+                metric.sobolev.stiffen_rigid_patterns = metric.settings.rigid_patterns
+                    && pinned.as_deref().is_none_or(|p| p.vertices.is_empty());
                 metric.stiff = stiffness(&s.metric_positions, &mut metric.stiffness);
                 metric
                     .sobolev

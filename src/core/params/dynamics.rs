@@ -198,6 +198,15 @@ pub struct SobolevParams {
     /// FIRE's largest step in the metric (default 1).
     #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_max: f64,
+    /// Stiffen the normal patterns of rigid motions in the metric on a
+    /// free closed membrane ([`crate::minimise::sobolev`], default false).
+    /// Measured (benches/RESULTS.md, 2026-12-07): the fluid red blood cell
+    /// at 40962 vertices in 978 iterations instead of 1411, the oblate in
+    /// 762 instead of 1023; but the bundled shape diagram's 2562-vertex
+    /// stomatocyte then took 1866 iterations instead of 1396 at v = 0.6
+    /// and stopped by the energy change at v = 0.55, so it is not the
+    /// default.
+    pub rigid_patterns: bool,
 }
 
 impl Default for SobolevParams {
@@ -208,6 +217,7 @@ impl Default for SobolevParams {
             rebuild_every: 20,
             dt_start: 0.1,
             dt_max: 1.0,
+            rigid_patterns: false,
         }
     }
 }
