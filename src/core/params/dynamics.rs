@@ -195,7 +195,17 @@ pub struct SobolevParams {
     /// FIRE's first step in the metric (default 0.1).
     #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_start: f64,
-    /// FIRE's largest step in the metric (default 1).
+    /// FIRE's largest step in the metric (default 0.1). Above about 0.17
+    /// the fluid model's last phase at 40962 vertices turns uphill every
+    /// few tens of iterations (a mode the metric leaves stiff grows, FIRE
+    /// zeroes its velocity and halves the step). Measured
+    /// (benches/RESULTS.md, 2026-12-08), 0.1 against 1: the fluid oblate
+    /// (v = 0.8) at 642 and 40962 vertices in 248 and 601 iterations
+    /// against 215 and 1023, the red blood cell in 388 and 794 against
+    /// 475 and 1411, the bundled shape diagram in 17 628 iterations
+    /// against 23 363 (every point by the force), the adhered vesicle at
+    /// h = 1/4 in 528 and 745 against 2516 and 3204; at 0.2 the 40962-vertex
+    /// runs stopped by the energy change, the red blood cell in 2257.
     #[serde(deserialize_with = "crate::util::validate::positive")]
     pub dt_max: f64,
     /// Stiffen the normal patterns of rigid motions in the metric on a
@@ -205,7 +215,8 @@ pub struct SobolevParams {
     /// 762 instead of 1023; but the bundled shape diagram's 2562-vertex
     /// stomatocyte then took 1866 iterations instead of 1396 at v = 0.6
     /// and stopped by the energy change at v = 0.55, so it is not the
-    /// default.
+    /// default. These were with `dt_max` 1; at 0.1 (the default since
+    /// 2026-12-08) it no longer pays: the oblate 612 against 601.
     pub rigid_patterns: bool,
 }
 
@@ -216,7 +227,7 @@ impl Default for SobolevParams {
             tangential_scale: 0.2,
             rebuild_every: 20,
             dt_start: 0.1,
-            dt_max: 1.0,
+            dt_max: 0.1,
             rigid_patterns: false,
         }
     }
