@@ -113,12 +113,18 @@ impl RigidPatterns {
         }
     }
 
-    /// β U Uᵀ u for the normal components `u` (by vertex slot).
-    fn apply(&self, u: &[f64], out: &mut [f64]) {
-        let n = u.len();
+    /// β U Uᵀ u added to `out`, with u_i = `u(i)` the normal components
+    /// (by vertex slot).
+    fn apply(&self, u: impl Fn(usize) -> f64, out: &mut [f64]) {
+        let n = out.len();
         for k in 0..6 {
             let column = &self.columns[k * n..(k + 1) * n];
-            let c = self.stiffness * dot_slices(column, u);
+            let c = self.stiffness
+                * column
+                    .iter()
+                    .enumerate()
+                    .map(|(i, w)| w * u(i))
+                    .sum::<f64>();
             for (o, w) in out.iter_mut().zip(column) {
                 *o += c * w;
             }
@@ -434,10 +440,7 @@ impl SobolevMetric {
         product(&|i| a[i], b);
         if let Some(rigid) = &self.rigid {
             // b is s_n⁻¹ P_n u: add s_n⁻¹ β U Uᵀ u.
-            let u: Vec<f64> = (0..n)
-                .map(|i| v[i].dot(normals[i]) / scales.normal)
-                .collect();
-            rigid.apply(&u, b);
+            rigid.apply(|i| v[i].dot(normals[i]) / scales.normal, b);
         }
         for (axis, column) in [&mut *tx, &mut *ty, &mut *tz].into_iter().enumerate() {
             product(
